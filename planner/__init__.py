@@ -1,0 +1,27 @@
+"""qsplan planner: quasistatic planar contact-mode prediction after Trinkle & Zeng (1994).
+
+NumPy/SciPy only; imports no simulator and no plotting library.
+"""
+
+from planner.errors import DegenerateError, FileFormatError, InputError, QsplanError
+from planner.feasibility import FeasibleMode, Prediction, Status, feasible_modes
+from planner.model import Contact, JointControl, System, wrench_matrix
+from planner.modes import Mode, candidate_count, enumerate_modes
+
+__all__ = [
+    "Contact",
+    "DegenerateError",
+    "FeasibleMode",
+    "FileFormatError",
+    "InputError",
+    "JointControl",
+    "Mode",
+    "Prediction",
+    "QsplanError",
+    "Status",
+    "System",
+    "candidate_count",
+    "enumerate_modes",
+    "feasible_modes",
+    "wrench_matrix",
+]

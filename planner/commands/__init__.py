@@ -1,0 +1,1 @@
+"""Subcommands of ``qsplan``: each module defines ``register(subparsers)``."""

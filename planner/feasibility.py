@@ -1,0 +1,454 @@
+"""Feasibility of contact modes, batched: eqs. (13)-(28) of Trinkle & Zeng (1994).
+
+For every candidate mode (``2 n_R + n_S = 3 + |tau_I|``, Section 4.7) the kinematic stage
+solves ``P_AI zdot_I = -P_AII zdot_II`` (eqs. 23-24) for the workpiece velocity ``qdot`` and the
+velocities of the effort-controlled joints, then checks that breaking contacts separate (eq. 25)
+and fixes the sliding directions ``xi = sgn(v_t)`` (eq. 16).  The force stage solves
+``Q_AI c_A = [-g_obj; tau_I - g_man_I]`` (eq. 26) with ``W_Amu`` of eqs. (18)-(19), recovers the
+efforts of the velocity-controlled joints (eq. 27) and checks the Coulomb inequalities
+``B_A c_A >= 0`` (eqs. 21-22, 28).  All candidates go through both stages as stacked arrays; there
+is no per-mode Python loop on this path.
+
+Statically indeterminate modes (relaxed utility, end of Section 3.2: more kinematic constraints
+than ``3 + |tau_I|``, e.g. ``2R`` on one rigid link) are handled by :func:`indeterminate_modes`:
+the velocities come from a consistent over-determined system (unique ``qdot`` required), the
+forces from a linear program over the null space of ``Q_A`` (the generalised-inverse route).
+
+Tolerance policy (``docs/conventions.md``): every constraint is normalised -- velocities by the
+largest commanded contact-point speed, forces by the largest applicable force of the mode -- and
+the smallest normalised slack is the mode's ``margin``.  Closed constraints (Coulomb, eq. 28) pass
+when ``margin >= -tol`` and the mode is flagged ``on_boundary`` when ``|margin| <= tol``.  Strict
+kinematic constraints (breaking contacts separate, sliding contacts slip) need ``margin > tol``;
+modes that miss them by at most ``tol`` are listed in :attr:`Prediction.boundary_modes`.
+Matrices whose equilibrated determinant is below ``singular_tol`` violate the rank conditions
+(30)-(32) and the mode is counted as ``degenerate``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from enum import Enum
+from typing import Any
+
+import numpy as np
+
+from planner.errors import InputError
+from planner.model import System
+from planner.modes import BREAK, ROLL, SLIDE, CandidateSet, Mode, candidate_count, enumerate_modes
+from planner.validation import as_friction
+
+#: Default relative tolerance on normalised constraint slacks.
+DEFAULT_TOL = 1e-9
+#: Equilibrated |det| below which P_AI or Q_AI is treated as singular (conditions 30-32).
+DEFAULT_SINGULAR_TOL = 1e-10
+#: Above this many contacts the relaxed (force-indeterminate) search is off unless asked for.
+INDETERMINATE_AUTO_MAX_CONTACTS = 8
+
+
+class Status(str, Enum):
+    """Outcome of a prediction (Sections 4.1, 4.3)."""
+
+    UNIQUE = "unique"
+    AMBIGUOUS = "ambiguous"
+    JAMMED = "jammed"
+
+
+@dataclass(frozen=True, eq=False)
+class FeasibleMode:
+    """A feasible contact mode with its certificate.
+
+    Attributes
+    ----------
+    mode : Mode
+        Contact interactions and sliding directions.
+    qdot : (3,) [m/s, m/s, rad/s]
+        Workpiece velocity (point at the world origin), world frame.
+    joint_velocities : (n_theta,)
+        All joint velocities (given ones and the solved ones of effort-controlled joints).
+    contact_velocities : (n_c, 2) [m/s]
+        Relative velocities ``v_i = (v_in, v_it)`` (eq. 5), contact frames.
+    contact_forces : (n_c, 2) [N]
+        ``c_i = (c_in, c_it)`` on the workpiece, contact frames (zero at breaking contacts).
+    joint_efforts : (n_theta,)
+        All joint efforts ``tau = J^T c + g_man`` (eq. 3).
+    margin : float
+        Smallest normalised constraint slack (see the module's tolerance policy).
+    on_boundary : bool
+        ``|margin| <= tol``: the mode sits on the boundary of its feasible region.
+    force_indeterminate : bool
+        True for relaxed-utility modes whose forces are not unique (certificate is one
+        feasible force distribution, the one of largest margin).
+    """
+
+    mode: Mode
+    qdot: np.ndarray
+    joint_velocities: np.ndarray
+    contact_velocities: np.ndarray
+    contact_forces: np.ndarray
+    joint_efforts: np.ndarray
+    margin: float
+    on_boundary: bool = False
+    force_indeterminate: bool = False
+
+    @property
+    def label(self) -> str:
+        return self.mode.label
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready certificate (the ``qsplan modes --json`` schema)."""
+        return {
+            "mode": self.mode.label,
+            "family": self.mode.family,
+            "qdot": self.qdot.tolist(),
+            "joint_velocities": self.joint_velocities.tolist(),
+            "contact_velocities": self.contact_velocities.tolist(),
+            "contact_forces": self.contact_forces.tolist(),
+            "joint_efforts": self.joint_efforts.tolist(),
+            "margin": float(self.margin),
+            "on_boundary": bool(self.on_boundary),
+            "force_indeterminate": bool(self.force_indeterminate),
+        }
+
+
+@dataclass(frozen=True, eq=False)
+class Prediction:
+    """All feasible modes of one system at one friction vector.
+
+    ``status`` counts determinate and force-indeterminate feasible modes together.
+    """
+
+    status: Status
+    candidates: int
+    modes: tuple[FeasibleMode, ...]
+    indeterminate_modes: tuple[FeasibleMode, ...] = ()
+    boundary_modes: tuple[Mode, ...] = ()
+    degenerate: int = 0
+    tol: float = DEFAULT_TOL
+    mu: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    @property
+    def all_modes(self) -> tuple[FeasibleMode, ...]:
+        return self.modes + self.indeterminate_modes
+
+    @property
+    def labels(self) -> list[str]:
+        """Mode strings of every feasible mode (determinate first)."""
+        return [m.label for m in self.all_modes]
+
+    @property
+    def on_boundary(self) -> bool:
+        """True when any decision was within ``tol`` of a boundary."""
+        return bool(self.boundary_modes) or any(m.on_boundary for m in self.all_modes)
+
+    def find(self, label: str) -> FeasibleMode | None:
+        """The feasible mode with this label, or None."""
+        for m in self.all_modes:
+            if m.label == label:
+                return m
+        return None
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "status": self.status.value,
+            "candidates": int(self.candidates),
+            "mu": self.mu.tolist(),
+            "modes": [m.to_dict() for m in self.all_modes],
+            "boundary_modes": [m.label for m in self.boundary_modes],
+            "degenerate_candidates": int(self.degenerate),
+        }
+
+
+# ---------------------------------------------------------------------------------------------
+# Kinematic stage (eqs. 13-16, 23-25): independent of friction.
+# ---------------------------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class KinematicStage:
+    """Kinematic solution of every candidate (arrays indexed by candidate).
+
+    Attributes
+    ----------
+    candidates : CandidateSet
+    nonsingular : (M,) bool      P_AI invertible (conditions 30, 32).
+    qdot : (M, 3)                workpiece velocity (NaN where singular).
+    joint_velocities : (M, n_theta)
+    v : (M, 2 n_c)               relative contact velocities [v_1n, v_1t, ...] (eq. 5).
+    xi : (M, n_c) int8           sliding directions (eq. 16), 0 where not sliding.
+    margin : (M,)                smallest normalised strict kinematic slack (inf if none).
+    ok : (M,) bool               kinematically admissible: margin > tol.
+    boundary : (M,) bool         |margin| <= tol (strict constraint on its boundary).
+    """
+
+    candidates: CandidateSet
+    nonsingular: np.ndarray
+    qdot: np.ndarray
+    joint_velocities: np.ndarray
+    v: np.ndarray
+    xi: np.ndarray
+    margin: np.ndarray
+    ok: np.ndarray
+    boundary: np.ndarray
+    velocity_scale: float
+
+
+def _velocity_input(system: System) -> np.ndarray:
+    """``J_V thetadot_V`` per constraint row, (2 n_c,): the prescribed contact-point motion."""
+    V = system.velocity_joints
+    return system.J[:, V] @ system.joint_inputs[V]
+
+
+def kinematic_stage(
+    system: System,
+    candidates: CandidateSet | None = None,
+    *,
+    tol: float = DEFAULT_TOL,
+    singular_tol: float = DEFAULT_SINGULAR_TOL,
+) -> KinematicStage:
+    """Solve eqs. (13), (23)-(24) for every candidate and test eq. (25) and ``xi`` (eq. 16).
+
+    ``P_AI = [W_A^T  -J_AE]`` with ``W_A^T`` the applicable rows of ``W^T`` (eq. 14) and
+    ``J_AE`` the applicable rows of the effort-controlled joints' Jacobian columns; the right
+    side is ``J_AV thetadot_V``.
+    """
+    cand = candidates if candidates is not None else enumerate_modes(system.n_contacts, system.dof)
+    E = system.effort_joints
+    V = system.velocity_joints
+    n_c, k = system.n_contacts, cand.n_rows
+    M = len(cand)
+    K = np.concatenate([system.W.T, -system.J[:, E]], axis=1)  # (2 n_c, k)
+    rhs = _velocity_input(system)
+    vel_scale = float(np.max(np.abs(rhs))) if rhs.size else 0.0
+    # Equilibrate: global column scaling, then unit rows (rows of P_AI are rows of K).
+    col = np.max(np.abs(K), axis=0)
+    col[col == 0] = 1.0
+    Kc = K / col
+    row = np.linalg.norm(Kc, axis=1)
+    row[row == 0] = 1.0
+    Kn = Kc / row[:, None]
+    bn = rhs / row
+
+    P = Kn[cand.rows]  # (M, k, k)
+    b = bn[cand.rows]  # (M, k)
+    det = np.abs(np.linalg.det(P)) if M else np.zeros(0)
+    nonsingular = det > singular_tol
+    z = np.full((M, k), np.nan)
+    if np.any(nonsingular):
+        z[nonsingular] = np.linalg.solve(P[nonsingular], b[nonsingular][..., None])[..., 0]
+    z = z / col
+    qdot = z[:, :3]
+    thetadot = np.empty((M, system.n_joints))
+    thetadot[:, V] = system.joint_inputs[V]
+    thetadot[:, E] = z[:, 3:]
+    v = qdot @ system.W - thetadot @ system.J.T  # (M, 2 n_c), eq. (5)
+    v_n, v_t = v[:, 0::2], v[:, 1::2]
+    codes = cand.codes
+    scale = vel_scale if vel_scale > 0 else 1.0
+    strict = np.where(codes == BREAK, v_n, np.where(codes == SLIDE, np.abs(v_t), np.inf)) / scale
+    margin = np.min(strict, axis=1) if n_c else np.full(M, np.inf)
+    margin = np.where(nonsingular, margin, -np.inf)
+    xi = np.where(codes == SLIDE, np.sign(v_t), 0).astype(np.int8)
+    ok = nonsingular & (margin > tol)
+    boundary = nonsingular & (np.abs(margin) <= tol)
+    return KinematicStage(cand, nonsingular, qdot, thetadot, v, xi, margin, ok, boundary, vel_scale)
+
+
+# ---------------------------------------------------------------------------------------------
+# Force stage (eqs. 17-22, 26-28): friction enters here.
+# ---------------------------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class ForceStage:
+    """Forces of a subset of candidates for one or many friction vectors.
+
+    Shapes use ``L`` friction vectors and ``m`` modes: ``c_A (L, m, k)``, ``contact_forces
+    (L, m, n_c, 2)``, ``joint_efforts (L, m, n_theta)``, ``margin (L, m)``,
+    ``nonsingular (L, m)``.
+    """
+
+    c_A: np.ndarray
+    contact_forces: np.ndarray
+    joint_efforts: np.ndarray
+    margin: np.ndarray
+    nonsingular: np.ndarray
+
+
+def force_rhs(system: System) -> np.ndarray:
+    """Right side of eq. (26): ``[-g_obj; tau_I - g_man_I]``, shape (3 + |tau_I|,)."""
+    E = system.effort_joints
+    return np.concatenate([-system.g_obj, system.joint_inputs[E] - system.g_man[E]])
+
+
+def force_matrices(
+    system: System, rows: np.ndarray, sliding: np.ndarray, contact: np.ndarray,
+    xi: np.ndarray, mu: np.ndarray,
+) -> np.ndarray:
+    """``Q_AI^T`` for modes given by constraint rows, batched (eqs. 18-20, 26).
+
+    Parameters
+    ----------
+    rows, sliding, contact : (m, k)
+        Candidate rows (see :class:`planner.modes.CandidateSet`).
+    xi : (m, n_c)
+        Sliding directions.
+    mu : (L, n_c)
+        Friction vectors.
+
+    Returns
+    -------
+    QT : (L, m, k, 3 + |tau_I|)
+        Row ``j`` is the wrench and effort-joint load of unit ``c_A[j]``: ``[w; j_E]`` of its
+        row, minus ``mu_i xi_i [w_t; j_tE]`` when it is a sliding contact's normal (eq. 17).
+    """
+    E = system.effort_joints
+    G = np.concatenate([system.W.T, system.J[:, E]], axis=1)  # (2 n_c, 3+|E|)
+    base = G[rows]  # (m, k, q)
+    tang = G[2 * contact + 1]  # tangent row of the same contact
+    xi_rows = np.take_along_axis(xi, contact, axis=1).astype(float)  # (m, k)
+    coef = mu[:, contact] * (xi_rows * sliding)[None]  # (L, m, k)
+    return base[None] - coef[..., None] * tang[None]
+
+
+def force_stage(
+    system: System,
+    candidates: CandidateSet,
+    index: np.ndarray,
+    xi: np.ndarray,
+    mu: np.ndarray,
+    *,
+    singular_tol: float = DEFAULT_SINGULAR_TOL,
+) -> ForceStage:
+    """Solve eq. (26) and test eq. (28) for candidates ``index`` at friction vectors ``mu``.
+
+    ``xi`` is ``(len(index), n_c)``; ``mu`` is ``(n_c,)`` or ``(L, n_c)``.
+    """
+    mu2 = np.atleast_2d(np.asarray(mu, dtype=float))
+    L = mu2.shape[0]
+    n_c, k = system.n_contacts, candidates.n_rows
+    rows = candidates.rows[index]
+    sliding = candidates.sliding[index]
+    contact = candidates.contact[index]
+    codes = candidates.codes[index]
+    m = rows.shape[0]
+    QT = force_matrices(system, rows, sliding, contact, xi, mu2)  # (L, m, k, k)
+    rhs = force_rhs(system)
+    # Equilibrate: global scaling of Q's rows (columns of QT), unit columns of Q per mode.
+    G_all = np.concatenate([system.W.T, system.J[:, system.effort_joints]], axis=1)
+    rs = np.max(np.abs(G_all), axis=0)
+    rs[rs == 0] = 1.0
+    QTn = QT / rs
+    cn = np.linalg.norm(QTn, axis=-1)  # (L, m, k)
+    cn[cn == 0] = 1.0
+    QTn = QTn / cn[..., None]
+    Qn = np.swapaxes(QTn, -1, -2)
+    det = np.abs(np.linalg.det(Qn)) if m else np.zeros((L, 0))
+    nonsingular = det > singular_tol
+    y = np.full((L, m, k), np.nan)
+    if np.any(nonsingular):
+        b = np.broadcast_to(rhs / rs, (L, m, k))
+        y[nonsingular] = np.linalg.solve(Qn[nonsingular], b[nonsingular][..., None])[..., 0]
+    c_A = y / cn
+    # Scatter to full contact forces; sliding tangential force c_t = -mu xi c_n (eq. 17).
+    c_full = np.zeros((L, m, 2 * n_c))
+    np.put_along_axis(c_full, np.broadcast_to(rows, (L, m, k)), c_A, axis=2)
+    cn_all = c_full[..., 0::2]
+    is_s = codes == SLIDE
+    c_full[..., 1::2] += np.where(is_s[None], -mu2[:, None, :] * xi[None] * cn_all, 0.0)
+    forces = c_full.reshape(L, m, n_c, 2)
+    efforts = c_full @ system.J + system.g_man  # eq. (3): tau = J^T c + g_man
+    # Coulomb (eqs. 21-22): rolling mu c_n - |c_t| >= 0, sliding c_n >= 0.
+    fn, ft = forces[..., 0], forces[..., 1]
+    slack = np.where(
+        codes[None] == ROLL, mu2[:, None, :] * fn - np.abs(ft),
+        np.where(is_s[None], fn, np.inf),
+    )
+    f_scale = np.max(np.abs(c_A), axis=-1) if k else np.zeros((L, m))
+    f_scale = np.where(f_scale > 0, f_scale, 1.0)
+    margin = np.min(slack, axis=-1) / f_scale if n_c else np.full((L, m), np.inf)
+    margin = np.where(nonsingular, margin, -np.inf)
+    return ForceStage(c_A, forces, efforts, margin, nonsingular)
+
+
+# ---------------------------------------------------------------------------------------------
+# Public entry point.
+# ---------------------------------------------------------------------------------------------
+def feasible_modes(
+    system: System,
+    mu: Any = None,
+    *,
+    tol: float = DEFAULT_TOL,
+    singular_tol: float = DEFAULT_SINGULAR_TOL,
+    indeterminate: bool | None = None,
+) -> Prediction:
+    """Every feasible contact mode of ``system`` with its certificate (eqs. 13-32).
+
+    Parameters
+    ----------
+    system : System
+    mu : float or (n_c,), optional
+        Friction coefficients; defaults to ``system.mu``.
+    tol : float
+        Relative tolerance of the boundary policy (module docstring).
+    singular_tol : float
+        Equilibrated-determinant threshold for the rank conditions (30)-(32).
+    indeterminate : bool, optional
+        Also search the relaxed-utility (force-indeterminate) modes. Default: only when
+        ``n_c <= 8``.
+
+    Returns
+    -------
+    Prediction
+        ``status`` is ``unique`` (one feasible mode), ``ambiguous`` (several, Section 4.3)
+        or ``jammed`` (none).
+    """
+    if not isinstance(system, System):
+        raise InputError(f"system: expected a planner System, got {type(system).__name__}")
+    mu_arr = system.mu if mu is None else as_friction(mu, system.n_contacts)
+    if not (np.isfinite(tol) and tol >= 0):
+        raise InputError(f"tol: expected a finite number >= 0, got {tol}")
+    cand = enumerate_modes(system.n_contacts, system.dof)
+    kin = kinematic_stage(system, cand, tol=tol, singular_tol=singular_tol)
+    idx = np.flatnonzero(kin.ok)
+    fs = force_stage(system, cand, idx, kin.xi[idx], mu_arr, singular_tol=singular_tol)
+    margin = np.minimum(fs.margin[0], kin.margin[idx])
+    feasible = fs.nonsingular[0] & (margin >= -tol)
+    modes = []
+    for j in np.flatnonzero(feasible):
+        i = idx[j]
+        modes.append(
+            FeasibleMode(
+                mode=Mode(tuple(int(c) for c in cand.codes[i]), tuple(int(x) for x in kin.xi[i])),
+                qdot=kin.qdot[i].copy(),
+                joint_velocities=kin.joint_velocities[i].copy(),
+                contact_velocities=kin.v[i].reshape(-1, 2).copy(),
+                contact_forces=fs.contact_forces[0, j].copy(),
+                joint_efforts=fs.joint_efforts[0, j].copy(),
+                margin=float(margin[j]),
+                on_boundary=bool(abs(margin[j]) <= tol),
+            )
+        )
+    boundary = tuple(
+        Mode(tuple(int(c) for c in cand.codes[i]), tuple(int(x) for x in kin.xi[i]))
+        for i in np.flatnonzero(kin.boundary)
+    )
+    degenerate = int(np.count_nonzero(~kin.nonsingular)) + int(
+        np.count_nonzero(~fs.nonsingular[0])
+    )
+    if indeterminate is None:
+        indeterminate = system.n_contacts <= INDETERMINATE_AUTO_MAX_CONTACTS
+    extra: tuple[FeasibleMode, ...] = ()
+    if indeterminate:
+        from planner.indeterminate import indeterminate_modes
+
+        extra = tuple(indeterminate_modes(system, mu_arr, tol=tol, singular_tol=singular_tol))
+    n_feasible = len(modes) + len(extra)
+    status = (
+        Status.JAMMED if n_feasible == 0 else Status.UNIQUE if n_feasible == 1 else Status.AMBIGUOUS
+    )
+    return Prediction(
+        status=status,
+        candidates=candidate_count(system.n_contacts, system.dof),
+        modes=tuple(modes),
+        indeterminate_modes=extra,
+        boundary_modes=boundary,
+        degenerate=degenerate,
+        tol=tol,
+        mu=np.array(mu_arr, dtype=float),
+    )

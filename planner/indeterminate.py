@@ -1,0 +1,164 @@
+"""Relaxed utility (end of Section 3.2): statically indeterminate, force-indeterminate modes.
+
+When a mode has more kinematic constraints than ``3 + |tau_I|`` (e.g. two rolling contacts on
+one rigid link, mode ``2R``), ``Q_A`` has a null space and the contact forces are not unique.
+The paper keeps condition (29)'s lower bound, drops ``Q_AI`` from (32) and asks only that the
+left null space of ``Q_A`` be trivial (full row rank).  Here:
+
+* kinematics: ``P_A`` (``(2 n_R + n_S) x (3 + |tau_I|)``) must have full column rank
+  (unique ``qdot``, eq. 24 in the generalised-inverse sense) and the over-determined system
+  ``P_A zdot_I = J_AV thetadot_V`` must be consistent (residual within ``tol``); breaking contacts
+  separate and sliding contacts slip as in the determinate case (eqs. 16, 25);
+* forces: ``c_A = Q_A^+ rhs + N y`` (generalised inverse plus null space); feasibility of
+  ``B_A c_A >= 0`` is a linear program (scipy HiGHS) maximising the smallest normalised slack.
+
+The kinematic stage is batched per constraint count; the LP runs only for the few modes that
+pass it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import linprog
+
+from planner.feasibility import (
+    DEFAULT_SINGULAR_TOL,
+    DEFAULT_TOL,
+    FeasibleMode,
+    _velocity_input,
+    force_matrices,
+    force_rhs,
+)
+from planner.model import System
+from planner.modes import BREAK, ROLL, SLIDE, Mode, enumerate_modes
+
+
+def indeterminate_modes(
+    system: System,
+    mu: np.ndarray,
+    *,
+    tol: float = DEFAULT_TOL,
+    singular_tol: float = DEFAULT_SINGULAR_TOL,
+) -> list[FeasibleMode]:
+    """Feasible modes with ``2 n_R + n_S > 3 + |tau_I|`` (force-indeterminate)."""
+    out: list[FeasibleMode] = []
+    n_c, k = system.n_contacts, system.dof
+    E, V = system.effort_joints, system.velocity_joints
+    K = np.concatenate([system.W.T, -system.J[:, E]], axis=1)
+    rhs_v = _velocity_input(system)
+    vel_scale = float(np.max(np.abs(rhs_v))) if rhs_v.size else 0.0
+    scale = vel_scale if vel_scale > 0 else 1.0
+    col = np.max(np.abs(K), axis=0)
+    col[col == 0] = 1.0
+    Kc = K / col
+    row = np.linalg.norm(Kc, axis=1)
+    row[row == 0] = 1.0
+    Kn = Kc / row[:, None]
+    bn = rhs_v / row
+    for k_rows in range(k + 1, 2 * n_c + 1):
+        cand = enumerate_modes(n_c, k_rows)
+        if len(cand) == 0:
+            continue
+        P = Kn[cand.rows]  # (M, k_rows, k)
+        b = bn[cand.rows]
+        s = np.linalg.svd(P, compute_uv=False)
+        full_rank = s[:, -1] > np.sqrt(singular_tol) * s[:, 0]
+        if not np.any(full_rank):
+            continue
+        idx = np.flatnonzero(full_rank)
+        Pf, bf = P[idx], b[idx]
+        z = (np.linalg.pinv(Pf) @ bf[..., None])[..., 0]  # generalised inverse (Sec. 3.2)
+        resid = np.max(np.abs((Pf @ z[..., None])[..., 0] - bf), axis=1)
+        consistent = resid <= tol * max(float(np.max(np.abs(bn))), 1.0)
+        idx, z = idx[consistent], z[consistent]
+        if idx.size == 0:
+            continue
+        z = z / col
+        qdot = z[:, :3]
+        thetadot = np.empty((idx.size, system.n_joints))
+        thetadot[:, V] = system.joint_inputs[V]
+        thetadot[:, E] = z[:, 3:]
+        v = qdot @ system.W - thetadot @ system.J.T
+        v_n, v_t = v[:, 0::2], v[:, 1::2]
+        codes = cand.codes[idx]
+        strict = np.where(codes == BREAK, v_n, np.where(codes == SLIDE, np.abs(v_t), np.inf))
+        kin_margin = np.min(strict, axis=1) / scale
+        xi = np.where(codes == SLIDE, np.sign(v_t), 0).astype(np.int8)
+        for j in np.flatnonzero(kin_margin > tol):
+            i = idx[j]
+            result = _force_lp(system, cand.rows[i], cand.sliding[i], cand.contact[i], codes[j],
+                               xi[j], mu, singular_tol)
+            if result is None:
+                continue
+            forces, efforts, f_margin = result
+            margin = min(float(kin_margin[j]), f_margin)
+            if margin < -tol:
+                continue
+            out.append(
+                FeasibleMode(
+                    mode=Mode(tuple(int(c) for c in codes[j]), tuple(int(x) for x in xi[j])),
+                    qdot=qdot[j].copy(),
+                    joint_velocities=thetadot[j].copy(),
+                    contact_velocities=v[j].reshape(-1, 2).copy(),
+                    contact_forces=forces,
+                    joint_efforts=efforts,
+                    margin=margin,
+                    on_boundary=abs(margin) <= tol,
+                    force_indeterminate=True,
+                )
+            )
+    return out
+
+
+def _force_lp(
+    system: System, rows: np.ndarray, sliding: np.ndarray, contact: np.ndarray,
+    codes: np.ndarray, xi: np.ndarray, mu: np.ndarray, singular_tol: float,
+) -> tuple[np.ndarray, np.ndarray, float] | None:
+    """Max-margin feasible forces of one indeterminate mode, or None if rank-deficient."""
+    n_c = system.n_contacts
+    QT = force_matrices(system, rows[None], sliding[None], contact[None], xi[None], mu[None])[0, 0]
+    Q = QT.T  # (3+|E|, k_rows)
+    rhs = force_rhs(system)
+    rs = np.max(np.abs(Q), axis=1)
+    rs[rs == 0] = 1.0
+    Qs = Q / rs[:, None]
+    sv = np.linalg.svd(Qs, compute_uv=False)
+    if sv[-1] <= np.sqrt(singular_tol) * sv[0]:
+        return None  # left null space of Q_A non-trivial
+    k_rows = rows.size
+    # Coulomb rows B_A c_A >= 0 (eq. 22) in terms of c_A.
+    B = []
+    for j in range(k_rows):
+        r = rows[j]
+        if r % 2 == 0 and codes[contact[j]] == ROLL:
+            jt = int(np.flatnonzero(rows == r + 1)[0])
+            for sign in (1.0, -1.0):
+                line = np.zeros(k_rows)
+                line[j] = mu[contact[j]]
+                line[jt] = sign
+                B.append(line)
+        elif sliding[j]:
+            line = np.zeros(k_rows)
+            line[j] = 1.0
+            B.append(line)
+    B = np.array(B)
+    f_scale = max(float(np.max(np.abs(rhs / rs))), 1e-300)
+    # Variables [c_A (scaled), s]; maximise s s.t. B c - s >= 0, Q c = rhs, |c| <= C, s <= f.
+    bound = 1e3 * f_scale / max(float(np.min(np.linalg.svd(Qs, compute_uv=False))), 1e-12)
+    A_ub = np.hstack([-B, np.ones((B.shape[0], 1))])
+    res = linprog(
+        c=np.r_[np.zeros(k_rows), -1.0], A_ub=A_ub, b_ub=np.zeros(B.shape[0]),
+        A_eq=np.hstack([Qs, np.zeros((Qs.shape[0], 1))]), b_eq=rhs / rs,
+        bounds=[(-bound, bound)] * k_rows + [(None, f_scale)], method="highs",
+    )
+    if res.status != 0:
+        return None
+    c_A = res.x[:k_rows]
+    c_full = np.zeros(2 * n_c)
+    c_full[rows] = c_A
+    is_s = codes == SLIDE
+    c_full[1::2] += np.where(is_s, -mu * xi * c_full[0::2], 0.0)
+    efforts = c_full @ system.J + system.g_man
+    norm = max(float(np.max(np.abs(c_A))), 1e-300) if np.any(c_A) else 1.0
+    margin = float(res.x[-1]) / norm if np.any(c_A) else 0.0
+    return c_full.reshape(n_c, 2), efforts, margin

@@ -1,0 +1,199 @@
+"""Contact modes: enumeration under the utility conditions (29)-(32) and notation.
+
+A contact mode assigns each contact one interaction: rolling ``R`` (eq. 9), sliding ``S``
+(eq. 10; its direction ``xi = sgn(v_t)`` (eq. 16) is fixed by the kinematics, written ``S+`` or
+``S-``), or breaking ``B`` (eq. 11).  The paper's implementation (Section 4.7) tests the modes
+with exactly ``2 n_R + n_S = 3 + |tau_I|`` kinematic constraints; their number is eq. (49).
+
+Mode strings: one token per contact in contact order, e.g. ``"R1 S-2 B3"``.
+
+References
+----------
+Trinkle & Zeng (1994), eqs. (12), (14), (29)-(32), (49), Table 1.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+from functools import lru_cache
+from math import comb
+
+import numpy as np
+
+from planner.errors import InputError
+
+BREAK, SLIDE, ROLL = 0, 1, 2
+_CODE_LETTER = {BREAK: "B", SLIDE: "S", ROLL: "R"}
+
+
+def candidate_count(n_contacts: int, dof: int) -> int:
+    """Number of contact modes tested, eq. (49).
+
+    ``sum_{n_R=0}^{floor(dof/2)} C(n_c, n_R) C(n_c - n_R, dof - 2 n_R)`` with
+    ``dof = 3 + |tau_I|``.  Zero when ``n_c < dof / 2`` (no mode meets the utility conditions).
+    """
+    if n_contacts < 0 or dof < 0:
+        raise InputError(f"candidate_count: expected n_c >= 0 and dof >= 0, got {n_contacts}, {dof}")
+    total = 0
+    for n_r in range(dof // 2 + 1):
+        n_s = dof - 2 * n_r
+        if n_r + n_s <= n_contacts:
+            total += comb(n_contacts, n_r) * comb(n_contacts - n_r, n_s)
+    return total
+
+
+@dataclass(frozen=True)
+class CandidateSet:
+    """All candidate modes with ``2 n_R + n_S = n_rows`` as arrays (read-only).
+
+    Attributes
+    ----------
+    codes : (M, n_c) int8
+        ``ROLL``/``SLIDE``/``BREAK`` per contact.
+    rows : (M, n_rows) int
+        Applicable constraint rows in the paper's order ``[n_R rows; t_R rows; n_S rows]``
+        (eq. 14): row ``2i`` is the normal of contact ``i``, ``2i + 1`` its tangent.
+    sliding : (M, n_rows) bool
+        True where the row is the normal of a sliding contact (its column of ``W_Amu``
+        is ``w_n - mu xi w_t``, eq. 18-19).
+    contact : (M, n_rows) int
+        Contact index of each row.
+    """
+
+    n_contacts: int
+    n_rows: int
+    codes: np.ndarray
+    rows: np.ndarray
+    sliding: np.ndarray
+    contact: np.ndarray
+
+    def __len__(self) -> int:
+        return self.codes.shape[0]
+
+
+@lru_cache(maxsize=64)
+def enumerate_modes(n_contacts: int, n_rows: int) -> CandidateSet:
+    """Enumerate the modes with ``2 n_R + n_S = n_rows`` (eq. 29 with the Sec. 4.7 partition).
+
+    Ordered by ``n_R`` then lexicographically by the rolling and sliding sets.  The result
+    is cached and read-only; its length is :func:`candidate_count` ``(n_contacts, n_rows)``.
+    """
+    if n_contacts < 1:
+        raise InputError(f"enumerate_modes: expected n_c >= 1, got {n_contacts}")
+    code_blocks, row_blocks = [], []
+    contacts = range(n_contacts)
+    for n_r in range(n_rows // 2 + 1):
+        n_s = n_rows - 2 * n_r
+        if n_r + n_s > n_contacts:
+            continue
+        r_list = list(itertools.combinations(contacts, n_r))
+        r_sets = np.array(r_list, dtype=np.int64).reshape(len(r_list), n_r)
+        block_codes, block_rows = [], []
+        for r_set in r_sets:
+            rest = [c for c in contacts if c not in set(r_set.tolist())]
+            s_list = list(itertools.combinations(rest, n_s))
+            s_sets = np.array(s_list, dtype=np.int64).reshape(len(s_list), n_s)
+            m = s_sets.shape[0]
+            codes = np.zeros((m, n_contacts), dtype=np.int8)
+            codes[:, r_set] = ROLL
+            np.put_along_axis(codes, s_sets, SLIDE, axis=1)
+            rows = np.concatenate(
+                [np.broadcast_to(2 * r_set, (m, n_r)), np.broadcast_to(2 * r_set + 1, (m, n_r)),
+                 2 * s_sets],
+                axis=1,
+            )
+            block_codes.append(codes)
+            block_rows.append(rows)
+        if block_codes:
+            code_blocks.append(np.concatenate(block_codes))
+            row_blocks.append(np.concatenate(block_rows))
+    if code_blocks:
+        codes = np.concatenate(code_blocks)
+        rows = np.concatenate(row_blocks).astype(np.int64)
+    else:
+        codes = np.zeros((0, n_contacts), dtype=np.int8)
+        rows = np.zeros((0, n_rows), dtype=np.int64)
+    contact = rows // 2
+    n_r_per = (codes == ROLL).sum(axis=1)
+    col = np.arange(n_rows)[None, :]
+    sliding = col >= 2 * n_r_per[:, None]
+    for arr in (codes, rows, sliding, contact):
+        arr.setflags(write=False)
+    return CandidateSet(n_contacts, n_rows, codes, rows, sliding, contact)
+
+
+@dataclass(frozen=True)
+class Mode:
+    """A contact mode with sliding directions.
+
+    Attributes
+    ----------
+    codes : tuple of int
+        ``ROLL``/``SLIDE``/``BREAK`` per contact.
+    xi : tuple of int
+        ``sgn(v_it)`` per contact (eq. 16); 0 for non-sliding contacts.
+    """
+
+    codes: tuple[int, ...]
+    xi: tuple[int, ...]
+
+    @property
+    def tokens(self) -> tuple[str, ...]:
+        """Per-contact tokens ``R``, ``S+``, ``S-``, ``B`` (no index)."""
+        out = []
+        for code, xi in zip(self.codes, self.xi):
+            if code == SLIDE:
+                out.append("S+" if xi > 0 else "S-" if xi < 0 else "S")
+            else:
+                out.append(_CODE_LETTER[code])
+        return tuple(out)
+
+    @property
+    def label(self) -> str:
+        """Mode string, e.g. ``"R1 S-2 B3"`` (1-based contact indices)."""
+        return " ".join(f"{tok}{i + 1}" for i, tok in enumerate(self.tokens))
+
+    @property
+    def family(self) -> str:
+        """The paper's class name: ``3S``, ``RS``, ``R2S``, ``4S``, ``2R`` ... (breaking omitted)."""
+        n_r = sum(1 for c in self.codes if c == ROLL)
+        n_s = sum(1 for c in self.codes if c == SLIDE)
+        parts = []
+        if n_r:
+            parts.append("R" if n_r == 1 else f"{n_r}R")
+        if n_s:
+            parts.append("S" if n_s == 1 else f"{n_s}S")
+        if n_r == 1 and n_s > 1:
+            return f"R{n_s}S"
+        return "".join(parts) or "B"
+
+    def __str__(self) -> str:
+        return self.label
+
+    @classmethod
+    def parse(cls, text: str, n_contacts: int | None = None) -> Mode:
+        """Parse a mode string such as ``"R1 S-2 B3"`` (tokens in contact order)."""
+        tokens = text.split()
+        if n_contacts is not None and len(tokens) != n_contacts:
+            raise InputError(
+                f"mode {text!r}: expected {n_contacts} tokens (one per contact), got {len(tokens)}"
+            )
+        codes, xis = [], []
+        for i, tok in enumerate(tokens):
+            idx = str(i + 1)
+            if not tok.endswith(idx):
+                raise InputError(
+                    f"mode {text!r}: expected token {i + 1} to end with contact index {idx}, "
+                    f"got {tok!r}"
+                )
+            head = tok[: -len(idx)]
+            table = {"R": (ROLL, 0), "B": (BREAK, 0), "S+": (SLIDE, 1), "S-": (SLIDE, -1)}
+            if head not in table:
+                raise InputError(
+                    f"mode {text!r}: expected R, S+, S- or B before {idx}, got {head!r}"
+                )
+            c, x = table[head]
+            codes.append(c)
+            xis.append(x)
+        return cls(tuple(codes), tuple(xis))

@@ -1,0 +1,1 @@
+"""Runnable scenarios: the paper's examples and beyond. ``python -m scenarios list``."""

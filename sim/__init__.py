@@ -1,0 +1,1 @@
+"""Simulator validation of planner predictions (pymunk and MuJoCo backends)."""
