@@ -1,0 +1,71 @@
+"""Safe file output: every file the project writes goes through here (atomic replace).
+
+A file is written to a temporary sibling, flushed and fsynced, then renamed over the target, so
+a reader never sees a half-written plan, summary or report.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import tempfile
+from pathlib import Path
+from typing import Any
+
+
+def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> Path:
+    """Write ``data`` to ``path`` atomically; creates parent folders. Returns the path."""
+    target = Path(path)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, target)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except FileNotFoundError:
+            pass
+        raise
+    return target
+
+
+def atomic_write_text(path: str | os.PathLike[str], text: str) -> Path:
+    """Write UTF-8 ``text`` to ``path`` atomically."""
+    return atomic_write_bytes(path, text.encode("utf-8"))
+
+
+def _jsonable(value: Any) -> Any:
+    import numpy as np
+
+    if isinstance(value, dict):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return _jsonable(value.tolist())
+    if isinstance(value, np.generic):
+        return _jsonable(value.item())
+    if isinstance(value, float) and not math.isfinite(value):
+        return None if math.isnan(value) else ("inf" if value > 0 else "-inf")
+    return value
+
+
+def atomic_write_json(path: str | os.PathLike[str], data: Any) -> Path:
+    """Serialise ``data`` (numpy arrays allowed; NaN -> null, inf -> "inf") and write atomically."""
+    text = json.dumps(_jsonable(data), indent=2, allow_nan=False)
+    return atomic_write_text(path, text + "\n")
+
+
+def save_figure(fig: Any, path: str | os.PathLike[str], **kwargs: Any) -> Path:
+    """Save a matplotlib figure atomically (format from the suffix)."""
+    import io
+
+    buf = io.BytesIO()
+    target = Path(path)
+    fig.savefig(buf, format=target.suffix.lstrip(".") or "png", **kwargs)
+    return atomic_write_bytes(target, buf.getvalue())
