@@ -54,6 +54,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except QsplanError as exc:
         print(f"qsplan {args.command}: error: {exc}", file=sys.stderr)
         return EXIT_INPUT
+    except BrokenPipeError:  # e.g. piped into `head`
+        sys.stderr.close()
+        return EXIT_OK
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
