@@ -21,7 +21,7 @@ def test_modes_json(capsys, data_dir):
 
 
 def test_modes_table_and_jam(capsys, data_dir):
-    assert main(["modes", str(data_dir / "example_4_1.json"), "--mu", "0.9,0.05,0.9"]) == 0
+    assert main(["modes", str(data_dir / "example_4_1.json"), "--mu", "0.9,0.9,0.9"]) == 0
     out = capsys.readouterr().out
     assert "status: jammed" in out and "no feasible mode" in out
     assert main(["modes", str(data_dir / "example_4_1.json"), "--mu", "0.1"]) == 0
