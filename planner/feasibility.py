@@ -46,11 +46,20 @@ INDETERMINATE_AUTO_MAX_CONTACTS = 8
 
 
 class Status(str, Enum):
-    """Outcome of a prediction (Sections 4.1, 4.3)."""
+    """Outcome of a prediction (Sections 4.1, 4.3).
+
+    ``UNIQUE``: one feasible mode. ``AMBIGUOUS``: several (Sec. 4.3). ``JAMMED``: none (the
+    "Jam" regions of Fig. 3). ``AT_REST``: every commanded joint velocity is zero, so no
+    contact can slide or break; the listed modes (all rolling, ``qdot = 0``) are the static
+    equilibria that hold. ``NO_CANDIDATES``: the utility conditions admit no mode at all
+    (``n_c < (3 + |tau_I|) / 2``, Sec. 4.7).
+    """
 
     UNIQUE = "unique"
     AMBIGUOUS = "ambiguous"
     JAMMED = "jammed"
+    AT_REST = "at_rest"
+    NO_CANDIDATES = "no_candidates"
 
 
 @dataclass(frozen=True, eq=False)
@@ -125,6 +134,7 @@ class Prediction:
     degenerate: int = 0
     tol: float = DEFAULT_TOL
     mu: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    reason: str = ""
 
     @property
     def all_modes(self) -> tuple[FeasibleMode, ...]:
@@ -155,6 +165,7 @@ class Prediction:
             "modes": [m.to_dict() for m in self.all_modes],
             "boundary_modes": [m.label for m in self.boundary_modes],
             "degenerate_candidates": int(self.degenerate),
+            "reason": self.reason,
         }
 
 
@@ -245,7 +256,8 @@ def kinematic_stage(
     strict = np.where(codes == BREAK, v_n, np.where(codes == SLIDE, np.abs(v_t), np.inf)) / scale
     margin = np.min(strict, axis=1) if n_c else np.full(M, np.inf)
     margin = np.where(nonsingular, margin, -np.inf)
-    xi = np.where(codes == SLIDE, np.sign(v_t), 0).astype(np.int8)
+    xi = np.where((codes == SLIDE) & nonsingular[:, None], np.sign(np.nan_to_num(v_t)), 0)
+    xi = xi.astype(np.int8)
     ok = nonsingular & (margin > tol)
     boundary = nonsingular & (np.abs(margin) <= tol)
     return KinematicStage(cand, nonsingular, qdot, thetadot, v, xi, margin, ok, boundary, vel_scale)
@@ -439,16 +451,39 @@ def feasible_modes(
 
         extra = tuple(indeterminate_modes(system, mu_arr, tol=tol, singular_tol=singular_tol))
     n_feasible = len(modes) + len(extra)
-    status = (
-        Status.JAMMED if n_feasible == 0 else Status.UNIQUE if n_feasible == 1 else Status.AMBIGUOUS
-    )
+    n_cand = candidate_count(system.n_contacts, system.dof)
+    if n_cand == 0:
+        status = Status.NO_CANDIDATES
+        reason = (
+            f"the utility conditions (29)-(32) admit no mode: {system.n_contacts} contact(s) "
+            f"cannot supply 2 n_R + n_S = {system.dof} kinematic constraints"
+        )
+    elif kin.velocity_scale == 0.0:
+        status = Status.AT_REST
+        reason = (
+            "every commanded joint velocity is zero: nothing slides or breaks; "
+            + (f"{n_feasible} static equilibrium mode(s) hold" if n_feasible else
+               "no static equilibrium holds")
+        )
+    elif n_feasible == 0:
+        status = Status.JAMMED
+        reason = "no candidate mode is feasible" + (
+            f" ({degenerate} candidate(s) violate the rank conditions (30)-(32))"
+            if degenerate else ""
+        )
+    else:
+        status = Status.UNIQUE if n_feasible == 1 else Status.AMBIGUOUS
+        reason = f"{n_feasible} feasible mode(s)"
+    if boundary or any(m.on_boundary for m in modes + list(extra)):
+        reason += "; some decisions are within tolerance of a boundary"
     return Prediction(
         status=status,
-        candidates=candidate_count(system.n_contacts, system.dof),
+        candidates=n_cand,
         modes=tuple(modes),
         indeterminate_modes=extra,
         boundary_modes=boundary,
         degenerate=degenerate,
         tol=tol,
         mu=np.array(mu_arr, dtype=float),
+        reason=reason,
     )

@@ -73,8 +73,10 @@ def format_prediction(pred) -> str:  # type: ignore[no-untyped-def]
         f"status: {pred.status.value}   candidates (eq. 49): {pred.candidates}   "
         f"mu: {np.array2string(pred.mu, precision=4, separator=', ')}",
     ]
+    if pred.reason:
+        lines.append(f"reason: {pred.reason}")
     if not pred.all_modes:
-        lines.append("no feasible mode (jammed)")
+        lines.append("no feasible mode" + (" (jammed)" if pred.status.value == "jammed" else ""))
     with np.printoptions(precision=4, suppress=True, floatmode="maxprec"):
         for m in pred.all_modes:
             flags = []
