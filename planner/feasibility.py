@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from planner.errors import InputError
+from planner.errors import DegenerateError, InputError
 from planner.model import System
 from planner.modes import BREAK, ROLL, SLIDE, CandidateSet, Mode, candidate_count, enumerate_modes
 from planner.validation import as_friction
@@ -421,6 +421,12 @@ def feasible_modes(
     fs = force_stage(system, cand, idx, kin.xi[idx], mu_arr, singular_tol=singular_tol)
     margin = np.minimum(fs.margin[0], kin.margin[idx])
     feasible = fs.nonsingular[0] & (margin >= -tol)
+    finite = np.isfinite(kin.qdot[idx]).all(axis=1) & np.isfinite(fs.c_A[0]).all(axis=1)
+    if np.any(fs.nonsingular[0] & ~finite):
+        raise DegenerateError(
+            "numerical overflow while solving eqs. (24)/(26): expected inputs whose magnitudes "
+            "fit in double precision products (rescale lengths, forces or speeds)"
+        )
     modes = []
     for j in np.flatnonzero(feasible):
         i = idx[j]
