@@ -83,7 +83,8 @@ class Chain:
         for j, spec in enumerate(joints):
             if spec.kind not in (REVOLUTE, PRISMATIC):
                 raise InputError(
-                    f"chain joint {j + 1}: expected kind 'revolute' or 'prismatic', got {spec.kind!r}"
+                    f"chain joint {j + 1}: expected kind 'revolute' or 'prismatic', "
+                    f"got {spec.kind!r}"
                 )
             if not (-1 <= spec.parent < j):
                 raise InputError(

@@ -404,7 +404,9 @@ class System:
             control = tuple(control_list)
             inputs = np.array(input_list, dtype=float)
             g_man = (
-                np.zeros(n_t) if joint_loads is None else as_array(joint_loads, (n_t,), "joint_loads")
+                np.zeros(n_t)
+                if joint_loads is None
+                else as_array(joint_loads, (n_t,), "joint_loads")
             )
             virtual = False
         return cls(

@@ -34,7 +34,9 @@ def candidate_count(n_contacts: int, dof: int) -> int:
     ``dof = 3 + |tau_I|``.  Zero when ``n_c < dof / 2`` (no mode meets the utility conditions).
     """
     if n_contacts < 0 or dof < 0:
-        raise InputError(f"candidate_count: expected n_c >= 0 and dof >= 0, got {n_contacts}, {dof}")
+        raise InputError(
+            f"candidate_count: expected n_c >= 0 and dof >= 0, got {n_contacts}, {dof}"
+        )
     total = 0
     for n_r in range(dof // 2 + 1):
         n_s = dof - 2 * n_r
@@ -156,7 +158,7 @@ class Mode:
 
     @property
     def family(self) -> str:
-        """The paper's class name: ``3S``, ``RS``, ``R2S``, ``4S``, ``2R`` ... (breaking omitted)."""
+        """The paper's class name: ``3S``, ``RS``, ``R2S``, ``4S``, ``2R`` ... (no ``B``)."""
         n_r = sum(1 for c in self.codes if c == ROLL)
         n_s = sum(1 for c in self.codes if c == SLIDE)
         parts = []

@@ -49,7 +49,8 @@ def as_array(value: Any, shape: Sequence[int | None], name: str) -> np.ndarray:
 
 
 def _shape_text(shape: Sequence[int | None]) -> str:
-    return "(" + ", ".join("n" if s is None else str(s) for s in shape) + ("," if len(shape) == 1 else "") + ")"
+    inner = ", ".join("n" if s is None else str(s) for s in shape)
+    return "(" + inner + ("," if len(shape) == 1 else "") + ")"
 
 
 def as_friction(value: Any, n_c: int, name: str = "mu") -> np.ndarray:
