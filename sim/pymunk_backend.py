@@ -1,0 +1,225 @@
+"""pymunk (Chipmunk2D) backend of :class:`sim.scene.Backend`.
+
+Settings (SIM-NOTES): gravity off (loads are explicit), ``collision_slop`` scaled to the scene
+(``1e-4 * length_scale``), many solver iterations, per-pair friction set on the arbiter in a
+pre-solve callback (pymunk otherwise multiplies the two shapes' friction values), one shape per
+contact site so one arbiter holds one contact. Driven bodies are kinematic bodies; velocity
+joints: revolute = pivot + SimpleMotor of unbounded force, prismatic = a kinematic carriage moving
+along the axis with the body welded to it by pivot + gear joints; effort joints: pivot (or
+groove + gear) with the effort applied as a body torque / force every step.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+import pymunk
+
+from sim.scene import (
+    ABSENT,
+    Body,
+    BodyKind,
+    BodyState,
+    Circle,
+    ContactReading,
+    Control,
+    JointKind,
+    Polygon,
+    Scene,
+    Segment,
+)
+
+
+def _moment(body: Body) -> float:
+    if body.inertia is not None:
+        return float(body.inertia)
+    com = np.asarray(body.com, dtype=float)
+    shape = body.shapes[0]
+    if isinstance(shape, Polygon):
+        verts = [tuple(v - com) for v in np.asarray(shape.vertices, dtype=float)]
+        return float(pymunk.moment_for_poly(body.mass, verts))
+    if isinstance(shape, Circle):
+        off = tuple(np.asarray(shape.center) - com)
+        return float(pymunk.moment_for_circle(body.mass, 0.0, shape.radius, off))
+    a = tuple(np.asarray(shape.a) - com)
+    b = tuple(np.asarray(shape.b) - com)
+    return float(pymunk.moment_for_segment(body.mass, a, b, shape.radius))
+
+
+class PymunkBackend:
+    """Chipmunk2D via pymunk 7."""
+
+    name = "pymunk"
+
+    def __init__(self, iterations: int = 60) -> None:
+        self.iterations = iterations
+        self.t = 0.0
+
+    # -- construction ------------------------------------------------------------------
+    def build(self, scene: Scene) -> None:
+        self.scene = scene
+        space = pymunk.Space()
+        space.gravity = (0.0, 0.0)
+        space.iterations = self.iterations
+        space.collision_slop = 1e-4 * scene.length_scale
+        self.space = space
+        self.bodies: dict[str, pymunk.Body] = {}
+        self.shapes: dict[str, list[pymunk.Shape]] = {}
+        for b in scene.bodies:
+            if b.kind == BodyKind.STATIC:
+                body = pymunk.Body(body_type=pymunk.Body.STATIC)
+            elif b.kind == BodyKind.DRIVEN:
+                body = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
+            else:
+                body = pymunk.Body(b.mass, _moment(b))
+                body.center_of_gravity = tuple(b.com)
+            body.position = (b.pose[0], b.pose[1])
+            body.angle = b.pose[2]
+            shapes: list[pymunk.Shape] = []
+            for s in b.shapes:
+                if isinstance(s, Polygon):
+                    shp: pymunk.Shape = pymunk.Poly(body, [tuple(v) for v in s.vertices])
+                elif isinstance(s, Circle):
+                    shp = pymunk.Circle(body, s.radius, tuple(s.center))
+                elif isinstance(s, Segment):
+                    shp = pymunk.Segment(body, tuple(s.a), tuple(s.b), s.radius)
+                else:  # pragma: no cover - guarded by the Shape union
+                    raise TypeError(type(s))
+                shp.friction = 0.0
+                shapes.append(shp)
+            space.add(body, *shapes)
+            self.bodies[b.name] = body
+            self.shapes[b.name] = shapes
+        # joints
+        self.carriages: dict[str, pymunk.Body] = {}
+        self.motors: dict[str, pymunk.SimpleMotor] = {}
+        static = space.static_body
+        for j in scene.joints:
+            body = self.bodies[j.body]
+            if j.kind == JointKind.REVOLUTE:
+                space.add(pymunk.PivotJoint(static, body, tuple(j.anchor)))
+                if j.control == Control.VELOCITY:
+                    motor = pymunk.SimpleMotor(static, body, 0.0)
+                    motor.max_force = float("inf")
+                    space.add(motor)
+                    self.motors[j.name] = motor
+            else:
+                if j.control == Control.VELOCITY:
+                    car = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
+                    car.position = tuple(j.anchor)
+                    space.add(car)
+                    space.add(pymunk.PivotJoint(car, body, tuple(j.anchor)),
+                              pymunk.GearJoint(car, body, 0.0, 1.0))
+                    self.carriages[j.name] = car
+                else:
+                    axis = np.asarray(j.axis, dtype=float)
+                    anchor = np.asarray(j.anchor, dtype=float)
+                    a = tuple(anchor - 100.0 * scene.length_scale * axis)
+                    bb = tuple(anchor + 100.0 * scene.length_scale * axis)
+                    space.add(pymunk.GrooveJoint(static, body, a, bb,
+                                                 body.world_to_local(tuple(anchor))),
+                              pymunk.GearJoint(static, body, 0.0, 1.0))
+        # contact pairs: one collision type per manipulator shape, one per workpiece shape
+        self._readings: dict[str, ContactReading] = {}
+        self._mu: dict[str, float] = {}
+        self._by_shapes: dict[tuple[int, int], str] = {}
+        next_type = 1
+        types: dict[int, int] = {}
+        for p in scene.pairs:
+            sa = self.shapes[p.body_a][p.shape_a]
+            sb = self.shapes[p.body_b][p.shape_b]
+            for s in (sa, sb):
+                if id(s) not in types:
+                    types[id(s)] = next_type
+                    s.collision_type = next_type
+                    next_type += 1
+            self._mu[p.name] = float(p.mu_static)
+            self._by_shapes[(id(sa), id(sb))] = p.name
+            space.on_collision(sa.collision_type, sb.collision_type,
+                               pre_solve=self._pre_solve, post_solve=self._post_solve,
+                               data=p.name)
+
+    def _pre_solve(self, arbiter: pymunk.Arbiter, space: pymunk.Space, name: str) -> None:
+        arbiter.friction = self._mu[name]
+
+    def _post_solve(self, arbiter: pymunk.Arbiter, space: pymunk.Space, name: str) -> None:
+        sa, sb = arbiter.shapes
+        if (id(sa), id(sb)) != next(k for k, v in self._by_shapes.items() if v == name):
+            return  # pragma: no cover - pymunk orders the shapes as registered
+        pts = arbiter.contact_point_set
+        if not pts.points:
+            return
+        cp = pts.points[0]
+        point = 0.5 * (np.asarray(cp.point_a) + np.asarray(cp.point_b))
+        n = np.asarray(arbiter.normal, dtype=float)  # from shape a into shape b
+        t = np.array([-n[1], n[0]])
+        imp = np.asarray(arbiter.total_impulse, dtype=float) / self._dt
+        sign = 1.0 if float(imp @ n) >= 0 else -1.0  # total_impulse is the impulse on a or b
+        f = sign * imp
+        va = np.asarray(sa.body.velocity_at_world_point(tuple(point)))
+        vb = np.asarray(sb.body.velocity_at_world_point(tuple(point)))
+        self._readings[name] = ContactReading(
+            present=True,
+            point=(float(point[0]), float(point[1])),
+            normal=(float(n[0]), float(n[1])),
+            normal_force=float(f @ n),
+            tangent_force=float(f @ t),
+            slip_velocity=float((vb - va) @ t),
+            depth=float(-cp.distance),
+        )
+
+    # -- stepping ----------------------------------------------------------------------
+    def _states_now(self) -> Mapping[str, BodyState]:
+        return self.state()
+
+    def step(self, dt: float) -> None:
+        self._dt = dt
+        states = self.state()
+        for b in self.scene.bodies:
+            if b.kind == BodyKind.DRIVEN and b.twist is not None:
+                vx, vy, w = (float(v) for v in b.twist(self.t, states))
+                body = self.bodies[b.name]
+                body.velocity = (vx, vy)
+                body.angular_velocity = w
+        for j in self.scene.joints:
+            u = float(j.command(self.t, states))
+            body = self.bodies[j.body]
+            if j.kind == JointKind.REVOLUTE:
+                if j.control == Control.VELOCITY:
+                    self.motors[j.name].rate = -u  # Chipmunk drives w_a - w_b = rate
+                else:
+                    body.torque = body.torque + u
+            else:
+                axis = np.asarray(j.axis, dtype=float)
+                if j.control == Control.VELOCITY:
+                    self.carriages[j.name].velocity = tuple(u * axis)
+                else:
+                    body.apply_force_at_world_point(tuple(u * axis),
+                                                    body.local_to_world(body.center_of_gravity))
+        for ld in self.scene.loads:
+            body = self.bodies[ld.body]
+            body.apply_force_at_world_point(tuple(ld.force),
+                                            body.local_to_world(body.center_of_gravity))
+            body.torque = body.torque + ld.moment
+        self._readings = {}
+        self.space.step(dt)
+        self.t += dt
+
+    # -- readout -----------------------------------------------------------------------
+    def state(self) -> dict[str, BodyState]:
+        out = {}
+        for name, body in self.bodies.items():
+            pos = body.position
+            v = body.velocity_at_world_point(pos)
+            out[name] = BodyState(
+                pose=(float(pos.x), float(pos.y), float(body.angle)),
+                twist=(float(v.x), float(v.y), float(body.angular_velocity)),
+            )
+        return out
+
+    def contacts(self) -> dict[str, ContactReading]:
+        return {p.name: self._readings.get(p.name, ABSENT) for p in self.scene.pairs}
+
+    def set_friction(self, pair: str, mu: float) -> None:
+        self._mu[pair] = float(mu)

@@ -1,0 +1,179 @@
+"""The simulation loop: drive a backend, emulate static/kinetic friction, detect faults, record.
+
+Faults (simulator trouble, never a pass): ``NAN`` (a non-finite state), ``LEFT_SCENE`` (a dynamic
+body's origin outside ``scene.bounds``), ``PENETRATION`` (a contact deeper than
+``penetration_tol``), ``CONTACT_LOST_AT_START`` (a pair not touching during the first
+``start_window`` seconds). An observed *jam* (Fig. 3 "Jam": the fingers cannot move the
+workpiece without growing force) is not a fault: the loop stops early once every contact force
+exceeds ``jam_force`` for ``jam_window`` seconds and records ``jammed_at``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import Enum
+
+import numpy as np
+
+from sim.scene import Backend, BodyKind, Scene
+
+
+class FaultKind(str, Enum):
+    NAN = "nan"
+    LEFT_SCENE = "left_scene"
+    PENETRATION = "penetration"
+    CONTACT_LOST_AT_START = "contact_lost_at_start"
+
+
+@dataclass(frozen=True)
+class Fault:
+    kind: FaultKind
+    time: float
+    detail: str
+
+    @property
+    def reason(self) -> str:
+        return f"{self.kind.value} at t={self.time:.4f} s: {self.detail}"
+
+
+@dataclass(frozen=True, eq=False)
+class Recording:
+    """Time series of one run; ``T`` recorded steps, ``P`` pairs, ``B`` bodies.
+
+    times (T,) [s]; poses (T, B, 3) [m, m, rad]; present (T, P) bool; points, normals
+    (T, P, 2); normal_force, tangent_force (T, P) [N]; slip_velocity (T, P) [m/s];
+    depth (T, P) [m]; mu_used (T, P) the Coulomb coefficient in force during the step.
+    """
+
+    engine: str
+    pair_names: tuple[str, ...]
+    body_names: tuple[str, ...]
+    times: np.ndarray
+    poses: np.ndarray
+    present: np.ndarray
+    points: np.ndarray
+    normals: np.ndarray
+    normal_force: np.ndarray
+    tangent_force: np.ndarray
+    slip_velocity: np.ndarray
+    depth: np.ndarray
+    mu_used: np.ndarray
+    fault: Fault | None = None
+    jammed_at: float | None = None
+
+
+@dataclass(frozen=True)
+class RunSettings:
+    """Loop settings: ``duration``, ``dt`` [s]; ``slip_speed`` [m/s] threshold for switching a
+    pair from static to kinetic friction; ``penetration_tol`` [m]; ``start_window`` [s];
+    ``jam_force`` [N] and ``jam_window`` [s]."""
+
+    duration: float
+    dt: float
+    slip_speed: float
+    penetration_tol: float
+    start_window: float = 0.02
+    jam_force: float = np.inf
+    jam_window: float = 0.05
+    record_every: int = 1
+
+
+def run_scene(scene: Scene, backend: Backend, settings: RunSettings) -> Recording:
+    """Build ``scene`` in ``backend`` and run it, recording every ``record_every`` steps."""
+    backend.build(scene)
+    pairs = scene.pairs
+    names = tuple(p.name for p in pairs)
+    body_names = tuple(b.name for b in scene.bodies)
+    dynamic = [b.name for b in scene.bodies if b.kind == BodyKind.DYNAMIC]
+    n_steps = int(round(settings.duration / settings.dt))
+    rows: dict[str, list] = {k: [] for k in (
+        "t", "pose", "present", "point", "normal", "fn", "ft", "vt", "depth", "mu")}
+    mu_now = np.array([p.mu_static for p in pairs], dtype=float)
+    slipping = np.zeros(len(pairs), dtype=bool)
+    fault: Fault | None = None
+    jammed_at: float | None = None
+    jam_steps = 0
+    xmin, ymin, xmax, ymax = scene.bounds
+    for k in range(n_steps):
+        for i, p in enumerate(pairs):
+            if p.mu_kinetic is not None:
+                mu_new = p.mu_kinetic if slipping[i] else p.mu_static
+                if mu_new != mu_now[i]:
+                    backend.set_friction(p.name, mu_new)
+                    mu_now[i] = mu_new
+        backend.step(settings.dt)
+        t = (k + 1) * settings.dt
+        states = backend.state()
+        readings = backend.contacts()
+        pose = np.array([states[b].pose for b in body_names], dtype=float)
+        twist = np.array([states[b].twist for b in body_names], dtype=float)
+        rd = [readings[nm] for nm in names]
+        present = np.array([r.present for r in rd], dtype=bool)
+        fn = np.array([r.normal_force for r in rd])
+        vt = np.array([r.slip_velocity for r in rd])
+        depth = np.array([r.depth for r in rd])
+        slipping = present & (np.abs(vt) > settings.slip_speed)
+        if k % settings.record_every == 0:
+            rows["t"].append(t)
+            rows["pose"].append(pose)
+            rows["present"].append(present)
+            rows["point"].append([r.point for r in rd])
+            rows["normal"].append([r.normal for r in rd])
+            rows["fn"].append(fn)
+            rows["ft"].append([r.tangent_force for r in rd])
+            rows["vt"].append(vt)
+            rows["depth"].append(depth)
+            rows["mu"].append(mu_now.copy())
+        # -- faults ---------------------------------------------------------------------
+        if not (np.all(np.isfinite(pose)) and np.all(np.isfinite(twist))
+                and np.all(np.isfinite(fn[present]))):
+            fault = Fault(FaultKind.NAN, t, "non-finite body state or contact force")
+            break
+        for b in dynamic:
+            x, y, _ = states[b].pose
+            if not (xmin <= x <= xmax and ymin <= y <= ymax):
+                fault = Fault(FaultKind.LEFT_SCENE, t,
+                              f"body {b!r} at ({x:.4g}, {y:.4g}) outside bounds {scene.bounds}")
+                break
+        if fault:
+            break
+        if np.any(present & (depth > settings.penetration_tol)):
+            i = int(np.argmax(np.where(present, depth, -np.inf)))
+            fault = Fault(FaultKind.PENETRATION, t,
+                          f"pair {names[i]!r} depth {depth[i]:.3g} m > tolerance "
+                          f"{settings.penetration_tol:.3g} m")
+            break
+        if t <= settings.start_window and not np.all(present):
+            lost = [nm for nm, ok in zip(names, present) if not ok]
+            fault = Fault(FaultKind.CONTACT_LOST_AT_START, t, f"pairs {lost} not touching")
+            break
+        if np.all(present & (fn > settings.jam_force)):
+            jam_steps += 1
+            if jam_steps * settings.dt >= settings.jam_window:
+                jammed_at = t
+                break
+        else:
+            jam_steps = 0
+    P = len(pairs)
+    T = len(rows["t"])
+
+    def arr(key: str, shape: tuple[int, ...]) -> np.ndarray:
+        return np.asarray(rows[key], dtype=float).reshape((T, *shape))
+
+    return Recording(
+        engine=getattr(backend, "name", type(backend).__name__),
+        pair_names=names,
+        body_names=body_names,
+        times=np.asarray(rows["t"], dtype=float),
+        poses=arr("pose", (len(body_names), 3)),
+        present=np.asarray(rows["present"], dtype=bool).reshape(T, P),
+        points=arr("point", (P, 2)),
+        normals=arr("normal", (P, 2)),
+        normal_force=arr("fn", (P,)),
+        tangent_force=arr("ft", (P,)),
+        slip_velocity=arr("vt", (P,)),
+        depth=arr("depth", (P,)),
+        mu_used=arr("mu", (P,)),
+        fault=fault,
+        jammed_at=jammed_at,
+    )
