@@ -2,10 +2,10 @@
 
 Faults (simulator trouble, never a pass): ``NAN`` (a non-finite state), ``LEFT_SCENE`` (a dynamic
 body's origin outside ``scene.bounds``), ``PENETRATION`` (a contact deeper than
-``penetration_tol``), ``CONTACT_LOST_AT_START`` (a pair not touching during the first
-``start_window`` seconds). An observed *jam* (Fig. 3 "Jam": the fingers cannot move the
-workpiece without growing force) is not a fault: the loop stops early once every contact force
-exceeds ``jam_force`` for ``jam_window`` seconds and records ``jammed_at``.
+``penetration_tol``), ``CONTACT_LOST_AT_START`` (a pair not touching after the first step: the scene was built
+touching). An observed *jam* (Fig. 3 "Jam": the fingers cannot move the workpiece without
+growing force) is not a fault: the loop stops early once the total contact normal force exceeds
+``jam_force`` for ``jam_window`` seconds and records ``jammed_at``.
 """
 
 from __future__ import annotations
@@ -65,14 +65,13 @@ class Recording:
 @dataclass(frozen=True)
 class RunSettings:
     """Loop settings: ``duration``, ``dt`` [s]; ``slip_speed`` [m/s] threshold for switching a
-    pair from static to kinetic friction; ``penetration_tol`` [m]; ``start_window`` [s];
-    ``jam_force`` [N] and ``jam_window`` [s]."""
+    pair from static to kinetic friction; ``penetration_tol`` [m]; ``jam_force`` [N] (total
+    normal force) and ``jam_window`` [s]."""
 
     duration: float
     dt: float
     slip_speed: float
     penetration_tol: float
-    start_window: float = 0.02
     jam_force: float = np.inf
     jam_window: float = 0.05
     record_every: int = 1
@@ -143,11 +142,11 @@ def run_scene(scene: Scene, backend: Backend, settings: RunSettings) -> Recordin
                           f"pair {names[i]!r} depth {depth[i]:.3g} m > tolerance "
                           f"{settings.penetration_tol:.3g} m")
             break
-        if t <= settings.start_window and not np.all(present):
+        if k == 0 and not np.all(present):
             lost = [nm for nm, ok in zip(names, present) if not ok]
             fault = Fault(FaultKind.CONTACT_LOST_AT_START, t, f"pairs {lost} not touching")
             break
-        if np.all(present & (fn > settings.jam_force)):
+        if float(np.sum(np.where(present, fn, 0.0))) > settings.jam_force:
             jam_steps += 1
             if jam_steps * settings.dt >= settings.jam_window:
                 jammed_at = t
