@@ -1,0 +1,202 @@
+"""Simulator scenarios of the paper's examples (Sec. 4.1 eq. 37, Sec. 4.3 eq. 42) and the ruler
+(Sec. 5.1), each on pymunk and MuJoCo, plus negative controls.
+
+Predictions come from :func:`planner.feasibility.feasible_modes` on the *scaled* system at the
+scenario's mu (and are checked equal to the unscaled prediction); observations only from the
+simulator's contact data (:mod:`sim.classify`).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from planner.fileio import atomic_write_json
+from planner.io import load_system
+from scenarios.registry import Scenario, register
+
+DATA = Path(__file__).parent / "data"
+ENGINES = ("pymunk", "mujoco")
+#: per engine: time step [s] and the creep floor [m/s] of a sticking contact (SIM-NOTES).
+ENGINE_SETTINGS = {"pymunk": {"dt": 1e-3, "creep": 1e-9}, "mujoco": {"dt": 2e-3, "creep": 1e-8}}
+
+
+def _status(outcome: str, expect: str) -> bool:
+    if outcome == "fault":
+        return False
+    return (outcome == "agreed") == (expect == "agree")
+
+
+def run_example(out_dir: Path, *, name: str, expect: str, data: str, scale: float,
+                mu: tuple[float, ...], predict_mu: tuple[float, ...] | None = None,
+                engine: str = "pymunk", speed: float = 0.002, duration: float = 2.0,
+                render: bool = True, **_: Any) -> dict[str, Any]:
+    """Simulate Example 4.1 / 4.3 at ``mu``; predict at ``predict_mu`` (default ``mu``; a
+    different value makes a negative control)."""
+    from planner.feasibility import feasible_modes
+    from sim.classify import JAM, Thresholds, compare, observed_modes
+    from sim.paper_scene import example_scene, scaled_system
+    from sim.run import RunSettings, run_scene
+    from sim.scene import make_backend
+
+    base = load_system(DATA / f"{data}.json")
+    pmu = mu if predict_mu is None else predict_mu
+    scaled = scaled_system(base, scale, speed)
+    pred = feasible_modes(scaled, pmu)
+    pred_unscaled = feasible_modes(base, pmu)
+    predicted = pred.labels if pred.labels else [JAM]
+    scene = example_scene(scaled.with_mu(mu), speed=speed)
+    es = ENGINE_SETTINGS[engine]
+    load = float(np.linalg.norm(base.g_obj[:2]))
+    jam_force = 20.0 * load
+    settings = RunSettings(duration=duration, dt=es["dt"], slip_speed=0.05 * speed,
+                           penetration_tol=0.02 * scene.length_scale, jam_force=jam_force)
+    rec = run_scene(scene, make_backend(engine), settings)
+    th = Thresholds.for_drive(speed, load, creep_floor=es["creep"])
+    observed = observed_modes(rec, th, jam_force=jam_force)
+    cmp = compare(rec, observed, predicted, th)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    files = {}
+    if render and len(rec.times):
+        from sim.render import animation_gif, timeline_plot
+
+        files["timeline"] = str(timeline_plot(rec, observed, predicted, out_dir / "timeline.png"))
+        files["animation"] = str(animation_gif(rec, observed, np.array(scene.meta["polygon"]),
+                                               out_dir / "animation.gif"))
+    summary = {
+        "scenario": name,
+        "engine": engine,
+        "expect": expect,
+        "status": cmp.outcome.value,
+        "passed": _status(cmp.outcome.value, expect),
+        "agreement": cmp.agreement,
+        "reason": cmp.reason,
+        "parameters": {
+            "data": data, "mu": list(mu), "predict_mu": list(pmu), "scale": scale,
+            "speed_m_per_s": speed, "duration_s": duration, "dt_s": es["dt"],
+            "mass_kg": scene.meta["mass"], "finger_radius_m": scene.meta["finger_radius"],
+            "initial_contact_points_m": np.asarray(scaled.points).tolist(),
+            "slip_speed_m_per_s": th.slip_speed, "force_floor_N": th.force_floor,
+            "debounce_s": th.debounce, "settle_s": th.settle, "jam_force_N": jam_force,
+        },
+        "predicted": {"labels": predicted, "status": pred.status.value,
+                      "unscaled_labels": pred_unscaled.labels,
+                      "scale_invariant": sorted(pred.labels) == sorted(pred_unscaled.labels),
+                      "certificate": pred.to_dict()},
+        "observed": {"counts": cmp.observed_counts, "settled_steps": cmp.settled_steps,
+                     "final": observed[-1] if observed else None,
+                     "jammed_at_s": rec.jammed_at,
+                     "fault": rec.fault.reason if rec.fault else None},
+        "files": files,
+    }
+    atomic_write_json(out_dir / "summary.json", summary)
+    return summary
+
+
+def run_ruler(out_dir: Path, *, name: str, expect: str, mu_s: float, mu_k: float,
+              predict_mu_k: float | None = None, engine: str = "pymunk",
+              speed: float = 3e-4, length: float = 0.1, required: int = 5,
+              tolerance: float = 0.02, render: bool = True, **_: Any) -> dict[str, Any]:
+    """Ruler on two approaching fingers (Sec. 5.1); compares switch positions."""
+    from sim.classify import Thresholds, debounce, raw_tokens
+    from sim.ruler import THICKNESS_RATIO, observed_switches, predicted_switches, ruler_scene
+    from sim.run import RunSettings, run_scene
+    from sim.scene import make_backend
+
+    weight, mass, radius = 1.0, 0.1, 0.03 * length
+    x_left, x_right = -0.4 * length, 0.25 * length
+    pk = mu_k if predict_mu_k is None else predict_mu_k
+    min_d = 0.015 * length
+    pred_pos, pred_sl = predicted_switches(-x_left, x_right, weight, THICKNESS_RATIO * length,
+                                           mu_s, pk, min_distance=min_d)
+    scene = ruler_scene(length=length, weight=weight, mass=mass, x_left=x_left,
+                        x_right=x_right, speed=speed, mu_s=mu_s,
+                        mu_k=None if mu_k == mu_s else mu_k, finger_radius=radius)
+    es = ENGINE_SETTINGS[engine]
+    duration = (x_right - x_left - 2 * min_d) / (2 * speed)
+    settings = RunSettings(duration=duration, dt=2e-3, slip_speed=0.1 * speed,
+                           penetration_tol=0.01 * length, record_every=5)
+    rec = run_scene(scene, make_backend(engine), settings)
+    th = Thresholds.for_drive(speed, weight, creep_floor=es["creep"])
+    tokens = debounce(raw_tokens(rec, th), rec.times, th.debounce)
+    obs_pos, obs_sl = observed_switches(rec, tokens, rec.body_names)
+    n = min(len(pred_pos), len(obs_pos))
+    errors = [abs(o - p) / p for o, p in zip(obs_pos[:n], pred_pos[:n])]
+    matched = sum(1 for e, a, b in zip(errors, obs_sl, pred_sl) if e <= tolerance and a == b)
+    need = min(required, len(pred_pos))
+    if rec.fault is not None:
+        status, reason = "fault", rec.fault.reason
+    elif matched >= need and need > 0:
+        status, reason = "agreed", f"{matched} switches within {tolerance:.0%}"
+    else:
+        status, reason = "disagreed", (f"{matched} of {need} required switches within "
+                                       f"{tolerance:.0%} (errors {np.round(errors, 4).tolist()})")
+    labels = ["S+1 R2" if s == 0 else "R1 S-2" for s in pred_sl]
+    summary = {
+        "scenario": name, "engine": engine, "expect": expect, "status": status,
+        "passed": _status(status, expect),
+        "agreement": matched / need if need else 0.0,
+        "reason": reason,
+        "parameters": {"mu_static": mu_s, "mu_kinetic": mu_k, "predict_mu_kinetic": pk,
+                       "length_m": length, "weight_N": weight, "mass_kg": mass,
+                       "finger_x_m": [x_left, x_right], "speed_m_per_s": speed,
+                       "finger_radius_m": radius, "duration_s": duration, "dt_s": 2e-3,
+                       "slip_speed_m_per_s": th.slip_speed, "tolerance": tolerance},
+        "predicted": {"labels": labels, "sliding_finger": pred_sl},
+        "observed": {"sliding_finger": obs_sl, "relative_errors": errors,
+                     "fault": rec.fault.reason if rec.fault else None},
+        "switch_positions": {"predicted": pred_pos, "observed": obs_pos},
+    }
+    out_dir.mkdir(parents=True, exist_ok=True)
+    if render and len(rec.times):
+        from sim.render import timeline_plot
+
+        obs_labels = [" ".join(f"{t}{i + 1}" for i, t in enumerate(r)) for r in tokens]
+        summary["files"] = {"timeline": str(timeline_plot(rec, obs_labels, sorted(set(labels)),
+                                                          out_dir / "timeline.png"))}
+    atomic_write_json(out_dir / "summary.json", summary)
+    return summary
+
+
+def _example(name: str, summary: str, reference: str, expect: str, **kw: Any) -> None:
+    register(Scenario(name=name, summary=summary, reference=reference, expect=expect,
+                      run=lambda out_dir, _n=name, _e=expect, _kw=kw, **opt: run_example(
+                          Path(out_dir), name=_n, expect=_e, **{**_kw, **opt}),
+                      engines=ENGINES, tags=("sim", "paper")))
+
+
+def _ruler(name: str, summary: str, expect: str, **kw: Any) -> None:
+    register(Scenario(name=name, summary=summary, reference="Sec. 5.1 (ruler on two fingers)",
+                      expect=expect,
+                      run=lambda out_dir, _n=name, _e=expect, _kw=kw, **opt: run_ruler(
+                          Path(out_dir), name=_n, expect=_e, **{**_kw, **opt}),
+                      engines=ENGINES, tags=("sim", "paper", "ruler")))
+
+
+E41 = {"data": "example_4_1", "scale": 0.01}
+E43 = {"data": "example_4_3", "scale": 0.1}
+_example("ex41_3s", "Example 4.1 inside the 3S region (S+1 S-2 S-3)", "Sec. 4.1, eq. 37, Fig. 3",
+         "agree", mu=(0.2, 0.3, 0.1), **E41)
+_example("ex41_rs", "Example 4.1 inside the RS region (R1 S-2 B3)", "Sec. 4.1, eq. 37, Fig. 3",
+         "agree", mu=(0.75, 0.45, 0.55), **E41)
+_example("ex41_jam", "Example 4.1 in a jam region: growing force", "Sec. 4.1, eq. 37, Fig. 3",
+         "agree", mu=(0.75, 0.95, 0.25), **E41)
+_example("ex43_one", "Example 4.3 where one mode is feasible (S-1 R2 B3)",
+         "Sec. 4.3, eq. 42, Figs. 5-6", "agree", mu=(0.15, 0.65, 0.05), **E43)
+_example("ex43_two", "Example 4.3 where two modes are feasible", "Sec. 4.3, eq. 42, Figs. 5-6",
+         "agree", mu=(0.05, 0.15, 0.85), **E43)
+_example("ex43_three", "Example 4.3 where three modes are feasible",
+         "Sec. 4.3, eq. 42, Figs. 5-6", "agree", mu=(0.65, 0.15, 0.05), **E43)
+_example("neg_ex41_wrong_region", "Negative control: 3S run judged by the RS region's prediction",
+         "Sec. 4.1, eq. 37", "disagree", mu=(0.2, 0.3, 0.1), predict_mu=(0.75, 0.45, 0.55), **E41)
+_example("neg_ex43_wrong_mu", "Negative control: two-mode run judged at the one-mode mu",
+         "Sec. 4.3, eq. 42", "disagree", mu=(0.05, 0.15, 0.85), predict_mu=(0.15, 0.65, 0.05),
+         **E43)
+_ruler("ruler_single_mu", "Ruler, one mu = 0.5: far finger slides until equidistant", "agree",
+       mu_s=0.5, mu_k=0.5, required=1)
+_ruler("ruler_static_kinetic", "Ruler, static 0.5 / kinetic 0.3: alternating slides", "agree",
+       mu_s=0.5, mu_k=0.3)
+_ruler("neg_ruler_wrong_mu", "Negative control: static/kinetic run judged with kinetic 0.4",
+       "disagree", mu_s=0.5, mu_k=0.3, predict_mu_k=0.4)
