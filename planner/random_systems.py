@@ -38,7 +38,7 @@ def random_convex_polygon(rng: np.random.Generator, n_vertices: int = 8) -> np.n
 def contacts_on_polygon(
     rng: np.random.Generator, vertices: np.ndarray, n_contacts: int
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Random contact points ``(n_c, 2) [m]`` on the polygon's edges and inward normals ``(n_c, 2)``.
+    """Random contact points ``(n_c, 2) [m]`` on the edges and inward normals ``(n_c, 2)``.
 
     Edges are chosen with probability proportional to their length; the inward normal of a
     counter-clockwise edge ``e`` is ``rot90(e) / |e|`` (points into the workpiece, conventions).

@@ -380,7 +380,7 @@ def search_modes(
 
 
 def _canonical_order(codes: np.ndarray) -> np.ndarray:
-    """Sort codes as :func:`planner.modes.enumerate_modes` does: by ``n_R``, rolling set, sliding set."""
+    """Sort codes as :func:`planner.modes.enumerate_modes`: by ``n_R``, rolling, sliding set."""
     if len(codes) == 0:
         return codes
     n_c = codes.shape[1]
