@@ -1,0 +1,297 @@
+"""MuJoCo backend of :class:`sim.scene.Backend`, model built with ``mujoco.MjSpec``.
+
+The scene plane is MuJoCo's x-y plane (z out of the plane). Settings that make MuJoCo resolve
+stick/slip (SIM-NOTES): elliptic friction cone, ``noslip_iterations = 20``, ``noslip_tolerance =
+1e-12``, explicit ``<pair condim=3>`` per contact pair (all other collisions disabled, pair
+friction changed between steps through ``model.pair_friction``), and one extra out-of-plane slide
+degree of freedom on every dynamic body (noslip does nothing in a strictly planar model).
+
+* Polygons become extruded convex meshes (thickness ``0.2 * length_scale``), circles spheres
+  in the plane, segments capsules.
+* Dynamic body: slide x, slide y, slide z, hinge z at the body origin; explicit mass, COM and
+  inertia.
+* Driven body: slide x, slide y, hinge z, mass ``1e6`` times the heaviest dynamic body, with
+  ``qpos``/``qvel`` overwritten before every step (mocap bodies do not transmit friction).
+* Joint to the base: hinge z (revolute) or slide along ``axis`` (prismatic) at ``anchor``;
+  velocity-controlled joints get a huge armature and their ``qpos``/``qvel`` overwritten every step;
+  effort-controlled joints get the effort in ``qfrc_applied``.
+* Loads: ``xfrc_applied`` (force at the body COM and a torque about z).
+
+Forces are read with ``mj_contactForce`` in the contact frame and projected to the world;
+velocities of contact points with ``mj_jac``.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from sim.scene import (
+    ABSENT,
+    BodyKind,
+    BodyState,
+    Circle,
+    ContactReading,
+    Control,
+    JointKind,
+    Polygon,
+    Scene,
+    Segment,
+)
+
+HEAVY_RATIO = 1e6
+
+
+class MujocoBackend:
+    """MuJoCo (mujoco-core) via MjSpec."""
+
+    name = "mujoco"
+
+    def __init__(self, noslip_iterations: int = 20,
+                 solref: tuple[float, float] = (0.004, 1.0),
+                 solimp: tuple[float, ...] = (0.99, 0.999, 0.001, 0.5, 2.0),
+                 impratio: float = 1.0) -> None:
+        self.impratio = impratio
+        self.noslip_iterations = noslip_iterations
+        self.solref = solref
+        self.solimp = solimp
+        self.t = 0.0
+
+    # -- construction ------------------------------------------------------------------
+    def build(self, scene: Scene) -> None:
+        self.scene = scene
+        spec = mujoco.MjSpec()
+        spec.option.gravity = [0.0, 0.0, 0.0]
+        spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
+        spec.option.noslip_iterations = self.noslip_iterations
+        spec.option.noslip_tolerance = 1e-12
+        spec.option.impratio = self.impratio
+        spec.option.ccd_tolerance = 1e-12
+        spec.option.ccd_iterations = 200
+        spec.option.timestep = 0.002
+        depth = 0.1 * scene.length_scale
+        heavy = HEAVY_RATIO * max([b.mass for b in scene.bodies if b.kind == BodyKind.DYNAMIC]
+                                  or [1.0])
+        joints_of = {j.body: j for j in scene.joints}
+        self._geoms: dict[tuple[str, int], list[str]] = {}
+        self._dofs: dict[str, list[str]] = {}
+        for b in scene.bodies:
+            x, y, th = b.pose
+            if b.kind == BodyKind.STATIC:
+                body = spec.worldbody.add_body(name=b.name, pos=[x, y, 0.0],
+                                               quat=[np.cos(th / 2), 0, 0, np.sin(th / 2)])
+            else:
+                body = spec.worldbody.add_body(name=b.name, pos=[x, y, 0.0],
+                                               quat=[np.cos(th / 2), 0, 0, np.sin(th / 2)])
+                mass = heavy if b.kind == BodyKind.DRIVEN else b.mass
+                izz = b.inertia if b.inertia is not None else mass * scene.length_scale ** 2 / 6
+                if b.kind == BodyKind.DRIVEN:
+                    izz = heavy * scene.length_scale ** 2
+                body.explicitinertial = True
+                body.mass = mass
+                body.ipos = [b.com[0], b.com[1], 0.0]
+                body.inertia = [izz, izz, izz]
+                names = []
+                if b.name in joints_of:
+                    j = joints_of[b.name]
+                    # joint position in the body frame
+                    c, s = np.cos(th), np.sin(th)
+                    d = np.array(j.anchor) - np.array([x, y])
+                    local = [c * d[0] + s * d[1], -s * d[0] + c * d[1], 0.0]
+                    if j.kind == JointKind.REVOLUTE:
+                        jt, axis = mujoco.mjtJoint.mjJNT_HINGE, [0, 0, 1]
+                    else:
+                        ax = np.asarray(j.axis, dtype=float)
+                        jt, axis = mujoco.mjtJoint.mjJNT_SLIDE, [c * ax[0] + s * ax[1],
+                                                                -s * ax[0] + c * ax[1], 0]
+                    jn = body.add_joint(name=f"{b.name}:{j.name}", type=jt, axis=axis, pos=local)
+                    if j.control == Control.VELOCITY:
+                        jn.armature = heavy * scene.length_scale ** 2
+                    names.append(f"{b.name}:{j.name}")
+                else:
+                    axes = [("x", mujoco.mjtJoint.mjJNT_SLIDE, [1, 0, 0]),
+                            ("y", mujoco.mjtJoint.mjJNT_SLIDE, [0, 1, 0])]
+                    if b.kind == BodyKind.DYNAMIC:
+                        axes.append(("z", mujoco.mjtJoint.mjJNT_SLIDE, [0, 0, 1]))
+                    axes.append(("rz", mujoco.mjtJoint.mjJNT_HINGE, [0, 0, 1]))
+                    for suffix, jt, axis in axes:
+                        body.add_joint(name=f"{b.name}:{suffix}", type=jt, axis=axis)
+                        names.append(f"{b.name}:{suffix}")
+                self._dofs[b.name] = names
+            for k, shp in enumerate(b.shapes):
+                gname = f"{b.name}:g{k}"
+                if isinstance(shp, Polygon):
+                    geoms = self._polygon_geoms(body, gname, shp, depth, scene.length_scale)
+                    self._geoms[(b.name, k)] = [g.name for g in geoms]
+                    continue
+                elif isinstance(shp, Circle):
+                    geom = body.add_geom(name=gname, type=mujoco.mjtGeom.mjGEOM_SPHERE,
+                                         size=[shp.radius, 0, 0],
+                                         pos=[shp.center[0], shp.center[1], 0.0])
+                elif isinstance(shp, Segment):
+                    geom = body.add_geom(name=gname, type=mujoco.mjtGeom.mjGEOM_CAPSULE,
+                                         size=[shp.radius, 0, 0],
+                                         fromto=[shp.a[0], shp.a[1], 0, shp.b[0], shp.b[1], 0])
+                else:  # pragma: no cover
+                    raise TypeError(type(shp))
+                geom.contype = 0
+                geom.conaffinity = 0
+                geom.mass = 0.0
+                self._geoms[(b.name, k)] = [gname]
+        self._subpairs: dict[str, list[int]] = {}
+        n_sub = 0
+        for p in scene.pairs:
+            self._subpairs[p.name] = []
+            for ga in self._geoms[(p.body_a, p.shape_a)]:
+                for gb in self._geoms[(p.body_b, p.shape_b)]:
+                    spec.add_pair(name=f"{p.name}#{n_sub}", geomname1=ga, geomname2=gb,
+                                  condim=3,
+                                  friction=[p.mu_static, p.mu_static, 0.005, 1e-4, 1e-4],
+                                  solref=list(self.solref), solimp=list(self.solimp))
+                    self._subpairs[p.name].append(n_sub)
+                    n_sub += 1
+        self.model = spec.compile()
+        self.data = mujoco.MjData(self.model)
+        m = self.model
+        self._qadr = {nm: int(m.jnt_qposadr[m.joint(nm).id]) for v in self._dofs.values()
+                      for nm in v}
+        self._vadr = {nm: int(m.jnt_dofadr[m.joint(nm).id]) for v in self._dofs.values()
+                      for nm in v}
+        self._body_id = {b.name: m.body(b.name).id for b in scene.bodies}
+        self._pair_id = {p.name: i for i, p in enumerate(scene.pairs)}
+        self._geom_pair = {}
+        for p in scene.pairs:
+            for na in self._geoms[(p.body_a, p.shape_a)]:
+                for nb in self._geoms[(p.body_b, p.shape_b)]:
+                    ga, gb = m.geom(na).id, m.geom(nb).id
+                    self._geom_pair[(ga, gb)] = (p.name, 1.0)
+                    self._geom_pair[(gb, ga)] = (p.name, -1.0)
+        self._target = {nm: float(self.data.qpos[a]) for nm, a in self._qadr.items()}
+        mujoco.mj_forward(m, self.data)
+        self._readings: dict[str, ContactReading] = {}
+
+    @staticmethod
+    def _polygon_geoms(body, gname: str, shp: Polygon, depth: float, length: float) -> list:
+        """One thin box per polygon edge, its outer face on the edge (analytic sphere-box and
+        capsule-box collisions instead of a noisy convex-mesh one)."""
+        v = np.asarray(shp.vertices, dtype=float)
+        geoms = []
+        h = 0.02 * length
+        for e in range(len(v)):
+            a, b = v[e], v[(e + 1) % len(v)]
+            d = b - a
+            ln = float(np.linalg.norm(d))
+            u = d / ln
+            inward = np.array([-u[1], u[0]])  # counter-clockwise polygon: interior on the left
+            c = 0.5 * (a + b) + 0.5 * h * inward
+            ang = float(np.arctan2(u[1], u[0]))
+            g = body.add_geom(name=f"{gname}:e{e}", type=mujoco.mjtGeom.mjGEOM_BOX,
+                              size=[0.5 * ln, 0.5 * h, depth], pos=[c[0], c[1], 0.0],
+                              quat=[np.cos(ang / 2), 0, 0, np.sin(ang / 2)])
+            g.contype = 0
+            g.conaffinity = 0
+            g.mass = 0.0
+            geoms.append(g)
+        return geoms
+
+    # -- stepping ----------------------------------------------------------------------
+    def _drive(self, joint: str, velocity: float, dt: float) -> None:
+        self._target[joint] += velocity * dt
+        self.data.qpos[self._qadr[joint]] = self._target[joint] - velocity * dt
+        self.data.qvel[self._vadr[joint]] = velocity
+
+    def step(self, dt: float) -> None:
+        m, d = self.model, self.data
+        m.opt.timestep = dt
+        states = self.state()
+        d.qfrc_applied[:] = 0.0
+        d.xfrc_applied[:] = 0.0
+        for b in self.scene.bodies:
+            if b.kind == BodyKind.DRIVEN and b.twist is not None and b.name not in {
+                    j.body for j in self.scene.joints}:
+                tw = [float(v) for v in b.twist(self.t, states)]
+                for nm, v in zip(self._dofs[b.name], tw):
+                    self._drive(nm, v, dt)
+        for j in self.scene.joints:
+            u = float(j.command(self.t, states))
+            nm = f"{j.body}:{j.name}"
+            if j.control == Control.VELOCITY:
+                self._drive(nm, u, dt)
+            else:
+                d.qfrc_applied[self._vadr[nm]] += u
+        for ld in self.scene.loads:
+            bid = self._body_id[ld.body]
+            d.xfrc_applied[bid, 0:2] += ld.force
+            d.xfrc_applied[bid, 5] += ld.moment
+        mujoco.mj_step(m, d)
+        self.t += dt
+        self._readings = self._read_contacts()
+
+    # -- readout -----------------------------------------------------------------------
+    def _point_velocity(self, body: str, point: np.ndarray) -> np.ndarray:
+        jacp = np.zeros((3, self.model.nv))
+        mujoco.mj_jac(self.model, self.data, jacp, None, np.array([point[0], point[1], 0.0]),
+                      self._body_id[body])
+        return (jacp @ self.data.qvel)[:2]
+
+    def _read_contacts(self) -> dict[str, ContactReading]:
+        m, d = self.model, self.data
+        out: dict[str, ContactReading] = {}
+        f6 = np.zeros(6)
+        for i in range(d.ncon):
+            con = d.contact[i]
+            key = (int(con.geom[0]), int(con.geom[1]))
+            if key not in self._geom_pair:
+                continue
+            name, sign = self._geom_pair[key]
+            pair = self.scene.pairs[self._pair_id[name]]
+            mujoco.mj_contactForce(m, d, i, f6)
+            frame = np.asarray(con.frame).reshape(3, 3)
+            n3 = sign * frame[0]
+            n = n3[:2] / max(np.linalg.norm(n3[:2]), 1e-300)
+            t = np.array([-n[1], n[0]])
+            f_world = f6[0] * frame[0] + f6[1] * frame[1] + f6[2] * frame[2]
+            f = f_world[:2]
+            if float(f @ n) < 0:
+                f = -f
+            if name in out and out[name].depth >= -con.dist:
+                continue  # several edge boxes touch: keep the deepest contact
+            point = np.asarray(con.pos[:2], dtype=float)
+            va = self._point_velocity(pair.body_a, point)
+            vb = self._point_velocity(pair.body_b, point)
+            out[name] = ContactReading(
+                present=True,
+                point=(float(point[0]), float(point[1])),
+                normal=(float(n[0]), float(n[1])),
+                normal_force=float(f @ n),
+                tangent_force=float(f @ t),
+                slip_velocity=float((vb - va) @ t),
+                depth=float(-con.dist),
+            )
+        return out
+
+    def state(self) -> dict[str, BodyState]:
+        out = {}
+        for b in self.scene.bodies:
+            bid = self._body_id[b.name]
+            pos = np.array(self.data.xpos[bid])
+            mat = np.asarray(self.data.xmat[bid]).reshape(3, 3)
+            theta = float(np.arctan2(mat[1, 0], mat[0, 0]))
+            if b.kind == BodyKind.STATIC:
+                v, w = np.zeros(2), 0.0
+            else:
+                v = self._point_velocity(b.name, pos[:2])
+                jacr = np.zeros((3, self.model.nv))
+                mujoco.mj_jacBody(self.model, self.data, None, jacr, bid)
+                w = float((jacr @ self.data.qvel)[2])
+            out[b.name] = BodyState(pose=(float(pos[0]), float(pos[1]), theta),
+                                    twist=(float(v[0]), float(v[1]), w))
+        return out
+
+    def contacts(self) -> dict[str, ContactReading]:
+        return {p.name: self._readings.get(p.name, ABSENT) for p in self.scene.pairs}
+
+    def set_friction(self, pair: str, mu: float) -> None:
+        for i in self._subpairs[pair]:
+            self.model.pair_friction[i, 0] = mu
+            self.model.pair_friction[i, 1] = mu
