@@ -25,8 +25,8 @@ ENGINES = ("pymunk", "mujoco")
 ENGINE_SETTINGS = {
     "pymunk": {"dt": 1e-3, "creep": 1e-9, "speed": 2e-3, "mass": 0.1, "duration": 2.0,
                "settle": 0.2},
-    "mujoco": {"dt": 1e-3, "creep": 1e-8, "speed": 5e-4, "mass": 0.01, "duration": 3.0,
-               "settle": 1.0},
+    "mujoco": {"dt": 1e-3, "creep": 1e-8, "speed": 5e-4, "mass": 0.01, "duration": 3.5,
+               "settle": 1.5},
 }
 
 

@@ -14,8 +14,14 @@ noslip) to ~1e-8 m/s; ``force_floor = 1e-3 * |load|`` (SIM-NOTES).
 Debounce: a contact's label changes only after the new raw label held for ``debounce``
 seconds (50 ms), so single-step losses and start transients are not mode changes.
 
-A run that stopped on a jam (:attr:`sim.run.Recording.jammed_at`) is observed as ``JAM`` from
-the first step whose total normal force exceeded the jam threshold.
+Observed jam (``JAM``, Fig. 3): the fingers keep pressing but cannot move the workpiece, so
+force or penetration grows. A step is ``JAM`` when the total normal force exceeds ``jam_force``
+(rigid engines: pymunk's forces blow up by orders of magnitude), or when the summed
+penetration depth of the contacts touching throughout the trailing ``jam_rate_window`` grew
+faster than ``jam_depth_rate`` (only windows starting at or after ``settle - jam_rate_window``,
+i.e. after the start transient) (soft engines: MuJoCo's contacts yield, the depth creeps up
+steadily). In a feasible mode the summed depth only follows the slowly changing quasistatic
+force (single depths may see-saw when the workpiece rocks between two fingers).
 """
 
 from __future__ import annotations
@@ -39,12 +45,39 @@ class Thresholds:
     force_floor: float
     debounce: float = 0.05
     settle: float = 0.2
+    jam_depth_rate: float = np.inf
+    jam_rate_window: float = 1.0
 
     @classmethod
     def for_drive(cls, drive_speed: float, load: float, creep_floor: float = 1e-8,
                   settle: float = 0.2) -> Thresholds:
+        """Thresholds from the drive speed [m/s], load [N] and the engine's creep floor; the
+        jam depth rate is 1 % of the drive speed."""
         return cls(slip_speed=max(0.05 * drive_speed, 10.0 * creep_floor),
-                   force_floor=1e-3 * load, settle=settle)
+                   force_floor=1e-3 * load, settle=settle,
+                   jam_depth_rate=max(0.01 * drive_speed, 10.0 * creep_floor))
+
+
+def jam_steps(rec: Recording, th: Thresholds, jam_force: float | None) -> np.ndarray:
+    """(T,) bool: steps showing a jam (growing force or penetration, module docstring)."""
+    T = len(rec.times)
+    out = np.zeros(T, dtype=bool)
+    if jam_force is not None:
+        out |= np.sum(np.where(rec.present, rec.normal_force, 0.0), axis=1) > jam_force
+    if T > 1 and np.isfinite(th.jam_depth_rate):
+        step = float(rec.times[1] - rec.times[0])
+        w = max(1, int(round(th.jam_rate_window / step)))
+        if T > w:
+            touching = np.ones((T - w, rec.present.shape[1]), dtype=bool)
+            for lag in range(0, w + 1, max(1, w // 10)):
+                touching &= rec.present[lag:T - w + lag]
+            depth = np.where(rec.present, rec.depth, 0.0)
+            grown = np.sum(np.where(touching, depth[w:] - depth[:-w], 0.0), axis=1)
+            # windows must start after the start transient: settle - window (>= 0)
+            after_start = rec.times[:-w] >= max(0.0, th.settle - th.jam_rate_window) - 1e-12
+            out[w:] |= (after_start & touching.any(axis=1)
+                        & (grown / (w * step) > th.jam_depth_rate))
+    return out
 
 
 def raw_tokens(rec: Recording, th: Thresholds) -> np.ndarray:
@@ -80,12 +113,10 @@ def observed_modes(rec: Recording, th: Thresholds, jam_force: float | None = Non
     """Mode string per recorded step, e.g. ``"R1 S-2 B3"``, or ``"JAM"``."""
     tok = debounce(raw_tokens(rec, th), rec.times, th.debounce)
     labels = [" ".join(f"{t}{i + 1}" for i, t in enumerate(row)) for row in tok]
-    if rec.jammed_at is not None and jam_force is not None:
-        total = np.sum(np.where(rec.present, rec.normal_force, 0.0), axis=1)
-        over = np.flatnonzero(total > jam_force)
-        start = int(over[0]) if len(over) else len(labels) - 1
-        labels[start:] = [JAM] * (len(labels) - start)
-    return labels
+    jam = jam_steps(rec, th, jam_force)
+    if rec.jammed_at is not None and np.any(jam):
+        jam[int(np.flatnonzero(jam)[0]):] = True  # the run stopped on a sustained jam
+    return [JAM if j else lab for j, lab in zip(jam, labels)]
 
 
 class Outcome(str, Enum):
