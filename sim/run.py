@@ -111,7 +111,8 @@ def run_scene(scene: Scene, backend: Backend, settings: RunSettings) -> Recordin
         fn = np.array([r.normal_force for r in rd])
         vt = np.array([r.slip_velocity for r in rd])
         depth = np.array([r.depth for r in rd])
-        slipping = present & (np.abs(vt) > settings.slip_speed)
+        # a pair that is momentarily not touching keeps its previous friction state
+        slipping = np.where(present, np.abs(vt) > settings.slip_speed, slipping)
         if k % settings.record_every == 0:
             rows["t"].append(t)
             rows["pose"].append(pose)
