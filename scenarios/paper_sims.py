@@ -29,6 +29,9 @@ ENGINE_SETTINGS = {
                "settle": 1.5},
 }
 
+#: Ruler time step per engine [s]; MuJoCo's contacts bounce at 2 ms with solref 0.004.
+RULER_DT = {"pymunk": 2e-3, "mujoco": 1e-3}
+
 
 def _status(outcome: str, expect: str) -> bool:
     if outcome == "fault":
@@ -123,7 +126,8 @@ def run_ruler(out_dir: Path, *, name: str, expect: str, mu_s: float, mu_k: float
                         mu_k=None if mu_k == mu_s else mu_k, finger_radius=radius)
     es = ENGINE_SETTINGS[engine]
     duration = (x_right - x_left - 2 * min_d) / (2 * speed)
-    settings = RunSettings(duration=duration, dt=2e-3, slip_speed=0.1 * speed,
+    dt = RULER_DT[engine]
+    settings = RunSettings(duration=duration, dt=dt, slip_speed=0.1 * speed,
                            penetration_tol=0.01 * length, record_every=5)
     rec = run_scene(scene, make_backend(engine), settings)
     th = Thresholds.for_drive(speed, weight, creep_floor=es["creep"])
@@ -149,7 +153,7 @@ def run_ruler(out_dir: Path, *, name: str, expect: str, mu_s: float, mu_k: float
         "parameters": {"mu_static": mu_s, "mu_kinetic": mu_k, "predict_mu_kinetic": pk,
                        "length_m": length, "weight_N": weight, "mass_kg": mass,
                        "finger_x_m": [x_left, x_right], "speed_m_per_s": speed,
-                       "finger_radius_m": radius, "duration_s": duration, "dt_s": 2e-3,
+                       "finger_radius_m": radius, "duration_s": duration, "dt_s": dt,
                        "slip_speed_m_per_s": th.slip_speed, "tolerance": tolerance},
         "predicted": {"labels": labels, "sliding_finger": pred_sl},
         "observed": {"sliding_finger": obs_sl, "relative_errors": errors,

@@ -288,6 +288,14 @@ class MujocoBackend:
                                     twist=(float(v[0]), float(v[1]), w))
         return out
 
+    def health(self) -> str | None:
+        """A reason when MuJoCo flagged numerical trouble (it silently resets the state on a
+        bad acceleration, so NaN never reaches :meth:`state`)."""
+        w = self.data.warning[int(mujoco.mjtWarning.mjWARN_BADQACC)]
+        if w.number > 0:
+            return f"MuJoCo: NaN/Inf/huge acceleration (mjWARN_BADQACC) at DOF {w.lastinfo}"
+        return None
+
     def contacts(self) -> dict[str, ContactReading]:
         return {p.name: self._readings.get(p.name, ABSENT) for p in self.scene.pairs}
 

@@ -125,6 +125,11 @@ def run_scene(scene: Scene, backend: Backend, settings: RunSettings) -> Recordin
             rows["depth"].append(depth)
             rows["mu"].append(mu_now.copy())
         # -- faults ---------------------------------------------------------------------
+        health = getattr(backend, "health", None)
+        problem = health() if health is not None else None
+        if problem:
+            fault = Fault(FaultKind.NAN, t, problem)
+            break
         if not (np.all(np.isfinite(pose)) and np.all(np.isfinite(twist))
                 and np.all(np.isfinite(fn[present]))):
             fault = Fault(FaultKind.NAN, t, "non-finite body state or contact force")

@@ -21,7 +21,9 @@ Backends (:mod:`sim.pymunk_backend`, :mod:`sim.mujoco_backend`) implement :class
     [m/s], penetration depth [m] (``present`` False when the pair does not touch);
 ``set_friction(pair, mu)``
     change one pair's Coulomb coefficient between steps (used to emulate static/kinetic
-    friction, Sec. 5.1).
+    friction, Sec. 5.1);
+``health()`` (optional)
+    ``None`` or the reason why the engine flagged numerical trouble.
 
 With ``body_a`` = manipulator and ``body_b`` = workpiece, the reading follows
 ``docs/conventions.md``: ``n`` points into the workpiece, ``t = rot90(n)``, forces are the
@@ -278,6 +280,8 @@ class Backend(Protocol):
     def contacts(self) -> dict[str, ContactReading]: ...
 
     def set_friction(self, pair: str, mu: float) -> None: ...
+
+    # optional: ``health() -> str | None``, a reason when the engine flagged numerical trouble
 
 
 def point_velocity(state: BodyState, point: np.ndarray) -> np.ndarray:

@@ -1,0 +1,87 @@
+"""Every registered simulator scenario on every engine (dm_control suite_test style).
+
+Predictions come from the planner, observations from simulator contact data; a scenario passes
+when its outcome matches its expectation (``agree`` or, for negative controls, ``disagree``).
+Long runs (MuJoCo rulers: ~100 s of simulated time at 1 kHz) are marked ``slow``.
+"""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from scenarios.registry import all_scenarios
+
+SLOW = {("ruler_single_mu", "mujoco"), ("ruler_static_kinetic", "mujoco"),
+        ("neg_ruler_wrong_mu", "mujoco"), ("ruler_single_mu", "pymunk"),
+        ("neg_ruler_wrong_mu", "pymunk")}
+
+
+#: Known shortfall (docs/simulation.md, open problems): MuJoCo's soft contacts put the 4th and
+#: 5th static/kinetic switches 2-4 % early; pymunk meets 2 %.
+KNOWN = {("ruler_static_kinetic", "mujoco"): "MuJoCo switches 4-5 miss the 2 % tolerance"}
+
+
+def _cases():
+    for name, sc in all_scenarios().items():
+        for engine in sc.engines:
+            marks = [pytest.mark.slow] if (name, engine) in SLOW else []
+            if (name, engine) in KNOWN:
+                marks.append(pytest.mark.xfail(reason=KNOWN[(name, engine)], strict=False))
+            yield pytest.param(name, engine, marks=marks, id=f"{name}-{engine}")
+
+
+@pytest.mark.parametrize(("name", "engine"), list(_cases()))
+def test_scenario(name, engine, tmp_path):
+    sc = all_scenarios()[name]
+    summary = sc.run(tmp_path, engine=engine, render=False)
+    on_disk = json.loads((tmp_path / "summary.json").read_text())
+    for key in ("scenario", "engine", "parameters", "expect", "agreement", "passed",
+                "predicted", "observed"):
+        assert key in on_disk, key
+    assert on_disk["scenario"] == name and on_disk["engine"] == engine
+    assert summary["status"] != "fault", summary["reason"]
+    assert summary["passed"], summary["reason"]
+    if sc.expect == "agree":
+        assert summary["status"] == "agreed"
+        if "switch_positions" not in summary:
+            assert summary["agreement"] >= 0.95
+            # the planner's prediction on the scaled system equals the unscaled one
+            assert summary["predicted"]["scale_invariant"]
+    else:
+        assert summary["status"] == "disagreed"
+
+
+def test_ruler_static_kinetic_switches_within_two_percent(tmp_path):
+    s = all_scenarios()["ruler_static_kinetic"].run(tmp_path, engine="pymunk", render=False)
+    pred, obs = s["switch_positions"]["predicted"], s["switch_positions"]["observed"]
+    assert len(pred) >= 5 and len(obs) >= 5
+    for p, o in zip(pred[:5], obs[:5]):
+        assert abs(o - p) <= 0.02 * p
+
+
+def test_rendered_outputs(tmp_path):
+    s = all_scenarios()["ex43_one"].run(tmp_path, engine="pymunk", render=True)
+    assert (tmp_path / "timeline.png").stat().st_size > 1000
+    assert (tmp_path / "animation.gif").read_bytes()[:3] == b"GIF"
+    assert s["passed"]
+
+
+def test_cli_list_and_bad_engine(capsys, tmp_path):
+    from scenarios.__main__ import main
+
+    assert main(["list"]) == 0
+    assert "ex41_3s" in capsys.readouterr().out
+    assert main(["run", "ex41_3s", "--engine", "bullet", "--out", str(tmp_path)]) == 2
+    assert "expected one of" in capsys.readouterr().err
+    assert main(["run", "no_such", "--out", str(tmp_path)]) == 2
+
+
+def test_qsplan_scenarios_run(tmp_path, capsys):
+    from planner.cli import main
+
+    code = main(["scenarios", "run", "neg_ex41_wrong_region", "--engine", "pymunk",
+                 "--out", str(tmp_path), "--no-render"])
+    assert code == 0  # a negative control that disagrees is a pass
+    assert json.loads((tmp_path / "summary.json").read_text())["status"] == "disagreed"
