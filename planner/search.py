@@ -48,12 +48,12 @@ Trinkle & Zeng (1994), eqs. (5), (9)-(11), (23)-(25), (29), (49); Secs. 4.7 and 
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 from math import comb
 from typing import Any
 
 import numpy as np
-from scipy.optimize import linprog
 
 from planner.errors import DegenerateError, InputError
 from planner.feasibility import (
@@ -73,7 +73,7 @@ from planner.modes import BREAK, ROLL, SLIDE, CandidateSet, Mode, candidate_coun
 from planner.validation import as_friction
 
 #: Default largest subtree (in candidates) that is tested in one batch instead of branched.
-DEFAULT_BATCH_SIZE = 2048
+DEFAULT_BATCH_SIZE = 64
 #: Subtrees with fewer candidates than this are tested without a pruning LP first.
 DEFAULT_LP_MIN_SIZE = 16
 #: Relative slack on ``v_in >= 0`` in the pruning LPs (well above ``DEFAULT_TOL``).
@@ -156,13 +156,27 @@ def candidates_from_codes(codes: np.ndarray, n_rows: int) -> CandidateSet:
 
 
 class _Pruner:
-    """LP relaxation of a partial assignment (module docstring), kinematics and forces.
+    """LP relaxation of a partial assignment (module docstring): kinematics and forces.
 
-    Variables ``x = [z (k); c (2 n_c)]``.  Rows are normalised (unit rows after a global column
-    scaling, as in the batched stages) so that HiGHS's absolute tolerances are relative ones.
+    Variables ``x = [z (k); c (2 n_c)]``.  The constraint matrix is built once; a partial
+    assignment only changes row and column bounds, so HiGHS re-solves each node from the
+    previous basis (dual simplex warm start).  Rows are normalised (unit rows after a global
+    column scaling, as in the batched stages) so that HiGHS's absolute tolerances act as
+    relative ones.  Row blocks, each ``n_c`` long unless noted:
+
+    ``vn``  normal velocity ``v_in``: ``>= -slack`` (free / B) or ``= 0`` (R, S)  (eqs. 9-11)
+    ``vt``  tangential velocity ``v_it``: free, ``= 0`` (R), ``xi v_it >= -slack`` (S, eq. 16)
+    ``eq``  (k rows) equilibrium ``W c = -g_obj``, ``J_E^T c = tau_E - g_man_E``  (eq. 26)
+    ``nn``  ``c_in + eps N >= 0`` with ``N = sum_j c_jn``  (eqs. 21-22, relaxed)
+    ``cp, cm``  ``mu_i c_in -/+ c_it + eps N >= 0`` (free / R; friction cone, eqs. 21-22)
+    ``sp, sm``  ``mu_i c_in +/- c_it = 0`` for S+ / S- (eq. 17), else free
+    B contacts have ``c_i = 0`` (column bounds).
     """
 
     def __init__(self, system: System, eps: float, mu: np.ndarray) -> None:
+        from scipy.optimize._highspy import _core
+
+        self._core = _core
         n_c = system.n_contacts
         E = system.effort_joints
         K = np.concatenate([system.W.T, -system.J[:, E]], axis=1)
@@ -173,115 +187,173 @@ class _Pruner:
         Kc = K / col
         row = np.linalg.norm(Kc, axis=1)
         row[row == 0] = 1.0
-        self.K = Kc / row[:, None]
+        Kn = Kc / row[:, None]
+        self.Kn = Kn
         self.b = b / row
         self.slack = eps * (scale if scale > 0 else 1.0) / row
-        self.k = K.shape[1]
-        # Equilibrium (eq. 26 summed over all contacts): W c = -g_obj, J_E^T c = tau_E - g_man_E.
+        k = K.shape[1]
+        self.k, self.n_c = k, n_c
+        self.mu = np.asarray(mu, dtype=float)
         G = np.concatenate([system.W, system.J[:, E].T], axis=0)  # (k, 2 n_c)
         h = force_rhs(system)
         gn = np.linalg.norm(G, axis=1)
         gn[gn == 0] = 1.0
-        self.G = G / gn[:, None]
-        self.h = h / gn
-        self.n_c = n_c
-        self.mu = np.asarray(mu, dtype=float)
-        # Coulomb slack relative to the total normal force N = sum c_n (see module docstring).
-        self.force_eps = eps * max(1.0, float(np.max(self.mu, initial=0.0))) * 10.0
+        mu = np.asarray(mu, dtype=float)
+        force_eps = eps * max(1.0, float(np.max(mu, initial=0.0))) * 10.0
+        nv = k + 2 * n_c
+        A = np.zeros((7 * n_c + k, nv))
+        cn = k + 2 * np.arange(n_c)
+        ct = cn + 1
+        ii = np.arange(n_c)
+        A[ii, :k] = Kn[0::2]  # vn
+        A[n_c + ii, :k] = Kn[1::2]  # vt
+        A[2 * n_c:2 * n_c + k, k:] = G / gn[:, None]  # eq
+        o = 2 * n_c + k
+        for blk, (a_n, a_t, with_n) in enumerate(
+            ((1.0, 0.0, True), (None, -1.0, True), (None, 1.0, True),
+             (None, 1.0, False), (None, -1.0, False))
+        ):
+            r = o + blk * n_c + ii
+            if with_n:
+                A[np.ix_(r, cn)] += force_eps
+            A[r, cn] += 1.0 if a_n is not None else mu
+            A[r, ct] += a_t
+        self.o = o
+        inf = _core.kHighsInf
+        self.inf = inf
+        lp = _core.HighsLp()
+        lp.num_col_, lp.num_row_ = nv, A.shape[0]
+        lp.col_cost_ = np.zeros(nv)
+        lp.col_lower_ = np.full(nv, -inf)
+        lp.col_upper_ = np.full(nv, inf)
+        lower = np.full(A.shape[0], -inf)
+        upper = np.full(A.shape[0], inf)
+        lower[2 * n_c:o] = h / gn
+        upper[2 * n_c:o] = h / gn
+        lp.row_lower_, lp.row_upper_ = lower, upper
+        nz = A != 0
+        mat = lp.a_matrix_
+        mat.format_ = _core.MatrixFormat.kRowwise
+        mat.start_ = np.concatenate([[0], np.cumsum(nz.sum(axis=1))]).astype(np.int32)
+        mat.index_ = np.nonzero(nz)[1].astype(np.int32)
+        mat.value_ = A[nz]
+        mat.num_col_, mat.num_row_ = nv, A.shape[0]
+        lp.a_matrix_ = mat
+        self.highs = _core._Highs()
+        self.highs.setOptionValue("output_flag", False)
+        self.highs.setOptionValue("presolve", "off")
+        self.highs.passModel(lp)
+        self.cn, self.ct = cn, ct
+        self.state = np.full(n_c, -99)  # bounds currently set per contact (none yet)
         self.solves = 0
 
-    def feasible(self, codes: np.ndarray, xi: np.ndarray, n_assigned: int) -> bool:
-        """False only when HiGHS proves the relaxation of the first ``n_assigned`` contacts
-        infeasible."""
-        n_c, k = self.n_c, self.k
-        nv = k + 2 * n_c
-        status = np.full(n_c, -1)
-        status[:n_assigned] = codes[:n_assigned]
-        a_ub: list[np.ndarray] = []
-        b_ub: list[float] = []
-        a_eq: list[np.ndarray] = []
-        b_eq: list[float] = []
-        n_sum = np.zeros(nv)
-        n_sum[k::2] = self.force_eps
-        bounds: list[tuple[float | None, float | None]] = [(None, None)] * nv
-        for i in range(n_c):
-            s = status[i]
-            kn, kt = self.K[2 * i], self.K[2 * i + 1]
-            zrow_n = np.zeros(nv)
-            zrow_n[:k] = kn
-            zrow_t = np.zeros(nv)
-            zrow_t[:k] = kt
-            cn, ct = k + 2 * i, k + 2 * i + 1
-            if s == BREAK or s == -1:  # v_n >= -slack
-                a_ub.append(-zrow_n)
-                b_ub.append(-self.b[2 * i] + self.slack[2 * i])
-            else:  # v_n = 0
-                a_eq.append(zrow_n)
-                b_eq.append(self.b[2 * i])
-            if s == ROLL:
-                a_eq.append(zrow_t)
-                b_eq.append(self.b[2 * i + 1])
-            if s == SLIDE:  # xi v_t >= -slack (eq. 16), c_t = -mu xi c_n (eq. 17)
-                x = float(xi[i])
-                a_ub.append(-x * zrow_t)
-                b_ub.append(-x * self.b[2 * i + 1] + self.slack[2 * i + 1])
-                r = np.zeros(nv)
-                r[ct] = 1.0
-                r[cn] = self.mu[i] * x
-                a_eq.append(r)
-                b_eq.append(0.0)
-            if s == BREAK:
-                bounds[cn] = (0.0, 0.0)
-                bounds[ct] = (0.0, 0.0)
-            else:  # c_n >= -eps N
-                r = -n_sum.copy()
-                r[cn] -= 1.0
-                a_ub.append(r)
-                b_ub.append(0.0)
-            if s == ROLL or s == -1:  # |c_t| <= mu c_n + eps N (eqs. 21-22)
-                for sign in (1.0, -1.0):
-                    r = -n_sum.copy()
-                    r[cn] -= self.mu[i]
-                    r[ct] += sign
-                    a_ub.append(r)
-                    b_ub.append(0.0)
-        eq_force = np.zeros((k, nv))
-        eq_force[:, k:] = self.G
-        A_eq = np.vstack([np.array(a_eq).reshape(-1, nv), eq_force])
-        B_eq = np.concatenate([np.array(b_eq, dtype=float), self.h])
+    def _set(self, i: int, state: int, xi: int) -> None:
+        """Bounds of contact ``i`` in ``state`` (FREE, CONTACT, BREAK, ROLL, SLIDE with ``xi``)."""
+        key = state * 4 + xi
+        if self.state[i] == key:
+            return
+        self.state[i] = key
+        h, inf, n_c, o = self.highs, self.inf, self.n_c, self.o
+        b, s = self.b, self.slack
+        bn, bt, sn, st = b[2 * i], b[2 * i + 1], s[2 * i], s[2 * i + 1]
+        opened = state in (FREE, BREAK)
+        sp, sm = state == SLIDE and xi > 0, state == SLIDE and xi < 0
+        h.changeRowBounds(i, bn - sn if opened else bn, inf if opened else bn)
+        if state == ROLL:
+            h.changeRowBounds(n_c + i, bt, bt)
+        elif sp:
+            h.changeRowBounds(n_c + i, bt - st, inf)
+        elif sm:
+            h.changeRowBounds(n_c + i, -inf, bt + st)
+        else:
+            h.changeRowBounds(n_c + i, -inf, inf)
+        cone = 0.0 if state in (FREE, CONTACT, ROLL) else -inf
+        h.changeRowBounds(o + n_c + i, cone, inf)
+        h.changeRowBounds(o + 2 * n_c + i, cone, inf)
+        h.changeRowBounds(o + 3 * n_c + i, 0.0 if sp else -inf, 0.0 if sp else inf)
+        h.changeRowBounds(o + 4 * n_c + i, 0.0 if sm else -inf, 0.0 if sm else inf)
+        lo, hi = (0.0, 0.0) if state == BREAK else (-inf, inf)
+        h.changeColBounds(int(self.cn[i]), lo, hi)
+        h.changeColBounds(int(self.ct[i]), lo, hi)
+
+    def solve(self, states: np.ndarray, xi: np.ndarray) -> np.ndarray | None:
+        """Solve the relaxation; None when HiGHS proves it infeasible, else ``(v, c)`` as
+        normalised velocities ``(2 n_c,)`` (``v / row scale``) and forces ``(2 n_c,)``."""
+        for i in range(self.n_c):
+            self._set(i, int(states[i]), int(xi[i]))
         self.solves += 1
-        res = linprog(
-            np.zeros(nv),
-            A_ub=np.array(a_ub) if a_ub else None,
-            b_ub=np.array(b_ub) if b_ub else None,
-            A_eq=A_eq,
-            b_eq=B_eq,
-            bounds=bounds,
-            method="highs",
-        )
-        return res.status != 2
+        self.highs.run()
+        status = self.highs.getModelStatus()
+        if status == self._core.HighsModelStatus.kInfeasible:
+            return None
+        if status != self._core.HighsModelStatus.kOptimal:
+            return np.zeros(4 * self.n_c)
+        x = np.asarray(self.highs.getSolution().col_value)
+        return np.concatenate([self.Kn @ x[: self.k] - self.b, x[self.k:]])
 
 
-def _completions(prefix: np.ndarray, n_assigned: int, n_rows: int) -> np.ndarray:
-    """All codes that extend ``prefix[:n_assigned]`` to ``n_rows`` rows, (m, n_c) int8."""
-    n_c = len(prefix)
-    used = 2 * int(np.sum(prefix[:n_assigned] == ROLL)) + int(
-        np.sum(prefix[:n_assigned] == SLIDE)
+#: Node states of a contact besides BREAK/SLIDE/ROLL: not yet decided, and "in contact"
+#: (rolling or sliding, not yet decided which).
+FREE, CONTACT = 3, 4
+
+
+def _subtree_size(states: np.ndarray, n_rows: int) -> int:
+    """Number of candidate codes (eq. 49) consistent with the node ``states``."""
+    used = 2 * int(np.sum(states == ROLL)) + int(np.sum(states == SLIDE))
+    n_free = int(np.sum(states == FREE))
+    n_con = int(np.sum(states == CONTACT))
+    need = n_rows - used - n_con  # each CONTACT gives >= 1 row, +1 if rolling
+    return sum(
+        comb(n_con, r) * _completion_count(n_free, need - r) for r in range(n_con + 1)
     )
-    n_free = n_c - n_assigned
-    need = n_rows - used
-    if n_free == 0:
-        return prefix[None].copy() if need == 0 else np.zeros((0, n_c), dtype=np.int8)
-    if _completion_count(n_free, need) == 0:
-        return np.zeros((0, n_c), dtype=np.int8)
-    if need == 0:
-        tail = np.zeros((1, n_free), dtype=np.int8)
-    else:
-        tail = enumerate_modes(n_free, need).codes
-    out = np.empty((tail.shape[0], n_c), dtype=np.int8)
-    out[:, :n_assigned] = prefix[:n_assigned]
-    out[:, n_assigned:] = tail
-    return out
+
+
+def _completions(states: np.ndarray, n_rows: int) -> np.ndarray:
+    """All candidate codes (m, n_c) int8 consistent with the node ``states``."""
+    n_c = len(states)
+    fixed = (states == BREAK) | (states == SLIDE) | (states == ROLL)
+    used = 2 * int(np.sum(states == ROLL)) + int(np.sum(states == SLIDE))
+    free = np.flatnonzero(states == FREE)
+    con = np.flatnonzero(states == CONTACT)
+    base = np.where(fixed, states, 0).astype(np.int8)
+    blocks = []
+    for r in range(len(con) + 1):
+        need = n_rows - used - len(con) - r
+        if _completion_count(len(free), need) == 0:
+            continue
+        if len(free) == 0:
+            tail = np.zeros((1, 0), dtype=np.int8)
+        elif need == 0:
+            tail = np.zeros((1, len(free)), dtype=np.int8)
+        else:
+            tail = enumerate_modes(len(free), need).codes
+        for rolled in itertools.combinations(range(len(con)), r):
+            blk = np.broadcast_to(base, (tail.shape[0], n_c)).copy()
+            blk[:, free] = tail
+            blk[:, con] = SLIDE
+            blk[:, con[list(rolled)]] = ROLL
+            blocks.append(blk)
+    return np.concatenate(blocks) if blocks else np.zeros((0, n_c), dtype=np.int8)
+
+
+def _branch_contact(states: np.ndarray, point: np.ndarray | None, mu: np.ndarray) -> int:
+    """Contact to branch on: the FREE contact whose relaxed solution violates the normal
+    complementarity ``v_in c_in = 0`` most; else the CONTACT one violating the rolling/sliding
+    disjunction most; ties and ``point is None`` go to the lowest index."""
+    n_c = len(states)
+    free = np.flatnonzero(states == FREE)
+    con = np.flatnonzero(states == CONTACT)
+    if point is None:
+        return int(free[0]) if len(free) else int(con[0])
+    v, c = point[: 2 * n_c], point[2 * n_c:]
+    c_scale = max(float(np.max(np.abs(c))), 1e-300)
+    v_scale = max(float(np.max(np.abs(v))), 1e-300)
+    if len(free):
+        score = np.minimum(v[2 * free] / v_scale, c[2 * free] / c_scale)
+        return int(free[np.argmax(score)])
+    fn, ft = c[2 * con], c[2 * con + 1]
+    score = np.minimum(np.abs(v[2 * con + 1]) / v_scale, (mu[con] * fn - np.abs(ft)) / c_scale)
+    return int(con[np.argmax(score)])
 
 
 def search_modes(
@@ -331,38 +403,45 @@ def search_modes(
     pruner = _Pruner(system, prune_eps, mu_arr)
     kept: list[np.ndarray] = []
     tested = 0
-    # Depth-first over contacts; a node is (codes prefix, xi prefix, number assigned, rows used).
-    stack: list[tuple[np.ndarray, np.ndarray, int, int]] = [
-        (np.zeros(n_c, dtype=np.int8), np.zeros(n_c, dtype=np.int8), 0, 0)
+    # Depth-first; a node is (state per contact, xi per contact).  FREE -> BREAK | CONTACT,
+    # CONTACT -> ROLL | SLIDE xi=+1 | SLIDE xi=-1: the children partition the parent's codes.
+    stack: list[tuple[np.ndarray, np.ndarray]] = [
+        (np.full(n_c, FREE, dtype=np.int8), np.zeros(n_c, dtype=np.int8))
     ]
     while stack:
-        prefix, xi, depth, used = stack.pop()
-        size = _completion_count(n_c - depth, k - used)
+        states, xi = stack.pop()
+        size = _subtree_size(states, k)
         if size == 0:
             continue
-        if size > lp_min_size and not pruner.feasible(prefix, xi, depth):
-            continue
-        if size <= batch_size or depth == n_c:
-            block = _completions(prefix, depth, k)
+        point = None
+        if size > lp_min_size:
+            point = pruner.solve(states, xi)
+            if point is None:
+                continue
+        undecided = np.any((states == FREE) | (states == CONTACT))
+        if size <= batch_size or not undecided:
+            block = _completions(states, k)
             tested += len(block)
             kin = kinematic_stage(
                 system, candidates_from_codes(block, k), tol=tol, singular_tol=singular_tol
             )
             keep = kin.ok | kin.boundary
-            # Each sliding direction of the prefix owns the candidates with that xi (xi = 0,
-            # possible only on a boundary, goes to the S+ branch).
-            for i in range(depth):
-                if prefix[i] == SLIDE:
-                    x = np.where(kin.xi[:, i] == 0, 1, kin.xi[:, i])
-                    keep &= x == xi[i]
+            # A SLIDE state owns the candidates with its xi (xi = 0, only possible on a
+            # boundary, is owned by xi = +1).
+            for i in np.flatnonzero(states == SLIDE):
+                x = np.where(kin.xi[:, i] == 0, 1, kin.xi[:, i])
+                keep &= x == xi[i]
             kept.append(block[keep])
             continue
-        for code, x, rows in ((BREAK, 0, 0), (SLIDE, 1, 1), (SLIDE, -1, 1), (ROLL, 0, 2)):
-            if _completion_count(n_c - depth - 1, k - used - rows) == 0:
-                continue
-            child, child_xi = prefix.copy(), xi.copy()
-            child[depth], child_xi[depth] = code, x
-            stack.append((child, child_xi, depth + 1, used + rows))
+        i = _branch_contact(states, point, mu_arr)
+        if states[i] == FREE:
+            children = ((BREAK, 0), (CONTACT, 0))
+        else:
+            children = ((SLIDE, 1), (SLIDE, -1), (ROLL, 0))
+        for code, x in children:
+            child, child_xi = states.copy(), xi.copy()
+            child[i], child_xi[i] = code, x
+            stack.append((child, child_xi))
     codes = np.concatenate(kept) if kept else np.zeros((0, n_c), dtype=np.int8)
     codes = _canonical_order(np.unique(codes, axis=0))
     cand = candidates_from_codes(codes, k)
