@@ -75,7 +75,7 @@ def workpiece_polygon(points: np.ndarray, normals: np.ndarray, box: float) -> np
         poly = _clip(poly, n, r)
         if len(poly) < 3:
             raise InputError("workpiece: the contact half-planes leave no body")
-    for i, (n, r) in enumerate(zip(normals, points)):
+    for i, r in enumerate(points):
         slack = np.array([nj @ (r - rj) for nj, rj in zip(normals, points)])
         if np.any(slack < -1e-9 * box) or np.any(np.abs(r) > box):
             raise InputError(f"workpiece: contact {i + 1} is not on the polygon boundary")
@@ -95,7 +95,7 @@ def example_scene(
     *,
     speed: float,
     mass: float = 0.1,
-    finger: FingertipSpec = FingertipSpec(),
+    finger: FingertipSpec | None = None,
     mu_kinetic: np.ndarray | None = None,
 ) -> Scene:
     """Scene of a (scaled) contact-velocity system: polygon workpiece + driven fingertips.
@@ -103,6 +103,7 @@ def example_scene(
     ``system`` must already be at scene scale (see :func:`scaled_system`); ``speed`` [m/s] is
     only recorded in ``meta``. ``g_obj`` becomes a :class:`Load` at the workpiece COM (origin).
     """
+    finger = FingertipSpec() if finger is None else finger
     pts = np.asarray(system.points, dtype=float)
     nrm = np.asarray(system.normals, dtype=float)
     tng = np.stack([-nrm[:, 1], nrm[:, 0]], axis=1)

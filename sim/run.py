@@ -2,10 +2,10 @@
 
 Faults (simulator trouble, never a pass): ``NAN`` (a non-finite state), ``LEFT_SCENE`` (a dynamic
 body's origin outside ``scene.bounds``), ``PENETRATION`` (a contact deeper than
-``penetration_tol``), ``CONTACT_LOST_AT_START`` (a pair not touching after the first step: the scene was built
-touching). An observed *jam* (Fig. 3 "Jam": the fingers cannot move the workpiece without
-growing force) is not a fault: the loop stops early once the total contact normal force exceeds
-``jam_force`` for ``jam_window`` seconds and records ``jammed_at``.
+``penetration_tol``), ``CONTACT_LOST_AT_START`` (a pair not touching after the first step:
+the scene was built touching). An observed *jam* (Fig. 3 "Jam": the fingers cannot move the
+workpiece without growing force) is not a fault: the loop stops early once the total contact
+normal force exceeds ``jam_force`` for ``jam_window`` seconds and records ``jammed_at``.
 """
 
 from __future__ import annotations

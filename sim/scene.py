@@ -227,7 +227,8 @@ class Scene:
         for p in self.pairs:
             for nm in (p.body_a, p.body_b):
                 if nm not in names:
-                    raise InputError(f"pair {p.name!r}: unknown body {nm!r}; expected one of {names}")
+                    raise InputError(
+                        f"pair {p.name!r}: unknown body {nm!r}; expected one of {names}")
         for j in self.joints:
             if j.body not in names:
                 raise InputError(f"joint {j.name!r}: unknown body {j.body!r}")

@@ -51,14 +51,12 @@ def test_scenario(name, engine, tmp_path):
             assert summary["predicted"]["scale_invariant"]
     else:
         assert summary["status"] == "disagreed"
-
-
-def test_ruler_static_kinetic_switches_within_two_percent(tmp_path):
-    s = all_scenarios()["ruler_static_kinetic"].run(tmp_path, engine="pymunk", render=False)
-    pred, obs = s["switch_positions"]["predicted"], s["switch_positions"]["observed"]
-    assert len(pred) >= 5 and len(obs) >= 5
-    for p, o in zip(pred[:5], obs[:5]):
-        assert abs(o - p) <= 0.02 * p
+    if name == "ruler_static_kinetic":  # acceptance: >= 5 switches, each within 2 %
+        pred = summary["switch_positions"]["predicted"]
+        obs = summary["switch_positions"]["observed"]
+        assert len(pred) >= 5 and len(obs) >= 5
+        for p, o in zip(pred[:5], obs[:5]):
+            assert abs(o - p) <= 0.02 * p
 
 
 def test_rendered_outputs(tmp_path):

@@ -8,17 +8,17 @@ import numpy as np
 import pytest
 
 from planner.io import load_system
+from scenarios.paper_sims import DATA, _status
 from sim.classify import Outcome, Thresholds, compare, observed_modes
 from sim.paper_scene import FingertipSpec, example_scene, scaled_system
 from sim.run import FaultKind, RunSettings, run_scene
 from sim.scene import Load, make_backend
-from scenarios.paper_sims import DATA, _status
 
 ENGINES = ("pymunk", "mujoco")
 SPEED = 1e-3
 
 
-def _scene(finger: FingertipSpec = FingertipSpec(), mu=(0.2, 0.3, 0.1)):
+def _scene(finger: FingertipSpec | None = None, mu=(0.2, 0.3, 0.1)):
     system = scaled_system(load_system(DATA / "example_4_1.json"), 0.01, SPEED).with_mu(mu)
     return example_scene(system, speed=SPEED, mass=0.01, finger=finger)
 
