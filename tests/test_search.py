@@ -14,21 +14,23 @@ from planner.search import _canonical_order, candidates_from_codes, search_modes
 
 
 def assert_same(pred_a, pred_b):
-    """Same feasible modes, same order, same certificates."""
+    """Same feasible modes, same order, same certificates (to rounding: batched matrix
+    products may take different BLAS paths for different batch sizes)."""
     assert pred_a.status == pred_b.status
     assert pred_a.labels == pred_b.labels
     for a, b in zip(pred_a.all_modes, pred_b.all_modes):
-        np.testing.assert_array_equal(a.qdot, b.qdot)
-        np.testing.assert_array_equal(a.contact_forces, b.contact_forces)
-        np.testing.assert_array_equal(a.joint_efforts, b.joint_efforts)
-        assert a.margin == b.margin
+        for name in ("qdot", "joint_velocities", "contact_forces", "joint_efforts"):
+            np.testing.assert_allclose(
+                getattr(a, name), getattr(b, name), rtol=1e-12, atol=1e-12, err_msg=name
+            )
+        assert a.margin == pytest.approx(b.margin, rel=1e-9, abs=1e-12)
     assert set(m.label for m in pred_a.boundary_modes) <= set(
         m.label for m in pred_b.boundary_modes
     )
 
 
 @pytest.mark.parametrize("n_c", [4, 6, 8, 10])
-@pytest.mark.parametrize("seed", range(4))
+@pytest.mark.parametrize("seed", range(6))
 def test_search_equals_exhaustive_planted(seed, n_c):
     system = random_system(seed, n_c)
     res = search_modes(system, indeterminate=False, batch_size=64)
@@ -36,7 +38,7 @@ def test_search_equals_exhaustive_planted(seed, n_c):
     assert res.stats.candidates == res.prediction.candidates
 
 
-@pytest.mark.parametrize("seed", range(12))
+@pytest.mark.parametrize("seed", range(40))
 def test_search_equals_exhaustive_mixed_systems(seed):
     """Virtual-joint and few-effort-joint systems (dof != n_c), small batches to force LPs."""
     rng = np.random.default_rng(1000 + seed)
