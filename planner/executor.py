@@ -198,3 +198,86 @@ def scene_sweep(
     """
     tasks = [(int(s), int(n_contacts), bool(check)) for s in seeds]
     return executor.map(_scene, tasks, progress=progress, desc=f"scenes n_c={n_contacts}")
+
+
+def _exhaustive_chunk(task: tuple[Any, int, int, np.ndarray]) -> list[tuple[int, str]]:
+    from planner.feasibility import force_stage, kinematic_stage
+    from planner.search import _canonical_order, candidates_from_codes
+
+    system, start, stop, mu = task
+    codes = enumerate_modes_slice(system.n_contacts, system.dof, start, stop)
+    cand = candidates_from_codes(_canonical_order(codes), system.dof)
+    kin = kinematic_stage(system, cand)
+    idx = np.flatnonzero(kin.ok)
+    fs = force_stage(system, cand, idx, kin.xi[idx], mu)
+    margin = np.minimum(fs.margin[0], kin.margin[idx])
+    feasible = fs.nonsingular[0] & (margin >= -1e-9)
+    from planner.modes import Mode
+
+    return [
+        (start + int(idx[j]),
+         Mode(tuple(int(c) for c in cand.codes[idx[j]]),
+              tuple(int(x) for x in kin.xi[idx[j]])).label)
+        for j in np.flatnonzero(feasible)
+    ]
+
+
+def enumerate_modes_slice(n_contacts: int, n_rows: int, start: int, stop: int) -> np.ndarray:
+    """Codes ``(stop - start, n_c)`` of candidates ``start:stop`` of eq. (49) in the order of
+    :func:`planner.modes.enumerate_modes`, without building the whole set (large ``n_c``)."""
+    from math import comb
+
+    from planner.modes import ROLL, SLIDE
+
+    out = []
+    pos = 0
+    for n_r in range(n_rows // 2 + 1):
+        n_s = n_rows - 2 * n_r
+        if n_r + n_s > n_contacts:
+            continue
+        per_r = comb(n_contacts - n_r, n_s)
+        block = comb(n_contacts, n_r) * per_r
+        if pos + block <= start or pos >= stop:
+            pos += block
+            continue
+        import itertools
+
+        for r_set in itertools.combinations(range(n_contacts), n_r):
+            if pos + per_r <= start:
+                pos += per_r
+                continue
+            if pos >= stop:
+                break
+            rest = [c for c in range(n_contacts) if c not in r_set]
+            for s_set in itertools.combinations(rest, n_s):
+                if start <= pos < stop:
+                    code = np.zeros(n_contacts, dtype=np.int8)
+                    code[list(r_set)] = ROLL
+                    code[list(s_set)] = SLIDE
+                    out.append(code)
+                pos += 1
+                if pos >= stop:
+                    break
+        if pos >= stop:
+            break
+    return np.array(out, dtype=np.int8).reshape(-1, n_contacts)
+
+
+def exhaustive_modes(
+    system: Any, executor: Executor, *, mu: Any = None, chunk: int = 50_000,
+    progress: bool = False,
+) -> list[str]:
+    """Labels of all feasible determinate modes by exhaustive eq. (49) enumeration, in chunks
+    of ``chunk`` candidates mapped over ``executor`` (for large ``n_c``; same decisions as
+    :func:`planner.feasibility.feasible_modes`, candidate order)."""
+    from planner.modes import candidate_count
+
+    mu_arr = system.mu if mu is None else np.broadcast_to(
+        np.asarray(mu, dtype=float), (system.n_contacts,)
+    )
+    total = candidate_count(system.n_contacts, system.dof)
+    if chunk < 1:
+        raise InputError(f"chunk: expected >= 1, got {chunk}")
+    tasks = [(system, s, min(s + chunk, total), mu_arr) for s in range(0, total, chunk)]
+    parts = executor.map(_exhaustive_chunk, tasks, progress=progress, desc="exhaustive")
+    return [label for _, label in sorted(p for part in parts for p in part)]
