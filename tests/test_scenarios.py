@@ -2,7 +2,8 @@
 
 Predictions come from the planner, observations from simulator contact data; a scenario passes
 when its outcome matches its expectation (``agree`` or, for negative controls, ``disagree``).
-Long runs (MuJoCo rulers: ~100 s of simulated time at 1 kHz) are marked ``slow``.
+Long runs (rulers other than pymunk static/kinetic: 100-200 s of simulated time) are marked
+``slow``.
 """
 
 from __future__ import annotations
@@ -18,17 +19,10 @@ SLOW = {("ruler_single_mu", "mujoco"), ("ruler_static_kinetic", "mujoco"),
         ("neg_ruler_wrong_mu", "pymunk")}
 
 
-#: Known shortfall (docs/simulation.md, open problems): MuJoCo's soft contacts put the 4th and
-#: 5th static/kinetic switches 2-4 % early; pymunk meets 2 %.
-KNOWN = {("ruler_static_kinetic", "mujoco"): "MuJoCo switches 4-5 miss the 2 % tolerance"}
-
-
 def _cases():
     for name, sc in all_scenarios().items():
         for engine in sc.engines:
             marks = [pytest.mark.slow] if (name, engine) in SLOW else []
-            if (name, engine) in KNOWN:
-                marks.append(pytest.mark.xfail(reason=KNOWN[(name, engine)], strict=False))
             yield pytest.param(name, engine, marks=marks, id=f"{name}-{engine}")
 
 
