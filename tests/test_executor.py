@@ -6,7 +6,17 @@ import numpy as np
 import pytest
 
 from planner.errors import InputError
-from planner.executor import LocalExecutor, make_executor, mu_sweep, scene_sweep
+from planner.executor import (
+    LocalExecutor,
+    enumerate_modes_slice,
+    exhaustive_modes,
+    make_executor,
+    mu_sweep,
+    scene_sweep,
+)
+from planner.feasibility import feasible_modes
+from planner.modes import enumerate_modes
+from planner.random_systems import random_system
 
 
 @pytest.fixture(scope="module")
@@ -46,6 +56,21 @@ def test_scene_sweep_same_locally_and_through_dask(dask_client):
         assert row["modes"] == row["exhaustive_modes"]
 
 
+def test_chunked_exhaustive_same_locally_dask_and_in_one_batch(dask_client):
+    for seed in range(3):
+        system = random_system(seed, 8)
+        one_batch = feasible_modes(system, indeterminate=False).labels
+        local = exhaustive_modes(system, LocalExecutor(1), chunk=100)
+        dask = exhaustive_modes(system, make_executor(dask_client), chunk=300)
+        assert local == dask == one_batch
+
+
+@pytest.mark.parametrize(("start", "stop"), [(0, 1107), (5, 17), (100, 900), (1100, 1107)])
+def test_enumerate_modes_slice_matches_enumeration(start, stop):
+    codes = enumerate_modes(8, 8).codes
+    np.testing.assert_array_equal(enumerate_modes_slice(8, 8, start, stop), codes[start:stop])
+
+
 def test_bad_inputs(example_41):
     with pytest.raises(InputError, match="workers: expected an integer >= 1, got 0"):
         LocalExecutor(0)
@@ -53,3 +78,31 @@ def test_bad_inputs(example_41):
         make_executor("  ")
     with pytest.raises(InputError, match=r"mu_points: expected shape \(P, 3\), got \(2, 2\)"):
         mu_sweep(example_41, np.zeros((2, 2)), LocalExecutor(1))
+    with pytest.raises(InputError, match="chunk: expected >= 1, got 0"):
+        exhaustive_modes(example_41, LocalExecutor(1), chunk=0)
+    with pytest.raises(InputError, match="dask: expected a scheduler address or a client"):
+        from planner.executor import DaskExecutor
+
+        DaskExecutor()
+
+
+def test_sweep_cli_same_file_locally_and_through_dask_address(dask_client, data_dir, tmp_path):
+    from planner.cli import main
+
+    system = str(data_dir / "example_4_1.json")
+    local, dask = tmp_path / "local.json", tmp_path / "dask.json"
+    common = ["sweep", "mu", system, "--grid", "3", "--no-progress"]
+    assert main([*common, "--workers", "1", "--out", str(local)]) == 0
+    address = dask_client.scheduler.address
+    assert main([*common, "--dask", address, "--out", str(dask)]) == 0
+    assert local.read_text() == dask.read_text()
+    scenes = tmp_path / "scenes.json"
+    assert main(["sweep", "scenes", "--contacts", "5", "--count", "3", "--check",
+                 "--workers", "1", "--no-progress", "--out", str(scenes)]) == 0
+
+
+def test_sweep_cli_bad_input_exit_2(tmp_path, capsys):
+    from planner.cli import main
+
+    assert main(["sweep", "mu", "--out", str(tmp_path / "x.json")]) == 2
+    assert "expected a SYSTEM.json argument" in capsys.readouterr().err
