@@ -35,7 +35,8 @@ def _judge(rec):
 
 
 @pytest.mark.parametrize("engine", ENGINES)
-def test_nan_load_is_a_fault(engine):
+def test_nan_load_is_a_fault(engine, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # MuJoCo writes MUJOCO_LOG.TXT into the working directory
     scene = _scene()
     scene = dataclasses.replace(scene, loads=(Load("workpiece", (np.nan, -1.0), 0.0),))
     rec = run_scene(scene, make_backend(engine), _settings())
