@@ -76,7 +76,8 @@ def run_example(out_dir: Path, *, name: str, expect: str, data: str, scale: floa
 
         files["timeline"] = str(timeline_plot(rec, observed, predicted, out_dir / "timeline.png"))
         files["animation"] = str(animation_gif(rec, observed, np.array(scene.meta["polygon"]),
-                                               out_dir / "animation.gif"))
+                                               out_dir / "animation.gif",
+                                               finger_radius=scene.meta["finger_radius"]))
     summary = {
         "scenario": name,
         "engine": engine,

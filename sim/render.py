@@ -59,8 +59,8 @@ def timeline_plot(rec: Recording, observed: list[str], predicted: list[str], pat
 
 
 def animation_gif(rec: Recording, observed: list[str], polygon: np.ndarray, path: Path,
-                  frames: int = 30) -> Path:
-    """Save a GIF drawn from recorded workpiece poses and contact points."""
+                  frames: int = 30, finger_radius: float = 0.0) -> Path:
+    """Save a GIF drawn from recorded workpiece and fingertip poses and contact points."""
     plt = _plt()
     from PIL import Image
 
@@ -76,6 +76,10 @@ def animation_gif(rec: Recording, observed: list[str], polygon: np.ndarray, path
         pw = poly @ np.array([[c, s], [-s, c]]) + np.array([x, y])
         fig, ax = plt.subplots(figsize=(3, 3))
         ax.fill(pw[:, 0], pw[:, 1], color="0.85", edgecolor="k")
+        for name in rec.body_names:
+            if name.startswith("finger") and finger_radius > 0:
+                fx, fy, _ = rec.poses[k, rec.body_names.index(name)]
+                ax.add_patch(plt.Circle((fx, fy), finger_radius, color="0.4"))
         toks = _tokens(observed[k], P) if observed else ["B"] * P
         for j in range(P):
             if rec.present[k, j]:
