@@ -73,9 +73,9 @@ from planner.modes import BREAK, ROLL, SLIDE, CandidateSet, Mode, candidate_coun
 from planner.validation import as_friction
 
 #: Default largest subtree (in candidates) that is tested in one batch instead of branched.
-DEFAULT_BATCH_SIZE = 64
+DEFAULT_BATCH_SIZE = 256
 #: Subtrees with fewer candidates than this are tested without a pruning LP first.
-DEFAULT_LP_MIN_SIZE = 16
+DEFAULT_LP_MIN_SIZE = 64
 #: Relative slack on ``v_in >= 0`` in the pruning LPs (well above ``DEFAULT_TOL``).
 DEFAULT_PRUNE_EPS = 1e-7
 
@@ -327,12 +327,15 @@ def _completions(states: np.ndarray, n_rows: int) -> np.ndarray:
             tail = np.zeros((1, len(free)), dtype=np.int8)
         else:
             tail = enumerate_modes(len(free), need).codes
-        for rolled in itertools.combinations(range(len(con)), r):
-            blk = np.broadcast_to(base, (tail.shape[0], n_c)).copy()
-            blk[:, free] = tail
-            blk[:, con] = SLIDE
-            blk[:, con[list(rolled)]] = ROLL
-            blocks.append(blk)
+        rolled = np.zeros((comb(len(con), r), len(con)), dtype=bool)
+        for j, subset in enumerate(itertools.combinations(range(len(con)), r)):
+            rolled[j, list(subset)] = True
+        n_t = tail.shape[0]
+        blk = np.empty((rolled.shape[0] * n_t, n_c), dtype=np.int8)
+        blk[:] = base
+        blk[:, free] = np.tile(tail, (rolled.shape[0], 1))
+        blk[:, con] = np.where(np.repeat(rolled, n_t, axis=0), ROLL, SLIDE)
+        blocks.append(blk)
     return np.concatenate(blocks) if blocks else np.zeros((0, n_c), dtype=np.int8)
 
 
