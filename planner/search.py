@@ -2,48 +2,46 @@
 
 The paper tests all eq. (49) candidates (Sec. 4.7: 20 min at ``n_c = 12``) and names as future
 work finding all solutions without enumerating the modes (Secs. 4.7, 6).  This module does that
-with a depth-first branch-and-bound over *partial* mode assignments, contact by contact.
+with a depth-first branch-and-bound over *partial* mode assignments with LP relaxations of the
+kinematic and force constraints.  Full description, exactness argument and measurements:
+``docs/scaling.md``.
 
 Algorithm
 ---------
 Write ``z = (qdot, thetadot_E)`` (the unknowns of eq. 24), ``K = [W^T  -J_E]`` (2 n_c x k,
-``k = 3 + |tau_I|``) and ``b = J_V thetadot_V``; the relative velocity is ``v = K z - b``
-(eq. 5).  A candidate that passes the kinematic test of eqs. (23)-(25) has a ``z`` with
-
-* ``v_in = 0`` and ``v_it = 0`` at rolling contacts (eq. 9),
-* ``v_in = 0`` at sliding contacts (eq. 10),
-* ``v_in > 0`` at breaking contacts (eqs. 11, 25).
-
-Relax the strict inequality to ``v_in >= -eps`` and keep only the constraints of the contacts
-already assigned, plus ``v_in >= -eps`` for every unassigned contact (in *every* mode each contact
-has ``v_in >= 0``).  This is a linear feasibility problem in ``z`` (solved with scipy HiGHS).
-If it is infeasible, no completion of the partial assignment can pass eqs. (23)-(25), so the whole
-subtree is pruned.  A subtree is also pruned when its constraint count cannot reach
-``2 n_R + n_S = k`` (eq. 29 with the Sec. 4.7 partition).  When a subtree holds at most
-``batch_size`` candidates, they are all generated and tested by the *same* batched code as the
-exhaustive path (:func:`planner.feasibility.kinematic_stage`, then
+``k = 3 + |tau_I|``), ``b = J_V thetadot_V``; the relative velocity is ``v = K z - b`` (eq. 5).
+A feasible mode has ``z`` and contact forces ``c (2 n_c)`` with ``W c = -g_obj``,
+``J_E^T c = tau_E - g_man_E`` (eq. 26 over all contacts) and per contact: B ``v_n > 0, c = 0``
+(eqs. 11, 25); S ``v_n = 0, xi v_t > 0, c_t = -mu xi c_n, c_n >= 0`` (eqs. 10, 16, 17, 22);
+R ``v_n = 0, v_t = 0, |c_t| <= mu c_n`` (eqs. 9, 21).  A node gives each contact a state:
+``FREE`` (relaxed to ``v_n >= 0`` and ``c`` in the cone), ``CONTACT`` (R or S: ``v_n = 0``, ``c``
+in the cone), or B / R / S+ / S- (strict inequalities relaxed by ``eps``).  Children
+``FREE -> B | CONTACT`` and ``CONTACT -> R | S+ | S-`` partition the parent's candidates.  One
+warm-started HiGHS LP per node; a node is discarded only when HiGHS proves its relaxation
+infeasible.  Subtrees with at most ``batch_size`` candidates are generated and tested by the
+same batched code as the exhaustive path (:func:`planner.feasibility.kinematic_stage`, then
 :func:`planner.feasibility.force_stage` on the kinematically admissible ones).
 
 Why it is exact
 ---------------
-Every mode reported by exhaustive enumeration satisfies the LP of each of its ancestors (its own
-``z`` is a feasible point, with ``v_in > tol * scale >= -eps`` on breaking contacts), so it is
-never pruned; and every candidate that is not pruned is decided by exactly the same arithmetic
-as in :func:`planner.feasibility.feasible_modes` (same row order, same equilibration).  Hence
-the feasible set, the certificates and the ``boundary_modes`` are identical.  The only
-difference: ``degenerate`` counts the singular candidates *among those tested*.  An LP that
-HiGHS does not report as infeasible (including numerical trouble) never prunes.
+A mode that exhaustive enumeration reports feasible gives a point ``(z, c)`` that satisfies the
+relaxation of every ancestor node (equalities solved exactly; strict inequalities hold with
+margin ``tol`` and are relaxed by ``eps >> tol``; Coulomb holds to ``tol max|c_A|``, bounded by
+``eps_f sum c_n``), so it is never pruned; the children partition the candidates; and each
+surviving candidate is decided by the same arithmetic as :func:`planner.feasibility.
+feasible_modes` (same row order and equilibration).  Differences by design: ``degenerate``
+counts singular candidates among those tested, and ``boundary_modes`` lists only kinematic
+boundary cases whose subtree was not proved force-infeasible (a subset).
 
 Cost
 ----
-One small LP (``k`` unknowns, ``n_c`` rows) per expanded node; the number of nodes grows with
-the number of kinematically admissible partial assignments, not with eq. (49).  The force stage
-(friction) only sees the kinematically admissible modes.  See ``docs/scaling.md`` for measured
-times and counts.
+One LP (``3 n_c`` unknowns, ``7 n_c + k`` rows) per expanded node plus one batched test per
+leaf; the number of nodes grows with the partial assignments whose relaxation is feasible, not
+with eq. (49).  Exponential in the worst case (the problem contains an LCP).
 
 References
 ----------
-Trinkle & Zeng (1994), eqs. (5), (9)-(11), (23)-(25), (29), (49); Secs. 4.7 and 6.
+Trinkle & Zeng (1994), eqs. (5), (9)-(11), (16)-(17), (21)-(26), (29), (49); Secs. 4.7, 6.
 """
 
 from __future__ import annotations
