@@ -172,9 +172,6 @@ class _Pruner:
     """
 
     def __init__(self, system: System, eps: float, mu: np.ndarray) -> None:
-        from scipy.optimize._highspy import _core
-
-        self._core = _core
         n_c = system.n_contacts
         E = system.effort_joints
         K = np.concatenate([system.W.T, -system.J[:, E]], axis=1)
@@ -217,30 +214,13 @@ class _Pruner:
             A[r, cn] += 1.0 if a_n is not None else mu
             A[r, ct] += a_t
         self.o = o
-        inf = _core.kHighsInf
+        inf = np.inf
         self.inf = inf
-        lp = _core.HighsLp()
-        lp.num_col_, lp.num_row_ = nv, A.shape[0]
-        lp.col_cost_ = np.zeros(nv)
-        lp.col_lower_ = np.full(nv, -inf)
-        lp.col_upper_ = np.full(nv, inf)
         lower = np.full(A.shape[0], -inf)
         upper = np.full(A.shape[0], inf)
         lower[2 * n_c:o] = h / gn
         upper[2 * n_c:o] = h / gn
-        lp.row_lower_, lp.row_upper_ = lower, upper
-        nz = A != 0
-        mat = lp.a_matrix_
-        mat.format_ = _core.MatrixFormat.kRowwise
-        mat.start_ = np.concatenate([[0], np.cumsum(nz.sum(axis=1))]).astype(np.int32)
-        mat.index_ = np.nonzero(nz)[1].astype(np.int32)
-        mat.value_ = A[nz]
-        mat.num_col_, mat.num_row_ = nv, A.shape[0]
-        lp.a_matrix_ = mat
-        self.highs = _core._Highs()
-        self.highs.setOptionValue("output_flag", False)
-        self.highs.setOptionValue("presolve", "off")
-        self.highs.passModel(lp)
+        self.highs = _make_lp(A, lower, upper)
         self.cn, self.ct = cn, ct
         self.state = np.full(n_c, -99)  # bounds currently set per contact (none yet)
         self.solves = 0
@@ -280,14 +260,108 @@ class _Pruner:
         for i in range(self.n_c):
             self._set(i, int(states[i]), int(xi[i]))
         self.solves += 1
-        self.highs.run()
-        status = self.highs.getModelStatus()
-        if status == self._core.HighsModelStatus.kInfeasible:
+        x = self.highs.solve()
+        if x is _INFEASIBLE:
             return None
-        if status != self._core.HighsModelStatus.kOptimal:
+        if x is None:
             return np.zeros(4 * self.n_c)
-        x = np.asarray(self.highs.getSolution().col_value)
         return np.concatenate([self.Kn @ x[: self.k] - self.b, x[self.k:]])
+
+
+_INFEASIBLE = object()
+
+
+class _HighsLp:
+    """One LP ``row_lower <= A x <= row_upper``, ``col bounds``, zero objective, kept in HiGHS
+    (SciPy's bundled binding) so that bound changes re-solve from the previous basis."""
+
+    def __init__(self, A: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> None:
+        from scipy.optimize._highspy import _core
+
+        self._core = _core
+        inf = _core.kHighsInf
+        nv = A.shape[1]
+        lp = _core.HighsLp()
+        lp.num_col_, lp.num_row_ = nv, A.shape[0]
+        lp.col_cost_ = np.zeros(nv)
+        lp.col_lower_ = np.full(nv, -inf)
+        lp.col_upper_ = np.full(nv, inf)
+        lp.row_lower_ = np.where(np.isfinite(lower), lower, -inf)
+        lp.row_upper_ = np.where(np.isfinite(upper), upper, inf)
+        nz = A != 0
+        mat = lp.a_matrix_
+        mat.format_ = _core.MatrixFormat.kRowwise
+        mat.start_ = np.concatenate([[0], np.cumsum(nz.sum(axis=1))]).astype(np.int32)
+        mat.index_ = np.nonzero(nz)[1].astype(np.int32)
+        mat.value_ = A[nz]
+        mat.num_col_, mat.num_row_ = nv, A.shape[0]
+        lp.a_matrix_ = mat
+        self._h = _core._Highs()
+        self._h.setOptionValue("output_flag", False)
+        self._h.setOptionValue("presolve", "off")
+        self._h.passModel(lp)
+        self._inf = inf
+
+    def _b(self, x: float) -> float:
+        return self._inf if x == np.inf else -self._inf if x == -np.inf else x
+
+    def changeRowBounds(self, i: int, lo: float, hi: float) -> None:  # noqa: N802
+        self._h.changeRowBounds(i, self._b(lo), self._b(hi))
+
+    def changeColBounds(self, j: int, lo: float, hi: float) -> None:  # noqa: N802
+        self._h.changeColBounds(j, self._b(lo), self._b(hi))
+
+    def solve(self) -> Any:
+        """Solution ``x``, ``_INFEASIBLE`` when proved infeasible, None on any other outcome."""
+        self._h.run()
+        status = self._h.getModelStatus()
+        if status == self._core.HighsModelStatus.kInfeasible:
+            return _INFEASIBLE
+        if status != self._core.HighsModelStatus.kOptimal:
+            return None
+        return np.asarray(self._h.getSolution().col_value)
+
+
+class _LinprogLp:
+    """Fallback with the same interface through the public ``scipy.optimize.linprog`` (cold
+    starts; used only if SciPy's HiGHS binding is unavailable)."""
+
+    def __init__(self, A: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> None:
+        self.A, self.lower, self.upper = A, lower.copy(), upper.copy()
+        self.col_lower = np.full(A.shape[1], -np.inf)
+        self.col_upper = np.full(A.shape[1], np.inf)
+
+    def changeRowBounds(self, i: int, lo: float, hi: float) -> None:  # noqa: N802
+        self.lower[i], self.upper[i] = lo, hi
+
+    def changeColBounds(self, j: int, lo: float, hi: float) -> None:  # noqa: N802
+        self.col_lower[j], self.col_upper[j] = lo, hi
+
+    def solve(self) -> Any:
+        from scipy.optimize import linprog
+
+        eq = self.lower == self.upper
+        up = ~eq & np.isfinite(self.upper)
+        lo = ~eq & np.isfinite(self.lower)
+        res = linprog(
+            np.zeros(self.A.shape[1]),
+            A_ub=np.vstack([self.A[up], -self.A[lo]]),
+            b_ub=np.concatenate([self.upper[up], -self.lower[lo]]),
+            A_eq=self.A[eq], b_eq=self.lower[eq],
+            bounds=[(None if not np.isfinite(a) else a, None if not np.isfinite(b) else b)
+                    for a, b in zip(self.col_lower, self.col_upper)],
+            method="highs",
+        )
+        if res.status == 2:
+            return _INFEASIBLE
+        return res.x if res.status == 0 else None
+
+
+def _make_lp(A: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> Any:
+    try:
+        return _HighsLp(A, lower, upper)
+    except (ImportError, AttributeError):  # private SciPy API moved: public linprog instead
+        return _LinprogLp(A, lower, upper)
 
 
 #: Node states of a contact besides BREAK/SLIDE/ROLL: not yet decided, and "in contact"

@@ -90,3 +90,14 @@ def test_search_equals_exhaustive_large(n_c):
         system = random_system(seed, n_c)
         res = search_modes(system, indeterminate=False)
         assert_same(res.prediction, feasible_modes(system, indeterminate=False))
+
+
+def test_linprog_fallback_gives_the_same_modes(monkeypatch):
+    import planner.search as search
+
+    monkeypatch.setattr(search, "_make_lp", search._LinprogLp)
+    for seed in range(3):
+        system = random_system(seed, 7)
+        res = search_modes(system, indeterminate=False, batch_size=8, lp_min_size=0)
+        assert res.stats.lp_solves > 1
+        assert_same(res.prediction, feasible_modes(system, indeterminate=False))
