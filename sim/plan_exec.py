@@ -123,3 +123,63 @@ def compare(
         observed_counts=tuple(sorted(counts.items())),
         reasons=tuple(reasons),
     )
+
+
+@dataclass(frozen=True)
+class Schedule:
+    """Per-waypoint commands and predictions, read from a plan (``n`` waypoints).
+
+    ``times`` (n,) [s] increasing; ``velocity`` (n,) [rad/s] command of the velocity joint;
+    ``torque`` (n,) [N m] command of the effort joint (both held until the next waypoint);
+    ``poses`` (n, 3) predicted workpiece pose; ``claim`` the mode the plan says occurs.
+    ``controls`` (2,) per finger joint, ``"velocity"`` or ``"effort"``.
+    """
+
+    times: tuple[float, ...]
+    velocity: tuple[float, ...]
+    torque: tuple[float, ...]
+    poses: tuple[tuple[float, float, float], ...]
+    claim: str
+    controls: tuple[str, str]
+
+
+def _hold(times: np.ndarray, values: np.ndarray):
+    def command(t, states):
+        k = int(np.searchsorted(times, t, side="right")) - 1
+        return float(values[min(max(k, 0), len(values) - 1)])
+    return command
+
+
+def run_schedule(geometry, mu, schedule: Schedule, engine: str, *, dt: float = 1e-3,
+                 drive_speed: float = 1e-3, load: float = 0.01):
+    """Run ``schedule`` in ``engine`` on the hand of ``geometry``; return
+    ``(Comparison, Recording, observed labels at the waypoints)``.
+
+    ``drive_speed`` [m/s] and ``load`` [N] set the classifier thresholds
+    (:meth:`sim.classify.Thresholds.for_drive`). A simulator fault gives status FAULT.
+    """
+    from sim.classify import Thresholds, observed_modes
+    from sim.hand_scene import hand_scene
+    from sim.run import RunSettings, run_scene
+    from sim.scene import Control, make_backend
+
+    t = np.asarray(schedule.times, dtype=float)
+    if t.ndim != 1 or len(t) < 2 or np.any(np.diff(t) <= 0):
+        raise InputError(f"schedule.times: expected >= 2 increasing times, got {t.tolist()}")
+    controls = [Control(c) for c in schedule.controls]
+    vel = _hold(t, np.asarray(schedule.velocity, dtype=float))
+    tau = _hold(t, np.asarray(schedule.torque, dtype=float))
+    commands = [vel if c == Control.VELOCITY else tau for c in controls]
+    scene = hand_scene(geometry, mu, controls, commands)
+    rec = run_scene(scene, make_backend(engine), RunSettings(
+        duration=float(t[-1]), dt=dt, slip_speed=0.05 * drive_speed,
+        penetration_tol=0.1 * scene.length_scale))
+    labels = observed_modes(rec, Thresholds.for_drive(drive_speed, load))
+    i = rec.body_names.index("workpiece")
+    k = np.clip(np.searchsorted(rec.times, t), 0, len(rec.times) - 1)
+    obs = [labels[j] for j in k]
+    if rec.fault is not None:
+        comp = Comparison(ExecStatus.FAULT, schedule.claim, 0.0, np.nan, np.nan, np.nan, np.nan,
+                          (), (rec.fault.reason,))
+        return comp, rec, obs
+    return compare(schedule.claim, obs, schedule.poses, rec.poses[k, i]), rec, obs

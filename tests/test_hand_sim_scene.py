@@ -50,3 +50,19 @@ def test_bad_inputs_rejected():
         hand_scene(GEOM, [0.1] * 3, [Control.EFFORT, Control.VELOCITY], [None, None])
     with pytest.raises(InputError, match="expected key 'palm'"):
         hand_scene({}, [0.1] * 4, [Control.EFFORT, Control.VELOCITY], [None, None])
+
+
+@pytest.mark.parametrize("engine", ["pymunk", "mujoco"])
+def test_schedule_with_wrong_claim_fails(engine):
+    from sim.plan_exec import ExecStatus, Schedule, run_schedule
+
+    times = tuple(np.linspace(0.0, 0.5, 11))
+    # predicted poses: pushed left 1 mm at constant rate; claim "R1 R2 R3 R4" cannot be
+    # observed while the workpiece slides on the palm, so the validator must disagree
+    poses = tuple((-0.002 * s, 0.0, 0.0) for s in times)
+    sched = Schedule(times=times, velocity=(0.05,) * 11, torque=(-0.01,) * 11, poses=poses,
+                     claim="R1 R2 R3 R4", controls=("effort", "velocity"))
+    comp, rec, obs = run_schedule(GEOM, [0.1] * 4, sched, engine, drive_speed=3e-3)
+    assert comp.status is ExecStatus.FAILED
+    assert "R1 R2 R3 R4" in comp.reasons[0] and comp.agree_fraction < 0.5
+    assert len(obs) == 11
