@@ -1,0 +1,56 @@
+"""mu-space grids (general test, eqs. 26-28) against feasible_modes, JSON round trip, bad input."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from planner.errors import InputError
+from planner.feasibility import feasible_modes
+from planner.io import load_system
+from planner.muspace import MuGrid, mu_grid
+
+DATA = Path(__file__).resolve().parents[1] / "scenarios" / "data"
+
+
+@pytest.fixture(scope="module")
+def ex41():
+    return load_system(DATA / "example_4_1.json")
+
+
+def test_grid_matches_feasible_modes_pointwise(ex41):
+    g = mu_grid(ex41, (0, 1), [0.2, 0.3, 0.6], (0.0, 1.0), n=7)
+    sets = g.mode_sets()
+    for a, m1 in enumerate(g.axes[0]):
+        for b, m2 in enumerate(g.axes[1]):
+            p = feasible_modes(ex41, mu=[m1, m2, 0.6])
+            if any(fm.on_boundary for fm in p.modes) or p.boundary_modes:
+                continue
+            want = " | ".join(sorted(p.labels)) if p.labels else "jam"
+            got = sets[a, b]
+            got = " | ".join(sorted(got.split(" | "))) if got != "jam" else "jam"
+            assert got == want, (m1, m2)
+
+
+def test_example_4_1_has_rs_3s_and_jam(ex41):
+    g = mu_grid(ex41, (0, 1), [0.2, 0.3, 0.1], (0.0, 1.0), n=40)
+    sets = set(g.mode_sets().ravel())
+    assert "jam" in sets
+    assert "R1 S-2 B3" in g.labels and "S+1 S-2 S-3" in g.labels
+
+
+def test_json_round_trip(ex41):
+    g = mu_grid(ex41, (0, 2), [0.2, 0.3, 0.1], n=9)
+    h = MuGrid.from_dict(g.to_dict())
+    assert np.array_equal(g.mode_sets(), h.mode_sets())
+
+
+@pytest.mark.parametrize("kwargs, msg", [
+    ({"vary": (0, 1), "mu_range": (0.8, 0.2)}, "expected min <= max"),
+    ({"vary": (0, 1), "mu_range": (-0.1, 1.0)}, "expected mu >= 0"),
+    ({"vary": (0, 5)}, r"expected contact index in 1..3, got 6"),
+    ({"vary": (1, 1)}, "expected 1 or 2 distinct contacts"),
+])
+def test_bad_input(ex41, kwargs, msg):
+    with pytest.raises(InputError, match=msg):
+        mu_grid(ex41, base_mu=[0.2, 0.3, 0.1], **kwargs)
