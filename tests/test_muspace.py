@@ -54,3 +54,25 @@ def test_json_round_trip(ex41):
 def test_bad_input(ex41, kwargs, msg):
     with pytest.raises(InputError, match=msg):
         mu_grid(ex41, base_mu=[0.2, 0.3, 0.1], **kwargs)
+
+
+def test_cli_writes_map_and_json(tmp_path):
+    from planner.cli import main
+
+    rc = main(["muspace", str(DATA / "example_4_1.json"), "--vary", "1,2", "--slice", "3=0,0.6",
+               "--n", "20", "--out", str(tmp_path)])
+    assert rc == 0
+    assert (tmp_path / "muspace.png").stat().st_size > 0
+    import json
+
+    d = json.loads((tmp_path / "muspace.json").read_text())
+    assert len(d["slices"]) == 2 and d["slices"][1]["base_mu"][2] == 0.6
+
+
+def test_cli_rejects_sliced_and_varied(tmp_path, capsys):
+    from planner.cli import main
+
+    rc = main(["muspace", str(DATA / "example_4_1.json"), "--vary", "1,2", "--slice", "2=0.1",
+               "--out", str(tmp_path)])
+    assert rc == 2
+    assert "expected a contact not in --vary, got 2" in capsys.readouterr().err
