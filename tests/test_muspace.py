@@ -76,3 +76,20 @@ def test_cli_rejects_sliced_and_varied(tmp_path, capsys):
                "--out", str(tmp_path)])
     assert rc == 2
     assert "expected a contact not in --vary, got 2" in capsys.readouterr().err
+
+
+def test_rod_line_section_5_1():
+    """Sec. 5.1: rod on two approaching supports; contact 1 sticks iff l1 mu2 < l2 mu1."""
+    from planner.model import System
+
+    l1, l2 = 0.3, 0.7
+    rod = System.from_contacts(points=[[-l1, 0], [l2, 0]], normals=[[0, 1], [0, 1]],
+                               mu=[0.3, 0.3], external_wrench=[0, -1, 0],
+                               contact_velocities=[[0, -1], [0, 1]])  # (n, t); t = -x
+    g = mu_grid(rod, (0, 1), [0.3, 0.3], (0.0, 1.0), n=41)
+    m1, m2 = np.meshgrid(*g.axes, indexing="ij")
+    sets = g.mode_sets()
+    gap = l2 * m1 - l1 * m2
+    away = np.abs(gap) > 1e-6
+    assert np.all((sets == "R1 S-2")[away & (gap > 0)])
+    assert np.all((sets == "S+1 R2")[away & (gap < 0)])
