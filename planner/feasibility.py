@@ -207,6 +207,34 @@ def _velocity_input(system: System) -> np.ndarray:
     return system.J[:, V] @ system.joint_inputs[V]
 
 
+@dataclass(frozen=True, eq=False)
+class EquilibratedKinematics:
+    """``K = [W^T  -J_E]`` (2 n_c, 3 + |tau_I|) scaled for rank tests: ``Kn = diag(1/row) K
+    diag(1/col)`` with unit-max columns then unit rows, ``bn = rhs / row`` where ``rhs`` is
+    ``J_V thetadot_V`` (eq. 24's right side per constraint row).  A solution ``z'`` of the
+    scaled rows gives ``z = z' / col``."""
+
+    Kn: np.ndarray
+    bn: np.ndarray
+    col: np.ndarray
+    row: np.ndarray
+    rhs: np.ndarray
+    velocity_scale: float
+
+
+def equilibrated_kinematics(system: System) -> EquilibratedKinematics:
+    """Build :class:`EquilibratedKinematics` (shared by every kinematic test)."""
+    K = np.concatenate([system.W.T, -system.J[:, system.effort_joints]], axis=1)
+    rhs = _velocity_input(system)
+    vel_scale = float(np.max(np.abs(rhs))) if rhs.size else 0.0
+    col = np.max(np.abs(K), axis=0)
+    col[col == 0] = 1.0
+    Kc = K / col
+    row = np.linalg.norm(Kc, axis=1)
+    row[row == 0] = 1.0
+    return EquilibratedKinematics(Kc / row[:, None], rhs / row, col, row, rhs, vel_scale)
+
+
 def kinematic_stage(
     system: System,
     candidates: CandidateSet | None = None,
@@ -225,17 +253,9 @@ def kinematic_stage(
     V = system.velocity_joints
     n_c, k = system.n_contacts, cand.n_rows
     M = len(cand)
-    K = np.concatenate([system.W.T, -system.J[:, E]], axis=1)  # (2 n_c, k)
-    rhs = _velocity_input(system)
-    vel_scale = float(np.max(np.abs(rhs))) if rhs.size else 0.0
     # Equilibrate: global column scaling, then unit rows (rows of P_AI are rows of K).
-    col = np.max(np.abs(K), axis=0)
-    col[col == 0] = 1.0
-    Kc = K / col
-    row = np.linalg.norm(Kc, axis=1)
-    row[row == 0] = 1.0
-    Kn = Kc / row[:, None]
-    bn = rhs / row
+    eq = equilibrated_kinematics(system)
+    Kn, bn, col, vel_scale = eq.Kn, eq.bn, eq.col, eq.velocity_scale
 
     P = Kn[cand.rows]  # (M, k, k)
     b = bn[cand.rows]  # (M, k)

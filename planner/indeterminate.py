@@ -25,7 +25,7 @@ from planner.feasibility import (
     DEFAULT_SINGULAR_TOL,
     DEFAULT_TOL,
     FeasibleMode,
-    _velocity_input,
+    equilibrated_kinematics,
     force_matrices,
     force_rhs,
 )
@@ -44,17 +44,9 @@ def indeterminate_modes(
     out: list[FeasibleMode] = []
     n_c, k = system.n_contacts, system.dof
     E, V = system.effort_joints, system.velocity_joints
-    K = np.concatenate([system.W.T, -system.J[:, E]], axis=1)
-    rhs_v = _velocity_input(system)
-    vel_scale = float(np.max(np.abs(rhs_v))) if rhs_v.size else 0.0
-    scale = vel_scale if vel_scale > 0 else 1.0
-    col = np.max(np.abs(K), axis=0)
-    col[col == 0] = 1.0
-    Kc = K / col
-    row = np.linalg.norm(Kc, axis=1)
-    row[row == 0] = 1.0
-    Kn = Kc / row[:, None]
-    bn = rhs_v / row
+    eq = equilibrated_kinematics(system)
+    Kn, bn, col = eq.Kn, eq.bn, eq.col
+    scale = eq.velocity_scale if eq.velocity_scale > 0 else 1.0
     for k_rows in range(k + 1, 2 * n_c + 1):
         cand = enumerate_modes(n_c, k_rows)
         if len(cand) == 0:

@@ -61,7 +61,7 @@ from planner.feasibility import (
     FeasibleMode,
     Prediction,
     Status,
-    _velocity_input,
+    equilibrated_kinematics,
     force_rhs,
     force_stage,
     kinematic_stage,
@@ -174,19 +174,12 @@ class _Pruner:
     def __init__(self, system: System, eps: float, mu: np.ndarray) -> None:
         n_c = system.n_contacts
         E = system.effort_joints
-        K = np.concatenate([system.W.T, -system.J[:, E]], axis=1)
-        b = _velocity_input(system)
-        scale = float(np.max(np.abs(b))) if b.size else 0.0
-        col = np.max(np.abs(K), axis=0)
-        col[col == 0] = 1.0
-        Kc = K / col
-        row = np.linalg.norm(Kc, axis=1)
-        row[row == 0] = 1.0
-        Kn = Kc / row[:, None]
-        self.Kn = Kn
-        self.b = b / row
+        eq = equilibrated_kinematics(system)
+        scale, row = eq.velocity_scale, eq.row
+        self.Kn = eq.Kn
+        self.b = eq.bn
         self.slack = eps * (scale if scale > 0 else 1.0) / row
-        k = K.shape[1]
+        k = eq.Kn.shape[1]
         self.k, self.n_c = k, n_c
         self.mu = np.asarray(mu, dtype=float)
         G = np.concatenate([system.W, system.J[:, E].T], axis=0)  # (k, 2 n_c)
@@ -200,8 +193,8 @@ class _Pruner:
         cn = k + 2 * np.arange(n_c)
         ct = cn + 1
         ii = np.arange(n_c)
-        A[ii, :k] = Kn[0::2]  # vn
-        A[n_c + ii, :k] = Kn[1::2]  # vt
+        A[ii, :k] = self.Kn[0::2]  # vn
+        A[n_c + ii, :k] = self.Kn[1::2]  # vt
         A[2 * n_c:2 * n_c + k, k:] = G / gn[:, None]  # eq
         o = 2 * n_c + k
         for blk, (a_n, a_t, with_n) in enumerate(
