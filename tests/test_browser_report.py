@@ -1,11 +1,18 @@
-"""The report renders every figure in headless Chromium (skipped when Chromium is absent)."""
+"""The report renders every figure in headless Chromium (skipped when Chromium is absent).
 
+Chromium loads the report with a small script appended that counts the ``<img>`` elements
+whose ``naturalWidth > 0`` (decoded) and writes ``loaded/total`` into the DOM, which
+``--dump-dom`` prints. A negative control (a corrupt PNG) checks that the probe can fail.
+"""
+
+import io
 import re
 import subprocess
 from pathlib import Path
 
 import pytest
 
+from planner.cli import main
 from planner.report import write_report
 
 PNG_1x1 = bytes.fromhex(
@@ -18,21 +25,51 @@ pytestmark = pytest.mark.skipif(not CHROMIUM.exists(), reason="/usr/bin/chromium
 
 CHECK = ("<script>window.onload=()=>{const i=[...document.images];document.body.setAttribute("
          "'data-loaded',i.filter(x=>x.naturalWidth>0).length+'/'+i.length)}</script></body>")
+FLAGS = ("--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+         "--disable-background-networking", "--disable-component-update", "--disable-sync")
+
+
+def _loaded_images(page: Path, profile: Path) -> tuple[int, int]:
+    """(images with naturalWidth > 0, all images) of ``page`` as rendered by Chromium."""
+    probe = page.with_name("probe.html")
+    probe.write_text(page.read_text().replace("</body>", CHECK))
+    out = subprocess.run(
+        [str(CHROMIUM), *FLAGS, f"--user-data-dir={profile}", "--dump-dom", probe.as_uri()],
+        capture_output=True, text=True, timeout=50,
+    ).stdout
+    m = re.search(r'data-loaded="(\d+)/(\d+)"', out)
+    assert m, f"page did not finish loading; chromium printed {out[:300]!r}"
+    return int(m.group(1)), int(m.group(2))
+
+
+def _gif() -> bytes:
+    from PIL import Image
+
+    frames = [Image.new("RGB", (8, 6), c) for c in ("red", "blue")]
+    buf = io.BytesIO()
+    frames[0].save(buf, format="GIF", save_all=True, append_images=frames[1:], duration=100)
+    return buf.getvalue()
 
 
 def test_every_image_has_natural_width(tmp_path):
     run = tmp_path / "run"
-    run.mkdir()
+    (run / "anim").mkdir(parents=True)
     (run / "f.png").write_bytes(PNG_1x1)
-    page = write_report(run)
-    page.write_text(page.read_text().replace("</body>", CHECK))
-    out = subprocess.run(
-        [str(CHROMIUM), "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
-         "--no-first-run", "--disable-background-networking", "--disable-component-update",
-         "--disable-sync", f"--user-data-dir={tmp_path / 'profile'}", "--dump-dom",
-         page.as_uri()],
-        capture_output=True, text=True, timeout=50,
-    ).stdout
-    m = re.search(r'data-loaded="(\d+)/(\d+)"', out)
-    assert m, "page did not finish loading"
-    assert int(m.group(2)) >= 1 and m.group(1) == m.group(2)
+    (run / "anim" / "animation.gif").write_bytes(_gif())
+    # a real figure: a small mu-space map written by `qsplan muspace`
+    system = Path(__file__).parent.parent / "scenarios" / "data" / "example_4_1.json"
+    assert main(["muspace", str(system), "--vary", "1,2", "--n", "12", "--out",
+                 str(run / "mu")]) == 0
+    page = write_report(run, tmp_path / "report.html")
+    loaded, total = _loaded_images(page, tmp_path / "profile")
+    assert total == 3
+    assert loaded == total
+
+
+def test_probe_detects_a_broken_image(tmp_path):
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "good.png").write_bytes(PNG_1x1)
+    (run / "broken.png").write_bytes(PNG_1x1[:20])  # truncated: the browser cannot decode it
+    page = write_report(run, tmp_path / "report.html")
+    assert _loaded_images(page, tmp_path / "profile") == (1, 2)
