@@ -38,3 +38,92 @@ def test_graphical_matches_algebraic_on_random_configurations():
 def test_bad_shape():
     with pytest.raises(InputError, match=r"expected points and normals \(3, 2\)"):
         corollary1_3s(np.zeros((2, 2)), np.zeros((3, 2)), [0, 0, 0], [1, 1, 1], [0, -1, 0])
+
+
+def _random_mode_case(rng, kind):
+    from planner.modes import BREAK, ROLL
+
+    pts = rng.uniform(-1, 1, (3, 2))
+    ang = rng.uniform(0, 2 * np.pi, 3)
+    nrm = np.column_stack([np.cos(ang), np.sin(ang)])
+    mu = rng.uniform(0, 1, 3)
+    xi = rng.choice([-1, 1], 3)
+    g = rng.normal(size=3)
+    base = (ROLL, SLIDE, BREAK) if kind == "RS" else (SLIDE, SLIDE, SLIDE)
+    codes = tuple(int(c) for c in np.array(base)[rng.permutation(3)])
+    return pts, nrm, mu, xi, g, codes
+
+
+@pytest.mark.parametrize("kind", ["RS", "3S"])
+def test_brost_mason_matches_algebraic_on_random_configurations(kind):
+    """Moment labelling (Sec. 4.1-4.2) == eqs. (35)-(36) / (40)-(41) away from boundaries."""
+    from planner.graphical import brost_mason_mode
+
+    rng = np.random.default_rng(11 if kind == "RS" else 12)
+    compared = feasible = 0
+    for _ in range(2000):
+        pts, nrm, mu, xi, g, codes = _random_mode_case(rng, kind)
+        reg = closed_form_region(wrench_matrix(pts, nrm), g, codes, xi)
+        D = reg.denominator(mu[None])[0]
+        alg = reg.margin(mu[None])[0]
+        if abs(D) < 1e-6 or abs(alg) < 1e-6 * D**2:
+            continue
+        res = brost_mason_mode(pts, nrm, mu, codes, xi, g)
+        if res.verdict is GraphicalVerdict.DEGENERATE:
+            continue
+        compared += 1
+        feasible += alg >= 0
+        assert (res.verdict is GraphicalVerdict.FEASIBLE) == (alg >= 0), (pts, nrm, mu, codes)
+    assert compared > 1500 and 50 < feasible < compared - 50
+
+
+def test_brost_mason_agrees_with_corollary1_for_3s():
+    from planner.graphical import brost_mason_mode
+
+    rng = np.random.default_rng(13)
+    compared = 0
+    for _ in range(1000):
+        pts, nrm, mu, xi, g, codes = _random_mode_case(rng, "3S")
+        c1 = corollary1_3s(pts, nrm, mu, xi, g)
+        bm = brost_mason_mode(pts, nrm, mu, codes, xi, g)
+        if GraphicalVerdict.DEGENERATE in (c1.verdict, bm.verdict):
+            continue
+        if np.min(np.abs(c1.moment_products)) < 1e-9:
+            continue
+        compared += 1
+        assert c1.verdict is bm.verdict
+    assert compared > 800
+
+
+def test_brost_mason_example_4_1_rs_golden():
+    """Example 4.1 (eq. 37): R1 S-2 B3 holds at mu = (0.75, 0.45, .) and not at (0.2, 0.3, .)
+    (Fig. 3: the RS region lies below the positive-slope curve)."""
+    from pathlib import Path
+
+    from planner.graphical import brost_mason_mode
+    from planner.io import load_system
+    from planner.modes import Mode
+
+    s = load_system(Path(__file__).resolve().parents[1] / "scenarios/data/example_4_1.json")
+    m = Mode.parse("R1 S-2 B3")
+    yes = brost_mason_mode(s.points, s.normals, [0.75, 0.45, 0.1], m.codes, m.xi, s.g_obj)
+    no = brost_mason_mode(s.points, s.normals, [0.2, 0.3, 0.1], m.codes, m.xi, s.g_obj)
+    assert yes.verdict is GraphicalVerdict.FEASIBLE
+    assert no.verdict is GraphicalVerdict.INFEASIBLE
+    assert yes.forces.shape == (3, 2) and yes.contacts.tolist() == [0, 0, 1]
+
+
+def test_brost_mason_degenerate_and_bad_input():
+    from planner.graphical import brost_mason_mode
+    from planner.modes import BREAK, ROLL
+
+    pts = np.array([[0.0, 0.0], [1.0, 0.0], [0.5, 1.0]])
+    nrm = np.array([[0.0, 1.0], [0.0, 1.0], [0.0, -1.0]])
+    res = brost_mason_mode(pts, nrm, [0.0, 0.3, 0.3], (ROLL, SLIDE, BREAK), (0, 1, 0), [0, -1, 0])
+    assert res.verdict is GraphicalVerdict.DEGENERATE  # mu_R = 0: the two cone edges coincide
+    with pytest.raises(InputError, match=r"expected a 3S or RS mode .* got codes \(2, 2, 0\)"):
+        brost_mason_mode(pts, nrm, [0.3] * 3, (ROLL, ROLL, BREAK), (0, 0, 0), [0, -1, 0])
+    with pytest.raises(InputError, match="expected mu, xi, codes of length 3, got 2, 3, 3"):
+        brost_mason_mode(pts, nrm, [0.3] * 2, (ROLL, SLIDE, BREAK), (0, 1, 0), [0, -1, 0])
+    with pytest.raises(InputError, match=r"expected points and normals \(n_c, 2\)"):
+        brost_mason_mode(pts[:, :1], nrm, [0.3] * 3, (ROLL, SLIDE, BREAK), (0, 1, 0), [0, -1, 0])
