@@ -235,6 +235,67 @@ def equilibrated_kinematics(system: System) -> EquilibratedKinematics:
     return EquilibratedKinematics(Kc / row[:, None], rhs / row, col, row, rhs, vel_scale)
 
 
+#: Matrices per chunk of the batched LU factorisation (keeps its working set in cache).
+_LU_CHUNK = 2048
+
+
+def _lu_det_solve(X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Determinants and solutions of ``C`` small systems from ONE LU factorisation each.
+
+    Gaussian elimination with partial pivoting (LAPACK ``getrf``'s rule: the largest
+    ``|entry|`` of the column, the first one on ties), vectorised over the systems, which sit
+    on the last (contiguous) axis.  Used for ``P_AI`` (eq. 24) and ``Q_AI`` (eq. 26): the rank
+    test (30)-(32) and the solve share the factorisation instead of calling
+    ``numpy.linalg.det`` and ``numpy.linalg.solve`` (two LAPACK factorisations per matrix).
+
+    Parameters
+    ----------
+    X : (k + 1, k, C) float, C-contiguous, overwritten
+        ``X[c, a, m] = A_m[a, c]`` for ``c < k`` (column ``c`` of matrix ``m``) and
+        ``X[k, a, m] = b_m[a]`` (the right side).
+
+    Returns
+    -------
+    det : (C,)
+        ``det A_m`` (0 when a pivot is exactly zero).
+    z : (k, C)
+        ``A_m^{-1} b_m``; meaningless where ``det`` is (near) zero -- callers mask it.
+    """
+    kp1, k, C = X.shape
+    det = np.ones(C)
+    systems = np.arange(C)
+    flat = X.reshape(kp1, k * C)
+    lower = np.empty((k, C))
+    work = np.empty((k, C))
+    for j in range(k):
+        p = np.argmax(np.abs(X[j, j:, :]), axis=0)  # pivot row, relative to j
+        swap = p != 0
+        if swap.any():
+            src = (p + j) * C + systems
+            tail = flat[j:]  # columns j..k (left of j is no longer read)
+            pivot_rows = tail[:, src]
+            tail[:, src] = X[j:, j, :]
+            X[j:, j, :] = pivot_rows
+            det[swap] *= -1.0
+        piv = X[j, j, :]
+        det *= piv
+        if j + 1 < k:
+            n = k - j - 1
+            lj, wj = lower[:n], work[:n]
+            np.divide(X[j, j + 1:, :], np.where(piv == 0.0, 1.0, piv), out=lj)
+            for c in range(j + 1, kp1):  # rank-1 update, one contiguous column at a time
+                np.multiply(lj, X[c, j, :], out=wj)
+                X[c, j + 1:, :] -= wj
+    z = np.empty((k, C))
+    for a in range(k - 1, -1, -1):  # back substitution on U z = (L^-1 P) b
+        acc = X[k, a, :].copy()
+        if a + 1 < k:
+            acc -= np.einsum("cm,cm->m", X[a + 1:k, a, :], z[a + 1:])
+        piv = X[a, a, :]
+        z[a] = acc / np.where(piv == 0.0, 1.0, piv)
+    return det, z
+
+
 def kinematic_stage(
     system: System,
     candidates: CandidateSet | None = None,
@@ -257,13 +318,18 @@ def kinematic_stage(
     eq = equilibrated_kinematics(system)
     Kn, bn, col, vel_scale = eq.Kn, eq.bn, eq.col, eq.velocity_scale
 
-    P = Kn[cand.rows]  # (M, k, k)
-    b = bn[cand.rows]  # (M, k)
-    det = np.abs(np.linalg.det(P)) if M else np.zeros(0)
+    # P_AI = Kn[rows] and its right side bn[rows], gathered chunk by chunk straight into the
+    # layout of _lu_det_solve; one LU per candidate gives both |det| (30-32) and z (eq. 24).
+    aug = np.ascontiguousarray(np.concatenate([Kn, bn[:, None]], axis=1).T)  # (k+1, 2 n_c)
+    rows_t = np.ascontiguousarray(cand.rows.T)  # (k, M)
+    det = np.zeros(M)
+    z = np.empty((M, k))
+    for s in range(0, M, _LU_CHUNK):
+        d, zc = _lu_det_solve(np.take(aug, rows_t[:, s:s + _LU_CHUNK], axis=1))
+        det[s:s + _LU_CHUNK] = np.abs(d)
+        z[s:s + _LU_CHUNK] = zc.T
     nonsingular = det > singular_tol
-    z = np.full((M, k), np.nan)
-    if np.any(nonsingular):
-        z[nonsingular] = np.linalg.solve(P[nonsingular], b[nonsingular][..., None])[..., 0]
+    z[~nonsingular] = np.nan
     z = z / col
     qdot = z[:, :3]
     thetadot = np.empty((M, system.n_joints))
@@ -369,13 +435,22 @@ def force_stage(
     cn = np.linalg.norm(QTn, axis=-1)  # (L, m, k)
     cn[cn == 0] = 1.0
     QTn = QTn / cn[..., None]
-    Qn = np.swapaxes(QTn, -1, -2)
-    det = np.abs(np.linalg.det(Qn)) if m else np.zeros((L, 0))
+    # Q_AI = QTn^T per mode: one LU per matrix gives |det| (30-32) and y (eq. 26).
+    flat = QTn.reshape(L * m, k, k)
+    det = np.zeros(L * m)
+    y = np.empty((L * m, k))
+    for s in range(0, L * m, _LU_CHUNK):
+        chunk = flat[s:s + _LU_CHUNK]
+        X = np.empty((k + 1, k, chunk.shape[0]))
+        X[:k] = chunk.transpose(1, 2, 0)  # X[c, a, .] = Q[a, c] = QT[c, a]
+        X[k] = (rhs / rs)[:, None]
+        d, yc = _lu_det_solve(X)
+        det[s:s + _LU_CHUNK] = np.abs(d)
+        y[s:s + _LU_CHUNK] = yc.T
+    det = det.reshape(L, m)
+    y = y.reshape(L, m, k)
     nonsingular = det > singular_tol
-    y = np.full((L, m, k), np.nan)
-    if np.any(nonsingular):
-        b = np.broadcast_to(rhs / rs, (L, m, k))
-        y[nonsingular] = np.linalg.solve(Qn[nonsingular], b[nonsingular][..., None])[..., 0]
+    y[~nonsingular] = np.nan
     c_A = y / cn
     # Scatter to full contact forces; sliding tangential force c_t = -mu xi c_n (eq. 17).
     c_full = np.zeros((L, m, 2 * n_c))
@@ -387,8 +462,9 @@ def force_stage(
     efforts = c_full @ system.J + system.g_man  # eq. (3): tau = J^T c + g_man
     # Coulomb (eqs. 21-22): rolling mu c_n - |c_t| >= 0, sliding c_n >= 0.
     fn, ft = forces[..., 0], forces[..., 1]
+    # A rolling contact also needs c_n >= 0 (implied by the cone only when mu > 0).
     slack = np.where(
-        codes[None] == ROLL, mu2[:, None, :] * fn - np.abs(ft),
+        codes[None] == ROLL, np.minimum(mu2[:, None, :] * fn - np.abs(ft), fn),
         np.where(is_s[None], fn, np.inf),
     )
     f_scale = np.max(np.abs(c_A), axis=-1) if k else np.zeros((L, m))

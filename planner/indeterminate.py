@@ -18,6 +18,8 @@ pass it.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from scipy.optimize import linprog
 
@@ -33,15 +35,37 @@ from planner.model import System
 from planner.modes import BREAK, ROLL, SLIDE, Mode, enumerate_modes
 
 
-def indeterminate_modes(
+@dataclass(frozen=True, eq=False)
+class IndeterminateKinematics:
+    """A kinematically admissible force-indeterminate candidate: constraint ``rows``,
+    ``sliding``, ``contact`` (as in :class:`planner.modes.CandidateSet`), ``codes``, ``xi``,
+    velocities ``qdot (3,)``, ``thetadot (n_theta,)``, ``v (2 n_c,)`` and the kinematic margin."""
+
+    rows: np.ndarray
+    sliding: np.ndarray
+    contact: np.ndarray
+    codes: np.ndarray
+    xi: np.ndarray
+    qdot: np.ndarray
+    thetadot: np.ndarray
+    v: np.ndarray
+    margin: float
+
+    @property
+    def mode(self) -> Mode:
+        return Mode(tuple(int(c) for c in self.codes), tuple(int(x) for x in self.xi))
+
+
+def indeterminate_kinematics(
     system: System,
-    mu: np.ndarray,
     *,
     tol: float = DEFAULT_TOL,
     singular_tol: float = DEFAULT_SINGULAR_TOL,
-) -> list[FeasibleMode]:
-    """Feasible modes with ``2 n_R + n_S > 3 + |tau_I|`` (force-indeterminate)."""
-    out: list[FeasibleMode] = []
+) -> list[IndeterminateKinematics]:
+    """Candidates with ``2 n_R + n_S > 3 + |tau_I|`` that pass the kinematic tests (unique,
+    consistent velocities; eqs. 16, 24-25 in the generalised-inverse sense).  Friction- and
+    effort-independent."""
+    out: list[IndeterminateKinematics] = []
     n_c, k = system.n_contacts, system.dof
     E, V = system.effort_joints, system.velocity_joints
     eq = equilibrated_kinematics(system)
@@ -78,27 +102,44 @@ def indeterminate_modes(
         xi = np.where(codes == SLIDE, np.sign(v_t), 0).astype(np.int8)
         for j in np.flatnonzero(kin_margin > tol):
             i = idx[j]
-            result = _force_lp(system, cand.rows[i], cand.sliding[i], cand.contact[i], codes[j],
-                               xi[j], mu, singular_tol)
-            if result is None:
-                continue
-            forces, efforts, f_margin = result
-            margin = min(float(kin_margin[j]), f_margin)
-            if margin < -tol:
-                continue
-            out.append(
-                FeasibleMode(
-                    mode=Mode(tuple(int(c) for c in codes[j]), tuple(int(x) for x in xi[j])),
-                    qdot=qdot[j].copy(),
-                    joint_velocities=thetadot[j].copy(),
-                    contact_velocities=v[j].reshape(-1, 2).copy(),
-                    contact_forces=forces,
-                    joint_efforts=efforts,
-                    margin=margin,
-                    on_boundary=abs(margin) <= tol,
-                    force_indeterminate=True,
-                )
+            out.append(IndeterminateKinematics(
+                cand.rows[i], cand.sliding[i], cand.contact[i], codes[j], xi[j],
+                qdot[j].copy(), thetadot[j].copy(), v[j].copy(), float(kin_margin[j]),
+            ))
+    return out
+
+
+def indeterminate_modes(
+    system: System,
+    mu: np.ndarray,
+    *,
+    tol: float = DEFAULT_TOL,
+    singular_tol: float = DEFAULT_SINGULAR_TOL,
+) -> list[FeasibleMode]:
+    """Feasible modes with ``2 n_R + n_S > 3 + |tau_I|`` (force-indeterminate)."""
+    out: list[FeasibleMode] = []
+    for kin in indeterminate_kinematics(system, tol=tol, singular_tol=singular_tol):
+        result = _force_lp(system, kin.rows, kin.sliding, kin.contact, kin.codes, kin.xi, mu,
+                           singular_tol)
+        if result is None:
+            continue
+        forces, efforts, f_margin = result
+        margin = min(kin.margin, f_margin)
+        if margin < -tol:
+            continue
+        out.append(
+            FeasibleMode(
+                mode=kin.mode,
+                qdot=kin.qdot,
+                joint_velocities=kin.thetadot,
+                contact_velocities=kin.v.reshape(-1, 2).copy(),
+                contact_forces=forces,
+                joint_efforts=efforts,
+                margin=margin,
+                on_boundary=abs(margin) <= tol,
+                force_indeterminate=True,
             )
+        )
     return out
 
 
@@ -129,6 +170,9 @@ def _force_lp(
                 line[j] = mu[contact[j]]
                 line[jt] = sign
                 B.append(line)
+            line = np.zeros(k_rows)
+            line[j] = 1.0  # c_n >= 0 (implied by the cone only when mu > 0)
+            B.append(line)
         elif sliding[j]:
             line = np.zeros(k_rows)
             line[j] = 1.0
