@@ -3,15 +3,22 @@
 Faults (simulator trouble, never a pass): ``NAN`` (a non-finite state), ``LEFT_SCENE`` (a dynamic
 body's origin outside ``scene.bounds``), ``PENETRATION`` (a contact deeper than
 ``penetration_tol``), ``CONTACT_LOST_AT_START`` (a pair not touching after the first step:
-the scene was built touching). An observed *jam* (Fig. 3 "Jam": the fingers cannot move the
+the scene was built touching), ``ENGINE_WARNING`` (the engine's own alarm: a MuJoCo warning counter
+``data.warning[mjWARN_*]`` that rose during the step -- ``BADQPOS``/``BADQVEL``/``BADQACC`` are
+reported as ``NAN`` because MuJoCo silently resets the state after them, so NaN never reaches
+the recorded poses -- or an exception that the engine swallowed during the step, e.g. pymunk's
+cffi collision callbacks print "Exception ignored" and carry on with a missing contact reading).
+An observed *jam* (Fig. 3 "Jam": the fingers cannot move the
 workpiece without growing force) is not a fault: the loop stops early once the total contact
 normal force exceeds ``jam_force`` for ``jam_window`` seconds and records ``jammed_at``.
 """
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass
 from enum import Enum
+from typing import Any
 
 import numpy as np
 
@@ -23,6 +30,73 @@ class FaultKind(str, Enum):
     LEFT_SCENE = "left_scene"
     PENETRATION = "penetration"
     CONTACT_LOST_AT_START = "contact_lost_at_start"
+    ENGINE_WARNING = "engine_warning"
+
+
+#: MuJoCo warnings that mean a non-finite or huge state (MuJoCo resets the state after them).
+_MUJOCO_BAD_STATE = ("mjWARN_BADQPOS", "mjWARN_BADQVEL", "mjWARN_BADQACC")
+
+
+class EngineWatch:
+    """The engine's own alarms during one step, for any backend.
+
+    * MuJoCo (a backend with ``data.warning``, an ``MjData``): the counter of every
+      ``mjtWarning`` is remembered before the step; a counter that rose is reported with its
+      name and ``lastinfo`` (the DOF / size MuJoCo names).
+    * Any engine: exceptions that the engine swallowed during the step. Python reports them to
+      ``sys.unraisablehook`` (pymunk's cffi callbacks do this: a failing ``post_solve`` prints
+      "Exception ignored from cffi callback" and the step goes on without that reading).
+    """
+
+    def __init__(self, backend: Any) -> None:
+        self.backend = backend
+        self._names: tuple[str, ...] = ()
+        data = getattr(backend, "data", None)
+        if data is not None and hasattr(data, "warning"):
+            import mujoco  # only reached with a MuJoCo backend
+
+            self._names = tuple(
+                nm for nm in mujoco.mjtWarning.__members__ if nm.startswith("mjWARN_"))
+            self._index = {nm: int(getattr(mujoco.mjtWarning, nm)) for nm in self._names}
+        self._counts = self._read()
+        self.swallowed: list[Any] = []
+
+    def _read(self) -> dict[str, int]:
+        data = getattr(self.backend, "data", None)
+        return {nm: int(data.warning[self._index[nm]].number) for nm in self._names}
+
+    def step(self, dt: float) -> None:
+        """``backend.step(dt)`` with swallowed exceptions collected."""
+        previous = sys.unraisablehook
+        sys.unraisablehook = self.swallowed.append
+        try:
+            self.backend.step(dt)
+        finally:
+            sys.unraisablehook = previous
+
+    def check(self) -> tuple[FaultKind, str] | None:
+        """``(kind, detail)`` of the first alarm raised since the last call, else ``None``."""
+        if self.swallowed:
+            u = self.swallowed[0]
+            self.swallowed.clear()
+            where = f" ({u.err_msg})" if getattr(u, "err_msg", None) else ""
+            return (FaultKind.ENGINE_WARNING,
+                    f"engine swallowed {u.exc_type.__name__}: {u.exc_value}{where}")
+        if not self._names:
+            return None
+        now = self._read()
+        risen = [nm for nm in self._names if now[nm] > self._counts[nm]]
+        self._counts = now
+        if not risen:
+            return None
+        data = self.backend.data
+        detail = "; ".join(
+            f"MuJoCo {nm} (count {now[nm]}, info {int(data.warning[self._index[nm]].lastinfo)})"
+            for nm in risen)
+        bad_state = any(nm in _MUJOCO_BAD_STATE for nm in risen)
+        if bad_state:
+            detail = "NaN/Inf/huge state, reset by MuJoCo: " + detail
+        return (FaultKind.NAN if bad_state else FaultKind.ENGINE_WARNING), detail
 
 
 @dataclass(frozen=True)
@@ -80,6 +154,7 @@ class RunSettings:
 def run_scene(scene: Scene, backend: Backend, settings: RunSettings) -> Recording:
     """Build ``scene`` in ``backend`` and run it, recording every ``record_every`` steps."""
     backend.build(scene)
+    watch = EngineWatch(backend)
     pairs = scene.pairs
     names = tuple(p.name for p in pairs)
     body_names = tuple(b.name for b in scene.bodies)
@@ -100,7 +175,7 @@ def run_scene(scene: Scene, backend: Backend, settings: RunSettings) -> Recordin
                 if mu_new != mu_now[i]:
                     backend.set_friction(p.name, mu_new)
                     mu_now[i] = mu_new
-        backend.step(settings.dt)
+        watch.step(settings.dt)
         t = (k + 1) * settings.dt
         states = backend.state()
         readings = backend.contacts()
@@ -129,6 +204,10 @@ def run_scene(scene: Scene, backend: Backend, settings: RunSettings) -> Recordin
         problem = health() if health is not None else None
         if problem:
             fault = Fault(FaultKind.NAN, t, problem)
+            break
+        alarm = watch.check()
+        if alarm is not None:
+            fault = Fault(alarm[0], t, alarm[1])
             break
         if not (np.all(np.isfinite(pose)) and np.all(np.isfinite(twist))
                 and np.all(np.isfinite(fn[present]))):

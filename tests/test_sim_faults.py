@@ -1,4 +1,11 @@
-"""Simulator trouble is reported as a fault with its reason, never as a pass."""
+"""Simulator trouble is reported as a fault with its reason, never as a pass.
+
+Covered kinds (``sim.run.FaultKind``): NaN load and NaN / infinite / huge commands (MuJoCo
+resets the state after its ``mjWARN_BADQPOS``/``BADQVEL`` warnings, so only the warning counter
+shows it), a body leaving the scene, penetration beyond tolerance, contact lost at the start,
+MuJoCo's own capacity warnings (``mjWARN_CONTACTFULL``/``CNSTRFULL``) and exceptions swallowed
+inside pymunk's cffi collision callbacks.
+"""
 
 from __future__ import annotations
 
@@ -7,11 +14,13 @@ import dataclasses
 import numpy as np
 import pytest
 
+import sim.mujoco_backend as mujoco_backend
 from planner.io import load_system
 from scenarios.paper_sims import DATA, _status
 from sim.classify import Outcome, Thresholds, compare, observed_modes
 from sim.paper_scene import FingertipSpec, example_scene, scaled_system
-from sim.run import FaultKind, RunSettings, run_scene
+from sim.pymunk_backend import PymunkBackend
+from sim.run import EngineWatch, FaultKind, RunSettings, run_scene
 from sim.scene import Load, make_backend
 
 ENGINES = ("pymunk", "mujoco")
@@ -74,4 +83,95 @@ def test_penetration_beyond_tolerance(engine):
 
 def test_clean_run_has_no_fault():
     rec = run_scene(_scene(), make_backend("pymunk"), _settings())
+    assert rec.fault is None and len(rec.times) == 300
+
+
+def _command_after(scene, value, t0=0.05):
+    """Finger 1's twist becomes ``(value, 0, 0)`` after ``t0`` seconds."""
+    finger = scene.bodies[1]
+    nominal = finger.twist
+    bad = dataclasses.replace(
+        finger, twist=lambda t, s: (value, 0.0, 0.0) if t > t0 else nominal(t, s))
+    return dataclasses.replace(scene, bodies=(scene.bodies[0], bad, *scene.bodies[2:]))
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+@pytest.mark.parametrize("value", [np.nan, np.inf, 1e13])
+def test_broken_command_is_a_fault(engine, value, tmp_path, monkeypatch):
+    """MuJoCo resets the state after a NaN/huge qpos or qvel; only its warning shows it."""
+    monkeypatch.chdir(tmp_path)
+    rec = run_scene(_command_after(_scene(), value), make_backend(engine), _settings())
+    assert rec.fault is not None, f"{engine} passed a run with a {value} command"
+    assert rec.fault.time > 0.05
+    assert _judge(rec).outcome == Outcome.FAULT
+    if engine == "mujoco":
+        assert rec.fault.kind == FaultKind.NAN
+        assert "reset by MuJoCo" in rec.fault.reason
+        assert ("mjWARN_BADQPOS" in rec.fault.reason) or ("mjWARN_BADQVEL" in rec.fault.reason)
+    elif np.isfinite(value):
+        assert rec.fault.kind == FaultKind.LEFT_SCENE  # the finger is gone, the load wins
+    else:
+        assert rec.fault.kind == FaultKind.NAN
+
+
+def test_mujoco_bad_state_warning_needs_the_watch(tmp_path, monkeypatch):
+    """Without reading MuJoCo's warning counters the same run would have no NaN fault."""
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(EngineWatch, "check", lambda self: None)
+    rec = run_scene(_command_after(_scene(), np.nan), make_backend("mujoco"), _settings())
+    assert rec.fault is None  # the broken run would have passed
+    assert np.all(np.isfinite(rec.poses))  # MuJoCo's reset hid the NaN from the poses
+
+
+def test_mujoco_capacity_warning(tmp_path, monkeypatch):
+    """Arena too small for the contacts: MuJoCo drops them and says so in data.warning."""
+    monkeypatch.chdir(tmp_path)
+    real = mujoco_backend.mujoco.MjSpec
+
+    def small_arena():
+        spec = real()
+        spec.memory = 2000  # bytes
+        return spec
+
+    monkeypatch.setattr(mujoco_backend.mujoco, "MjSpec", small_arena)
+    rec = run_scene(_scene(), make_backend("mujoco"), _settings())
+    assert rec.fault is not None and rec.fault.kind == FaultKind.ENGINE_WARNING
+    assert "mjWARN_CNSTRFULL" in rec.fault.reason or "mjWARN_CONTACTFULL" in rec.fault.reason
+    assert _judge(rec).outcome == Outcome.FAULT
+
+
+class _FailingReadout(PymunkBackend):
+    """pymunk backend whose post-solve contact readout fails from ``t_fail`` on."""
+
+    t_fail = 0.1
+
+    def _post_solve(self, arbiter, space, name):
+        if self.t >= self.t_fail:
+            raise RuntimeError(f"readout of {name} failed")
+        super()._post_solve(arbiter, space, name)
+
+
+def test_pymunk_swallowed_callback_exception(capsys):
+    """pymunk's cffi callbacks swallow exceptions ("Exception ignored"); the contact reading is
+    then missing, which looks like a breaking contact. The loop reports it instead."""
+    rec = run_scene(_scene(), _FailingReadout(), _settings())
+    assert rec.fault is not None and rec.fault.kind == FaultKind.ENGINE_WARNING
+    assert "swallowed RuntimeError: readout of c" in rec.fault.reason
+    assert rec.fault.time == pytest.approx(_FailingReadout.t_fail + 1e-3, abs=1.5e-3)
+    assert _judge(rec).outcome == Outcome.FAULT
+    assert "Exception ignored" not in capsys.readouterr().err  # collected, not printed
+
+
+def test_swallowed_exception_would_otherwise_pass(monkeypatch):
+    """The anomaly is real: without the watch the run ends with no fault at all."""
+    monkeypatch.setattr(EngineWatch, "check", lambda self: None)
+    rec = run_scene(_scene(), _FailingReadout(), _settings())
+    assert rec.fault is None
+    assert not rec.present[-1].any()  # every reading lost after t_fail
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+def test_clean_run_raises_no_engine_alarm(engine, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    rec = run_scene(_scene(), make_backend(engine), _settings())
     assert rec.fault is None and len(rec.times) == 300
