@@ -159,25 +159,7 @@ def _force_lp(
     if sv[-1] <= np.sqrt(singular_tol) * sv[0]:
         return None  # left null space of Q_A non-trivial
     k_rows = rows.size
-    # Coulomb rows B_A c_A >= 0 (eq. 22) in terms of c_A.
-    B = []
-    for j in range(k_rows):
-        r = rows[j]
-        if r % 2 == 0 and codes[contact[j]] == ROLL:
-            jt = int(np.flatnonzero(rows == r + 1)[0])
-            for sign in (1.0, -1.0):
-                line = np.zeros(k_rows)
-                line[j] = mu[contact[j]]
-                line[jt] = sign
-                B.append(line)
-            line = np.zeros(k_rows)
-            line[j] = 1.0  # c_n >= 0 (implied by the cone only when mu > 0)
-            B.append(line)
-        elif sliding[j]:
-            line = np.zeros(k_rows)
-            line[j] = 1.0
-            B.append(line)
-    B = np.array(B)
+    B = coulomb_rows(rows, sliding, contact, codes, mu)
     f_scale = max(float(np.max(np.abs(rhs / rs))), 1e-300)
     # Variables [c_A (scaled), s]; maximise s s.t. B c - s >= 0, Q c = rhs, |c| <= C, s <= f.
     bound = 1e3 * f_scale / max(float(np.min(np.linalg.svd(Qs, compute_uv=False))), 1e-12)
@@ -198,3 +180,30 @@ def _force_lp(
     norm = max(float(np.max(np.abs(c_A))), 1e-300) if np.any(c_A) else 1.0
     margin = float(res.x[-1]) / norm if np.any(c_A) else 0.0
     return c_full.reshape(n_c, 2), efforts, margin
+
+
+def coulomb_rows(
+    rows: np.ndarray, sliding: np.ndarray, contact: np.ndarray, codes: np.ndarray,
+    mu: np.ndarray,
+) -> np.ndarray:
+    """``B_A`` of eqs. (21)-(22) acting on ``c_A`` (the mode's applicable force components):
+    rolling ``mu c_n -+ c_t >= 0`` and ``c_n >= 0``, sliding ``c_n >= 0``."""
+    k_rows = rows.size
+    B = []
+    for j in range(k_rows):
+        r = rows[j]
+        if r % 2 == 0 and codes[contact[j]] == ROLL:
+            jt = int(np.flatnonzero(rows == r + 1)[0])
+            for sign in (1.0, -1.0):
+                line = np.zeros(k_rows)
+                line[j] = mu[contact[j]]
+                line[jt] = sign
+                B.append(line)
+            line = np.zeros(k_rows)
+            line[j] = 1.0  # c_n >= 0 (implied by the cone only when mu > 0)
+            B.append(line)
+        elif sliding[j]:
+            line = np.zeros(k_rows)
+            line[j] = 1.0
+            B.append(line)
+    return np.array(B).reshape(-1, k_rows)
