@@ -321,11 +321,10 @@ def kinematic_stage(
     # P_AI = Kn[rows] and its right side bn[rows], gathered chunk by chunk straight into the
     # layout of _lu_det_solve; one LU per candidate gives both |det| (30-32) and z (eq. 24).
     aug = np.ascontiguousarray(np.concatenate([Kn, bn[:, None]], axis=1).T)  # (k+1, 2 n_c)
-    rows_t = np.ascontiguousarray(cand.rows.T)  # (k, M)
     det = np.zeros(M)
     z = np.empty((M, k))
     for s in range(0, M, _LU_CHUNK):
-        d, zc = _lu_det_solve(np.take(aug, rows_t[:, s:s + _LU_CHUNK], axis=1))
+        d, zc = _lu_det_solve(np.take(aug, cand.rows[s:s + _LU_CHUNK].T, axis=1))
         det[s:s + _LU_CHUNK] = np.abs(d)
         z[s:s + _LU_CHUNK] = zc.T
     nonsingular = det > singular_tol
@@ -338,12 +337,14 @@ def kinematic_stage(
     v = qdot @ system.W - thetadot @ system.J.T  # (M, 2 n_c), eq. (5)
     v_n, v_t = v[:, 0::2], v[:, 1::2]
     codes = cand.codes
+    is_slide = codes == SLIDE
     scale = vel_scale if vel_scale > 0 else 1.0
-    strict = np.where(codes == BREAK, v_n, np.where(codes == SLIDE, np.abs(v_t), np.inf)) / scale
-    margin = np.min(strict, axis=1) if n_c else np.full(M, np.inf)
+    strict = np.where(codes == BREAK, v_n, np.where(is_slide, np.abs(v_t), np.inf))
+    margin = np.min(strict, axis=1) / scale if n_c else np.full(M, np.inf)
     margin = np.where(nonsingular, margin, -np.inf)
-    xi = np.where((codes == SLIDE) & nonsingular[:, None], np.sign(np.nan_to_num(v_t)), 0)
-    xi = xi.astype(np.int8)
+    # xi = sgn(v_t) (eq. 16) at sliding contacts of nonsingular candidates; NaN counts as 0.
+    xi = (v_t > 0).view(np.int8) - (v_t < 0).view(np.int8)
+    xi *= is_slide & nonsingular[:, None]
     ok = nonsingular & (margin > tol)
     boundary = nonsingular & (np.abs(margin) <= tol)
     return KinematicStage(cand, nonsingular, qdot, thetadot, v, xi, margin, ok, boundary, vel_scale)
