@@ -38,8 +38,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numpy.polynomial import polynomial as P
-
+from numpy.polynomial import polynomial as npoly
 from scipy.optimize import linprog
 
 from planner.errors import DegenerateError, InputError
@@ -220,8 +219,8 @@ def _shift(coef_u: np.ndarray, mid: float, half: float) -> np.ndarray:
     base = np.array([-mid / half, 1.0 / half])
     term = np.array([1.0])
     for a in coef_u:
-        out = P.polyadd(out, a * term)
-        term = P.polymul(term, base)
+        out = npoly.polyadd(out, a * term)
+        term = npoly.polymul(term, base)
     return out
 
 
@@ -229,7 +228,7 @@ def _roots_in(coef: np.ndarray, lo: float, hi: float) -> list[float]:
     c = np.trim_zeros(np.asarray(coef, dtype=float), "b")
     if len(c) < 2 or not np.any(np.abs(c[1:]) > 1e-14 * max(1.0, np.max(np.abs(c)))):
         return []
-    r = P.polyroots(c)
+    r = npoly.polyroots(c)
     real = r[np.abs(r.imag) <= 1e-9 * (1 + np.abs(r.real))].real
     return [float(x) for x in real if lo < x < hi]
 
@@ -263,10 +262,11 @@ def critical_mus(system: System, lo: float, hi: float, *, stage=None, index=None
             polys.append((a, b))
             pts += _roots_in(a, lo, hi)
             # d/dmu (b/a) = (b'a - b a') / a^2
-            pts += _roots_in(P.polysub(P.polymul(P.polyder(b), a), P.polymul(b, P.polyder(a))),
-                             lo, hi)
+            deriv = npoly.polysub(npoly.polymul(npoly.polyder(b), a),
+                                  npoly.polymul(b, npoly.polyder(a)))
+            pts += _roots_in(deriv, lo, hi)
         for (a1, b1), (a2, b2) in itertools.combinations(polys, 2):
-            pts += _roots_in(P.polysub(P.polymul(b1, a2), P.polymul(b2, a1)), lo, hi)
+            pts += _roots_in(npoly.polysub(npoly.polymul(b1, a2), npoly.polymul(b2, a1)), lo, hi)
     pts_arr = np.unique(np.clip(np.array(pts), lo, hi))
     # Points just beside each interior critical point guard the one-sided limits at poles.
     eps = 1e-7 * (hi - lo)

@@ -342,7 +342,8 @@ class Hand:
         for k, f in enumerate(self.fingers):
             if k in tips:
                 continue
-            out[f"{f.name} tip - workpiece"] = _polygon_distance(self.tip_centre(q, k), V) - f.radius
+            tip = self.tip_centre(q, k)
+            out[f"{f.name} tip - workpiece"] = _polygon_distance(tip, V) - f.radius
         return out
 
 
