@@ -49,3 +49,55 @@ def test_rejects_non_3s_rs_mode():
     s = load_system(DATA / "example_4_1.json")
     with pytest.raises(InputError, match="expected a 3S or RS mode"):
         closed_form_region(s.W, s.g_obj, (2, 2, 1), (0, 0, 1))
+
+
+def test_coefficients_match_appendix_a_and_b():
+    """Spot-check the exported coefficients against App. A (eqs. 50, 52, 57) and B (58-60)."""
+    from planner.modes import Mode
+
+    s = load_system(DATA / "example_4_1.json")
+    W, g = s.W, s.g_obj
+    n = [W[:, 2 * i] for i in range(3)]
+    t = [W[:, 2 * i + 1] for i in range(3)]
+    det = lambda *cols: np.linalg.det(np.column_stack(cols))  # noqa: E731
+    m = Mode.parse("S+1 S-2 S-3")
+    x1, x2, x3 = m.xi
+    reg = closed_form_region(W, g, m.codes, m.xi)
+    den = dict(reg.denominator.terms)
+    assert np.isclose(den[(0, 1, 2)], -x1 * x2 * x3 * det(*t))  # A, eq. 50
+    assert np.isclose(den[()], det(*n))  # D, eq. 50
+    assert np.isclose(den[(0,)], -x1 * det(t[0], n[1], n[2]))  # C_1, eq. 52
+    num1 = dict(reg.numerators[0].terms)
+    assert np.isclose(num1[()], -det(g, n[1], n[2]))  # G_1, eq. 57
+    assert np.isclose(num1[(1, 2)], -x2 * x3 * det(g, t[1], t[2]))  # E_1, eq. 53
+    assert np.isclose(num1[(1,)], x2 * det(g, t[1], n[2]))  # F_12, eq. 54
+    rs = Mode.parse("R1 S-2 B3")
+    reg = closed_form_region(W, g, rs.codes, rs.xi)
+    xs = rs.xi[1]
+    den = dict(reg.denominator.terms)
+    assert np.isclose(den[(1,)], -xs * det(n[0], t[0], t[1]))  # A, eq. 58
+    assert np.isclose(den[()], det(n[0], t[0], n[1]))  # B, eq. 58
+    c_rn, c_rt, c_sn = (dict(p.terms) for p in reg.numerators)
+    assert np.isclose(c_rn[(1,)], xs * det(g, t[0], t[1]))  # C_1, eq. 59
+    assert np.isclose(c_rt[()], -det(n[0], g, n[1]))  # D_2, eq. 60
+    assert np.isclose(c_sn[()], -det(n[0], t[0], g))  # D_3, eq. 60
+
+
+def test_region_dict_round_trip_and_inequalities():
+    from planner.closed_form import ClosedFormRegion
+    from planner.modes import Mode
+
+    s = load_system(DATA / "example_4_3.json")
+    mu = np.random.default_rng(4).uniform(0, 1, (500, 3))
+    for label in ("S-1 S+2 S-3", "R1 B2 S-3"):
+        m = Mode.parse(label)
+        reg = closed_form_region(s.W, s.g_obj, m.codes, m.xi)
+        back = ClosedFormRegion.from_dict(reg.to_dict())
+        assert back.label == label
+        assert np.array_equal(back.contains(mu), reg.contains(mu))
+        # sign(D) P_k >= 0 for all k  <=>  the Cramer margin of eq. 28 is >= 0
+        assert np.array_equal(reg.contains(mu), reg.margin(mu) >= 0)
+    names = [n for n, _ in closed_form_region(s.W, s.g_obj, (2, 0, 1), (0, 0, -1)).inequalities()]
+    assert names == ["mu_1 c_1n - c_1t>=0", "mu_1 c_1n + c_1t>=0", "c_3n>=0"]
+    with pytest.raises(InputError, match="expected keys mode, unknowns, denominator"):
+        ClosedFormRegion.from_dict({"mode": "R1 B2 S-3"})

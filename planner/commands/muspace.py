@@ -8,7 +8,23 @@ from pathlib import Path
 from planner.errors import InputError
 from planner.fileio import atomic_write_json
 from planner.io import load_system
-from planner.muspace import mu_grid
+from planner.muspace import muspace_map
+
+DESCRIPTION = """\
+Decompose a box of friction space (the coefficients mu_i, one per contact) into regions
+labelled by the set of feasible contact modes -- one mode, several (ambiguous, Sec. 4.3) or
+none ("jam") -- as in the paper's Figures 3 and 6.  Vary two coefficients (--vary 1,2) and
+slice a third at given values (--slice 3=0,0.2,0.4), or vary three (--vary 1,2,3) for a 3-D
+grid drawn as --panels slices.  Writes OUT/muspace.json (labelled grids and, for systems
+without effort joints, the closed-form 3S/RS inequalities of eqs. 35-36 and 40-41 as
+polynomial coefficients in the mu's) and OUT/muspace.png (one panel per slice, boundaries
+drawn from the closed-form curves)."""
+
+EPILOG = """\
+example:
+  qsplan muspace scenarios/data/example_4_1.json --vary 1,2 --slice 3=0,0.2,0.4,0.6 \\
+      --range 0:1 --out out/ex41
+exit codes: 0 written, 2 bad input."""
 
 
 def _floats(text: str, what: str) -> list[float]:
@@ -20,48 +36,54 @@ def _floats(text: str, what: str) -> list[float]:
 
 def run(args: argparse.Namespace) -> int:
     system = load_system(args.system)
-    n_c = system.n_contacts
     vary = tuple(int(v) - 1 for v in _floats(args.vary, "--vary"))
-    if len(vary) != 2:
-        raise InputError(f"--vary: expected two contact indices, got {args.vary!r}")
+    if len(vary) not in (2, 3):
+        raise InputError(f"--vary: expected two or three contact indices, got {args.vary!r}")
     lo_hi = _floats(args.range.replace(":", ","), "--range")
     if len(lo_hi) != 2:
         raise InputError(f"--range: expected MIN:MAX, got {args.range!r}")
-    base = list(system.mu)
-    sliced, values = None, [None]
+    sliced, values = None, ()
     if args.slice:
+        if len(vary) == 3:
+            raise InputError("--slice: expected no --slice with three varied coefficients "
+                             f"(use --panels), got {args.slice!r}")
         key, _, vals = args.slice.partition("=")
-        sliced = int(key) - 1
-        if not 0 <= sliced < n_c:
-            raise InputError(f"--slice: expected contact index in 1..{n_c}, got {sliced + 1}")
+        try:
+            sliced = int(key) - 1
+        except ValueError:
+            raise InputError(f"--slice: expected INDEX=V1,V2,..., got {args.slice!r}") from None
         if sliced in vary:
             raise InputError(f"--slice: expected a contact not in --vary, got {sliced + 1}")
-        values = _floats(vals, "--slice")
-        if any(v < 0 for v in values):
-            raise InputError(f"--slice: expected mu >= 0, got {values}")
+        values = tuple(_floats(vals, "--slice"))
+    if args.panels < 1:
+        raise InputError(f"--panels: expected >= 1, got {args.panels}")
+    n = args.n if args.n is not None else (200 if len(vary) == 2 else 40)
+    m = muspace_map(system, vary, None, (lo_hi[0], lo_hi[1]), n, sliced=sliced,
+                    slice_values=values)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    grids, titles = [], []
-    for v in values:
-        mu = list(base)
-        if sliced is not None:
-            mu[sliced] = v
-        grids.append(mu_grid(system, vary, mu, (lo_hi[0], lo_hi[1]), n=args.n))
-        titles.append(f"mu_{sliced + 1}={v}" if sliced is not None else "")
-    atomic_write_json(out / "muspace.json", {"slices": [g.to_dict() for g in grids]})
+    atomic_write_json(out / "muspace.json", m.to_dict())
     from planner.plot_muspace import plot_slices
 
-    plot_slices(grids, titles, out / "muspace.png")
+    panels, titles = m.panels(args.panels)
+    plot_slices(panels, titles, out / "muspace.png", closed_forms=m.closed_forms)
     print(f"wrote {out / 'muspace.json'} and {out / 'muspace.png'}")
     return 0
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("muspace", help="friction-space maps of a system file (Figs. 3, 6)")
+    p = sub.add_parser("muspace", help="friction-space maps of a system file (Figs. 3, 6)",
+                       description=DESCRIPTION, epilog=EPILOG,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("system", help="system file (JSON)")
-    p.add_argument("--vary", required=True, help="two 1-based contact indices, e.g. 1,2")
-    p.add_argument("--slice", help="third coefficient and its values, e.g. 3=0,0.2,0.4")
+    p.add_argument("--vary", required=True,
+                   help="two or three 1-based contact indices, e.g. 1,2 or 1,2,3")
+    p.add_argument("--slice", help="a contact not in --vary and its values, e.g. 3=0,0.2,0.4 "
+                                   "(one panel each); the others keep the file's mu")
     p.add_argument("--range", default="0:1", help="MIN:MAX of the varied coefficients")
-    p.add_argument("--n", type=int, default=200, help="grid points per axis")
+    p.add_argument("--n", type=int, default=None,
+                   help="grid points per axis (default 200 for 2-D, 40 for 3-D)")
+    p.add_argument("--panels", type=int, default=4,
+                   help="slices drawn of a 3-D grid (with --vary of three contacts)")
     p.add_argument("--out", required=True, help="output directory")
     p.set_defaults(func=run)
