@@ -1,19 +1,30 @@
 """Fuzzing the system-file loader and the public API: only documented errors may escape.
 
 A short run is part of the default suite; ``-m slow`` runs >= 10,000 inputs per target.
+Besides hypothesis' own JSON trees, valid system files (the paper's examples, a chain-form
+hand, seeded random systems in every manipulator form) are *mutated*: keys deleted, values
+replaced by wrong types / NaN / huge numbers / deep nesting, lists grown or emptied, and the
+file text truncated, bit-flipped or spiked with non-UTF-8 bytes (:func:`mutate_tree`,
+:func:`mutate_text`; ``tests/test_fuzz_plan.py`` and ``benchmarks/robustness_table.py`` reuse
+them). An accepted file must also survive ``system_to_dict`` -> ``system_from_dict`` unchanged.
 """
 
 from __future__ import annotations
 
+import copy
 import json
+import math
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from randsys import random_system
 
 from planner import QsplanError, System, feasible_modes
-from planner.io import system_from_dict, system_from_json
+from planner.io import load_system, system_from_dict, system_from_json, system_to_dict
 
 FAST = settings(max_examples=150, deadline=None, suppress_health_check=list(HealthCheck))
 LONG = settings(max_examples=10_000, deadline=None, suppress_health_check=list(HealthCheck))
@@ -60,6 +71,148 @@ def plausible_system():
         {"contacts": st.one_of(st.lists(contact, min_size=0, max_size=4), json_values),
          "external_wrench": st.one_of(vec(3), json_values), "manipulator": manip}
     )
+
+
+# ---------------------------------------------------------------------------------------------
+# Mutation fuzzing of valid files (shared with test_fuzz_plan.py and the robustness benchmark).
+# ---------------------------------------------------------------------------------------------
+#: Replacement values: wrong types, non-finite and extreme numbers, containers.
+NASTY_VALUES: tuple[Any, ...] = (
+    None, True, False, "", "0.5", "NaN", "\u0000", "\udcff", 0, -1, 1, 2**63, -(10**30),
+    0.0, -0.0, 1e-320, 1e308, -1e308, math.nan, math.inf, -math.inf, [], {}, [[]], {"": None},
+    [0.0], [1.0, 2.0, 3.0, 4.0, 5.0], {"velocity": 1.0}, {"effort": math.nan},
+)
+
+#: Values that still crash a loader with a non-project exception (see the strict xfails below);
+#: the robustness benchmark mixes them in and counts the crashes.
+KNOWN_CRASH_VALUES: tuple[Any, ...] = (10**400,)
+
+
+def _paths(tree: Any, prefix: tuple = ()) -> list[tuple]:
+    """Every node position of a JSON tree as a tuple of keys / indices (root = ())."""
+    out = [prefix]
+    if isinstance(tree, dict):
+        for k, v in tree.items():
+            out += _paths(v, prefix + (k,))
+    elif isinstance(tree, list):
+        for i, v in enumerate(tree):
+            out += _paths(v, prefix + (i,))
+    return out
+
+
+def _get(tree: Any, path: tuple) -> Any:
+    for k in path:
+        tree = tree[k]
+    return tree
+
+
+def _deep(depth: int) -> Any:
+    out: Any = 0.0
+    for _ in range(depth):
+        out = [out]
+    return out
+
+
+def mutate_tree(data: Any, rng: np.random.Generator, n_mutations: int | None = None,
+                deep: tuple[int, ...] = (3, 50), values: tuple[Any, ...] = NASTY_VALUES) -> Any:
+    """A copy of the JSON tree ``data`` with 1-3 random structural / value mutations.
+
+    ``deep``: nesting depths used by the deep-nesting mutation (a parsed file never nests
+    deeper than ``json.loads`` allows; deeper trees only reach the dict API, see
+    :func:`test_system_from_dict_deep_nesting`)."""
+    tree = copy.deepcopy(data)
+    for _ in range(n_mutations or int(rng.integers(1, 4))):
+        paths = _paths(tree)
+        path = paths[int(rng.integers(len(paths)))]
+        op = int(rng.integers(8))
+        if not path:  # the root itself
+            if op < 2:
+                return values[int(rng.integers(len(values)))]
+            continue
+        parent, key = _get(tree, path[:-1]), path[-1]
+        node = parent[key]
+        if op == 0:  # delete
+            del parent[key]
+        elif op in (1, 2):  # wrong type / non-finite / extreme
+            parent[key] = values[int(rng.integers(len(values)))]
+        elif op == 3 and isinstance(node, (int, float)) and not isinstance(node, bool):
+            parent[key] = float(node) * float(rng.choice([-1.0, 0.0, 1e-12, 1 + 1e-12, 1e12]))
+        elif op == 3 or op == 4:  # grow or empty a container
+            if isinstance(node, list):
+                if node and rng.random() < 0.7:
+                    node.append(copy.deepcopy(node[int(rng.integers(len(node)))]))
+                else:
+                    node.clear()
+            elif isinstance(node, dict):
+                node["unexpected_" + str(int(rng.integers(100)))] = 1.0
+            else:
+                parent[key] = [node, node]
+        elif op == 5:  # deep nesting
+            parent[key] = _deep(int(rng.choice(deep)))
+        elif op == 6 and isinstance(node, str):
+            parent[key] = node + "\x00\u202e"
+        else:  # swap in a sibling's value
+            if isinstance(parent, dict) and len(parent) > 1:
+                other = list(parent)[int(rng.integers(len(parent)))]
+                parent[key] = copy.deepcopy(parent[other])
+            elif isinstance(parent, list) and len(parent) > 1:
+                parent[key] = copy.deepcopy(parent[int(rng.integers(len(parent)))])
+    return tree
+
+
+def mutate_text(text: str, rng: np.random.Generator) -> bytes:
+    """File bytes derived from valid JSON ``text``: truncated, bit-flipped, non-UTF-8, ..."""
+    raw = text.encode("utf-8")
+    op = int(rng.integers(9))
+    i = int(rng.integers(len(raw) + 1))
+    if op == 0:
+        return raw[:i]  # truncated (a crash mid-write)
+    if op == 1 and raw:
+        j = min(i, len(raw) - 1)
+        return raw[:j] + bytes([raw[j] ^ (1 << int(rng.integers(8)))]) + raw[j + 1:]
+    if op == 2:
+        return raw[:i] + bytes(rng.choice([b"\xff", b"\xc3\x28", b"\xed\xa0\x80", b"\x00"]))
+    if op == 3:
+        return b"\xef\xbb\xbf" + raw  # UTF-8 byte-order mark
+    if op == 4:
+        return raw[:i] + rng.choice([b"NaN", b"Infinity", b"-Infinity", b"1e999", b"-0"]) + raw[i:]
+    if op == 5:
+        depth = int(rng.choice([100, 5000, 200_000]))
+        return b"[" * depth + b"]" * depth
+    if op == 6:
+        return b""
+    if op == 7:
+        return raw.replace(b"{", b'{"a": 1, "a": ', 1)  # duplicate keys / broken object
+    return raw + raw[: int(rng.integers(1, 20))]  # trailing garbage
+
+
+def seed_system_files() -> list[dict]:
+    """Valid system files: the paper's examples, a chain hand, random systems in every form."""
+    data = Path(__file__).resolve().parents[1] / "scenarios" / "data"
+    out = [json.loads((data / f).read_text()) for f in ("example_4_1.json", "example_4_3.json")]
+    out.append({
+        "contacts": [{"point": [-0.05, 0.1], "normal": [1, 0], "mu": 0.2},
+                     {"point": [0.05, 0.1], "normal": [-1, 0], "mu": 0.2}],
+        "external_wrench": [0, -1, 0],
+        "manipulator": {
+            "chain": {"joints": [{"type": "revolute", "origin": [-0.05, 0.0], "angle": 1.5},
+                                 {"type": "prismatic", "origin": [0.05, 0.0], "angle": 1.5}]},
+            "q": [0.0, 0.0], "contact_links": [0, 1],
+            "joints": [{"velocity": 0.1}, {"effort": 1.0}], "joint_loads": [0.0, 0.1],
+        },
+    })
+    rng = np.random.default_rng(20261122)
+    for n_c, n_e, virtual in ((3, 0, True), (4, 0, False), (4, 1, False), (5, 2, False)):
+        out.append(system_to_dict(random_system(rng, n_c, n_e, virtual=virtual)))
+    return out
+
+
+def system_round_trips(system: System) -> bool:
+    """An accepted system equals what its own file form loads back to."""
+    back = system_from_dict(json.loads(json.dumps(system_to_dict(system))))
+    return all(np.array_equal(getattr(system, k), getattr(back, k))
+               for k in ("W", "mu", "g_obj", "J", "joint_inputs", "g_man")) and (
+        back.control == system.control)
 
 
 def _only_documented_errors(fn, *args):
@@ -118,6 +271,114 @@ def test_fuzz_loader_long(data):
 @given(json_values)
 def test_fuzz_loader_arbitrary_long(data):
     _loader_then_solve(data)
+
+
+SEEDS = seed_system_files()
+
+
+def _mutated_system_case(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    base = SEEDS[int(rng.integers(len(SEEDS)))]
+    s = _only_documented_errors(system_from_dict, mutate_tree(base, rng))
+    if s is not None:
+        assert system_round_trips(s)
+        _only_documented_errors(feasible_modes, s)
+
+
+@FAST
+@given(st.integers(0, 2**32 - 1))
+def test_fuzz_loader_mutated_files(seed):
+    _mutated_system_case(seed)
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=list(HealthCheck))
+@given(st.integers(0, 2**32 - 1))
+def test_fuzz_loader_mutated_bytes(tmp_path_factory, seed):
+    rng = np.random.default_rng(seed)
+    base = SEEDS[int(rng.integers(len(SEEDS)))]
+    path = tmp_path_factory.mktemp("fuzz") / "system.json"
+    path.write_bytes(mutate_text(json.dumps(base), rng))
+    s = _only_documented_errors(load_system, path)
+    if s is not None:
+        _only_documented_errors(feasible_modes, s)
+
+
+def test_seed_files_are_valid_and_mutations_are_rejected():
+    """The mutation fuzzer starts from files the loader accepts, and its mutations bite."""
+    for d in SEEDS:
+        assert system_round_trips(system_from_dict(d))
+    rng = np.random.default_rng(0)
+    rejected = 0
+    for _ in range(200):
+        try:
+            system_from_dict(mutate_tree(SEEDS[0], rng))
+        except QsplanError:
+            rejected += 1
+    assert rejected > 100
+
+
+@pytest.mark.parametrize("blob,match", [
+    (b"", "expected valid JSON"),
+    (b"\xff\xfe{}", "expected UTF-8 text"),
+    (b"[" * 200_000 + b"]" * 200_000, "nested too deeply"),
+    (b'{"contacts": [], "mu": NaN}', "expected finite numbers, got NaN"),
+    (b"[1, 2", "expected valid JSON"),
+])
+def test_file_level_garbage_messages(tmp_path, blob, match):
+    path = tmp_path / "bad.json"
+    path.write_bytes(blob)
+    with pytest.raises(QsplanError, match=match):
+        load_system(path)
+
+
+@pytest.mark.parametrize("key,value,match", [
+    ("external_wrench", [0.0, float("nan"), 0.0], "external_wrench"),
+    ("external_wrench", [0.0, 1e308, 1e308], None),
+    ("mu", [0.2, -0.3, 0.1], "mu"),
+    ("mu", [0.2, True, 0.1], "expected numbers, got True"),
+    ("wrench_matrix", _deep(500), "wrench_matrix: expected shape (3, 2*n_c)"),
+])
+def test_mutations_of_example_41_are_rejected(data_dir, key, value, match):
+    d = json.loads((data_dir / "example_4_1.json").read_text())
+    d[key] = value
+    try:
+        s = system_from_dict(d)
+    except QsplanError as exc:
+        assert match is None or match in str(exc)
+        return
+    assert match is None, f"{key}={value!r} was accepted"
+    # accepted huge loads: the solver answers or raises a documented error, nothing else
+    _only_documented_errors(feasible_modes, s)
+
+
+@pytest.mark.xfail(strict=True, raises=RecursionError, reason=(
+    "planner/io.py _numbers walks nested lists recursively: a dict nested deeper than the "
+    "recursion limit raises RecursionError instead of InputError (files are safe: json.loads "
+    "refuses such depth and system_from_json maps it to FileFormatError)"))
+def test_system_from_dict_deep_nesting(data_dir):
+    d = json.loads((data_dir / "example_4_1.json").read_text())
+    d["wrench_matrix"] = _deep(5000)
+    with pytest.raises(QsplanError):
+        system_from_dict(d)
+
+
+@pytest.mark.xfail(strict=True, raises=OverflowError, reason=(
+    "planner/validation.py as_array/as_friction catch (TypeError, ValueError) but not the "
+    "OverflowError of float(int) for an integer literal beyond 1.8e308 in a system file"))
+def test_huge_integer_literal_in_a_file(tmp_path, data_dir):
+    text = (data_dir / "example_4_1.json").read_text().replace('"mu": [0.2,', '"mu": [1' +
+                                                               "0" * 400 + ",")
+    path = tmp_path / "huge.json"
+    path.write_text(text)
+    with pytest.raises(QsplanError, match="mu"):
+        load_system(path)
+
+
+@pytest.mark.slow
+@LONG
+@given(st.integers(0, 2**32 - 1))
+def test_fuzz_loader_mutated_files_long(seed):
+    _mutated_system_case(seed)
 
 
 def test_valid_files_survive_json_round_trip(data_dir):
