@@ -48,6 +48,7 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass
+from functools import lru_cache
 from math import comb
 from typing import Any
 
@@ -116,6 +117,7 @@ class SearchResult:
     stats: SearchStats
 
 
+@lru_cache(maxsize=4096)
 def _completion_count(n_free: int, rows_needed: int) -> int:
     """Number of assignments of ``n_free`` contacts giving exactly ``rows_needed`` rows (eq. 49)."""
     if rows_needed < 0 or rows_needed > 2 * n_free:
@@ -364,13 +366,27 @@ FREE, CONTACT = 3, 4
 
 def _subtree_size(states: np.ndarray, n_rows: int) -> int:
     """Number of candidate codes (eq. 49) consistent with the node ``states``."""
-    used = 2 * int(np.sum(states == ROLL)) + int(np.sum(states == SLIDE))
-    n_free = int(np.sum(states == FREE))
-    n_con = int(np.sum(states == CONTACT))
-    need = n_rows - used - n_con  # each CONTACT gives >= 1 row, +1 if rolling
-    return sum(
-        comb(n_con, r) * _completion_count(n_free, need - r) for r in range(n_con + 1)
-    )
+    counts = np.bincount(states, minlength=5)
+    used = 2 * int(counts[ROLL]) + int(counts[SLIDE])
+    return _subtree_count(int(counts[FREE]), int(counts[CONTACT]), n_rows - used)
+
+
+@lru_cache(maxsize=4096)
+def _subtree_count(n_free: int, n_con: int, rows_left: int) -> int:
+    """Completions of ``n_free`` undecided and ``n_con`` in-contact contacts to ``rows_left``
+    rows (each CONTACT gives one row, two if rolling)."""
+    need = rows_left - n_con
+    return sum(comb(n_con, r) * _completion_count(n_free, need - r) for r in range(n_con + 1))
+
+
+@lru_cache(maxsize=256)
+def _rolled_subsets(n_con: int, r: int) -> np.ndarray:
+    """All ``r``-subsets of ``n_con`` contacts as a read-only boolean table (C(n_con, r), n_con)."""
+    rolled = np.zeros((comb(n_con, r), n_con), dtype=bool)
+    for j, subset in enumerate(itertools.combinations(range(n_con), r)):
+        rolled[j, list(subset)] = True
+    rolled.setflags(write=False)
+    return rolled
 
 
 def _completions(states: np.ndarray, n_rows: int) -> np.ndarray:
@@ -392,9 +408,7 @@ def _completions(states: np.ndarray, n_rows: int) -> np.ndarray:
             tail = np.zeros((1, len(free)), dtype=np.int8)
         else:
             tail = enumerate_modes(len(free), need).codes
-        rolled = np.zeros((comb(len(con), r), len(con)), dtype=bool)
-        for j, subset in enumerate(itertools.combinations(range(len(con)), r)):
-            rolled[j, list(subset)] = True
+        rolled = _rolled_subsets(len(con), r)
         n_t = tail.shape[0]
         blk = np.empty((rolled.shape[0] * n_t, n_c), dtype=np.int8)
         blk[:] = base
@@ -422,6 +436,65 @@ def _branch_contact(states: np.ndarray, point: np.ndarray | None, mu: np.ndarray
     fn, ft = c[2 * con], c[2 * con + 1]
     score = np.minimum(np.abs(v[2 * con + 1]) / v_scale, (mu[con] * fn - np.abs(ft)) / c_scale)
     return int(con[np.argmax(score)])
+
+
+#: Leaf candidates collected before one batched kinematic test (amortises the batched LU).
+_LEAF_FLUSH = 4096
+
+
+class _LeafBatches:
+    """Leaves of the search, tested in batches of about ``_LEAF_FLUSH`` candidates.
+
+    The kinematic test of a candidate does not depend on the other candidates of its batch,
+    and the traversal does not depend on leaf outcomes, so leaves are queued and tested
+    together by :func:`planner.feasibility.kinematic_stage` (eqs. 23-25, 16).  A candidate is
+    kept when it is kinematically admissible or on a kinematic boundary and, at every contact
+    its leaf fixed to ``S+``/``S-``, its computed ``xi`` is that of the leaf (``xi = 0``, only
+    possible on a boundary, is owned by ``S+``), so each candidate is owned by one leaf.
+    """
+
+    def __init__(self, system: System, n_rows: int, *, tol: float, singular_tol: float) -> None:
+        self.system, self.n_rows = system, n_rows
+        self.tol, self.singular_tol = tol, singular_tol
+        self.pending: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+        self.n_pending = 0
+        self.kept: list[np.ndarray] = []
+        self.tested = 0
+
+    def add(self, block: np.ndarray, states: np.ndarray, xi: np.ndarray) -> None:
+        """Queue a leaf's candidate codes ``block (m, n_c)`` with its node ``states``/``xi``."""
+        if len(block) == 0:
+            return
+        self.pending.append((block, states, xi))
+        self.n_pending += len(block)
+        if self.n_pending >= _LEAF_FLUSH:
+            self.flush()
+
+    def flush(self) -> None:
+        """Test every queued candidate in one batch."""
+        if not self.pending:
+            return
+        codes = np.concatenate([b for b, _, _ in self.pending])
+        reps = [len(b) for b, _, _ in self.pending]
+        leaf_states = np.repeat(np.stack([st for _, st, _ in self.pending]), reps, axis=0)
+        leaf_xi = np.repeat(np.stack([x for _, _, x in self.pending]), reps, axis=0)
+        self.pending, self.n_pending = [], 0
+        self.tested += len(codes)
+        kin = kinematic_stage(
+            self.system, candidates_from_codes(codes, self.n_rows), tol=self.tol,
+            singular_tol=self.singular_tol,
+        )
+        own_xi = np.where(kin.xi == 0, 1, kin.xi)
+        foreign = (leaf_states == SLIDE) & (own_xi != leaf_xi)
+        keep = (kin.ok | kin.boundary) & ~foreign.any(axis=1)
+        self.kept.append(codes[keep])
+
+    def kept_codes(self) -> np.ndarray:
+        """Codes ``(m, n_c)`` kept by every leaf (after a final flush)."""
+        self.flush()
+        if not self.kept:
+            return np.zeros((0, self.system.n_contacts), dtype=np.int8)
+        return np.concatenate(self.kept)
 
 
 def search_modes(
@@ -469,8 +542,7 @@ def search_modes(
     n_c, k = system.n_contacts, system.dof
     n_cand = candidate_count(n_c, k)
     pruner = _Pruner(system, prune_eps, mu_arr)
-    kept: list[np.ndarray] = []
-    tested = 0
+    leaves = _LeafBatches(system, k, tol=tol, singular_tol=singular_tol)
     # Depth-first; a node is (state per contact, xi per contact).  FREE -> BREAK | CONTACT,
     # CONTACT -> ROLL | SLIDE xi=+1 | SLIDE xi=-1: the children partition the parent's codes.
     stack: list[tuple[np.ndarray, np.ndarray]] = [
@@ -488,18 +560,7 @@ def search_modes(
                 continue
         undecided = np.any((states == FREE) | (states == CONTACT))
         if size <= batch_size or not undecided:
-            block = _completions(states, k)
-            tested += len(block)
-            kin = kinematic_stage(
-                system, candidates_from_codes(block, k), tol=tol, singular_tol=singular_tol
-            )
-            keep = kin.ok | kin.boundary
-            # A SLIDE state owns the candidates with its xi (xi = 0, only possible on a
-            # boundary, is owned by xi = +1).
-            for i in np.flatnonzero(states == SLIDE):
-                x = np.where(kin.xi[:, i] == 0, 1, kin.xi[:, i])
-                keep &= x == xi[i]
-            kept.append(block[keep])
+            leaves.add(_completions(states, k), states, xi)
             continue
         i = _branch_contact(states, point, mu_arr)
         if states[i] == FREE:
@@ -510,8 +571,7 @@ def search_modes(
             child, child_xi = states.copy(), xi.copy()
             child[i], child_xi[i] = code, x
             stack.append((child, child_xi))
-    codes = np.concatenate(kept) if kept else np.zeros((0, n_c), dtype=np.int8)
-    codes = _canonical_order(np.unique(codes, axis=0))
+    codes = _canonical_order(np.unique(leaves.kept_codes(), axis=0))
     cand = candidates_from_codes(codes, k)
     prediction, force_tested = _predict(
         system, cand, mu_arr, n_cand, tol=tol, singular_tol=singular_tol,
@@ -519,7 +579,7 @@ def search_modes(
     )
     stats = SearchStats(
         candidates=n_cand,
-        tested=tested,
+        tested=leaves.tested,
         force_tested=force_tested,
         lp_solves=pruner.solves,
     )
