@@ -102,30 +102,52 @@ class MuGrid:
                       feas.reshape(-1, len(self.labels)))
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON form; ``vary`` is 1-based, ``feasible`` rows follow C order over ``axes``."""
+        """JSON form (compact labelled grid).
+
+        ``vary`` is 1-based; ``mode_sets`` names each distinct set of feasible modes
+        (``"jam"`` for none) and ``set_members`` lists its modes as indices into ``labels``;
+        ``cells`` holds one string per row of the grid (C order over all axes but the last),
+        each the space-separated set indices along the last axis."""
+        rows = self.feasible
+        uniq, inverse = (np.unique(rows, axis=0, return_inverse=True) if rows.size
+                         else (np.zeros((1, 0), bool), np.zeros(rows.shape[0], int)))
+        inverse = np.asarray(inverse).reshape(self.shape)
+        members = [np.flatnonzero(u).tolist() for u in uniq]
+        last = self.shape[-1]
+        cells = [" ".join(map(str, r)) for r in inverse.reshape(-1, last).tolist()]
         return {
             "vary": [i + 1 for i in self.vary],
             "axes": [a.tolist() for a in self.axes],
             "base_mu": self.base_mu.tolist(),
             "labels": list(self.labels),
-            "feasible": self.feasible.astype(int).tolist(),
+            "mode_sets": [mode_set_name([self.labels[j] for j in m]) for m in members],
+            "set_members": members,
+            "cells": cells,
         }
 
     @staticmethod
     def from_dict(d: dict[str, Any]) -> MuGrid:
+        """Inverse of :meth:`to_dict`."""
         try:
+            labels = tuple(d["labels"])
+            axes = tuple(np.asarray(a, float) for a in d["axes"])
+            members = d["set_members"]
+            table = np.zeros((len(members), len(labels)), bool)
+            for k, m in enumerate(members):
+                table[k, [int(j) for j in m]] = True
+            idx = np.array([[int(x) for x in row.split()] for row in d["cells"]], int)
             g = MuGrid(
                 vary=tuple(int(i) - 1 for i in d["vary"]),
-                axes=tuple(np.asarray(a, float) for a in d["axes"]),
+                axes=axes,
                 base_mu=np.asarray(d["base_mu"], float),
-                labels=tuple(d["labels"]),
-                feasible=np.asarray(d["feasible"], bool).reshape(-1, len(d["labels"])),
+                labels=labels,
+                feasible=table[idx.reshape(-1)],
             )
-        except (KeyError, TypeError, ValueError) as exc:
-            raise InputError(f"mu grid: expected keys vary, axes, base_mu, labels, feasible; "
-                             f"got {exc}") from exc
+        except (KeyError, TypeError, ValueError, IndexError) as exc:
+            raise InputError(f"mu grid: expected keys vary, axes, base_mu, labels, set_members, "
+                             f"cells; got {exc!r}") from exc
         if g.feasible.shape[0] != int(np.prod(g.shape)):
-            raise InputError(f"mu grid: expected {int(np.prod(g.shape))} rows of feasible, "
+            raise InputError(f"mu grid: expected {int(np.prod(g.shape))} cells, "
                              f"got {g.feasible.shape[0]}")
         return g
 

@@ -36,6 +36,7 @@ def plot_slices(
     path: str | Path,
     *,
     closed_forms: Sequence[ClosedFormRegion] = (),
+    panel_closed_forms: Sequence[Sequence[ClosedFormRegion]] | None = None,
     boundary_n: int = 600,
     decorate: Callable[[Any, int], None] | None = None,
 ) -> Path:
@@ -46,7 +47,9 @@ def plot_slices(
     grids : 2-D :class:`MuGrid` panels.
     titles : one title per panel.
     closed_forms : regions whose boundaries are drawn as curves (modes feasible somewhere in
-        the panels; others are skipped).
+        the panels; others are skipped), shared by all panels.
+    panel_closed_forms : one sequence of regions per panel, for panels of different systems
+        (e.g. the rod of Fig. 8 at several support positions); overrides ``closed_forms``.
     boundary_n : points per axis of the fine grid on which the exact polynomials are contoured.
     decorate : optional ``decorate(ax, panel_index)`` hook (e.g. Fig. 8's rectangle).
     """
@@ -75,7 +78,12 @@ def plot_slices(
             colour[s] = cmap(k % cmap.N)
             k += 1
     shown = sorted({lab for g in grids for lab in g.labels})
-    regions = {r.label: r for r in closed_forms if r.label in shown}
+    if panel_closed_forms is None:
+        panel_closed_forms = [closed_forms] * len(grids)
+    if len(panel_closed_forms) != len(grids):
+        raise InputError(f"plot_slices: expected one closed-form list per panel ({len(grids)}), "
+                         f"got {len(panel_closed_forms)}")
+    with_closed_form = {r.label for rs in panel_closed_forms for r in rs}
     style = {lab: (_LINECOLOURS[i % len(_LINECOLOURS)], _LINESTYLES[i % len(_LINESTYLES)])
              for i, lab in enumerate(shown)}
     # earlier modes drawn wider so that shared boundary curves stay visible under later ones
@@ -83,7 +91,8 @@ def plot_slices(
     handles = [Patch(color=colour[s], label=f"fill: {s}") for s in names]
     handles += [Line2D([], [], color=style[lab][0], linestyle=style[lab][1], linewidth=2,
                        label=f"boundary of {lab}" + (" (closed form, eqs. 35-36/40-41)"
-                                                     if lab in regions else " (grid edges)"))
+                                                     if lab in with_closed_form
+                                                     else " (grid edges)"))
                 for lab in shown]
     ncol = 1 if len(grids) == 1 else 2
     rows = -(-len(handles) // ncol)
@@ -91,6 +100,7 @@ def plot_slices(
     fig, axs = plt.subplots(1, len(grids), figsize=(max(4 * len(grids), 5.5), height),
                             squeeze=False)
     for p, (ax, g, m, title) in enumerate(zip(axs[0], grids, sets, titles)):
+        regions = {r.label: r for r in panel_closed_forms[p]}
         img = np.array([[colour[s] for s in row] for row in m.T])
         (x0, x1), (y0, y1) = (g.axes[0][[0, -1]]), (g.axes[1][[0, -1]])
         hx = (x1 - x0) / max(len(g.axes[0]) - 1, 1) / 2

@@ -170,7 +170,9 @@ def test_cli_three_varied(tmp_path, capsys):
     assert main(["muspace", str(DATA / "example_4_3.json"), "--vary", "1,2,3", "--n", "8",
                  "--panels", "2", "--out", str(tmp_path)]) == 0
     d = json.loads((tmp_path / "muspace.json").read_text())
-    assert d["slices"][0]["vary"] == [1, 2, 3] and len(d["slices"][0]["feasible"]) == 512
+    cells = d["slices"][0]["cells"]
+    assert d["slices"][0]["vary"] == [1, 2, 3] and len(cells) == 64
+    assert all(len(row.split()) == 8 for row in cells)
     assert len(d["closed_forms"]) >= 4
     rc = main(["muspace", str(DATA / "example_4_3.json"), "--vary", "1,2,3", "--slice", "3=0.1",
                "--out", str(tmp_path)])
