@@ -7,9 +7,26 @@ from __future__ import annotations
 
 import argparse
 
+DESCRIPTION = """\
+List or run the registered scenarios: the paper's examples (Sec. 4.1 eq. 37, Sec. 4.3 eq. 42)
+and the ruler of Sec. 5.1 simulated in pymunk or MuJoCo and compared with the planner's
+prediction (expect "agree", or "disagree" for negative controls), and "info" scenarios that only
+write figures and data (friction-space maps of Figs. 3, 6 and 8).  `scenarios list` prints
+name, expectation, engines and summary; `scenarios run NAME --engine ENGINE --out DIR` writes
+DIR/summary.json (plus figures) and prints its status line."""
+
+EPILOG = """\
+examples:
+  qsplan scenarios list
+  qsplan scenarios run ex41_3s --engine mujoco --out out/ex41_3s
+  qsplan scenarios run ruler_muspace --out out/fig8
+exit codes: 0 passed, 1 check failed, 2 bad input, 3 simulator fault."""
+
 
 def register(sub: argparse._SubParsersAction) -> None:
-    parser = sub.add_parser("scenarios", help="list or run simulator validation scenarios")
+    parser = sub.add_parser("scenarios", help="list or run simulator validation scenarios",
+                            description=DESCRIPTION, epilog=EPILOG,
+                            formatter_class=argparse.RawDescriptionHelpFormatter)
     from scenarios.__main__ import build_parser
 
     build_parser(parser)
