@@ -88,15 +88,20 @@ NASTY_VALUES: tuple[Any, ...] = (
 KNOWN_CRASH_VALUES: tuple[Any, ...] = (10**400,)
 
 
-def _paths(tree: Any, prefix: tuple = ()) -> list[tuple]:
-    """Every node position of a JSON tree as a tuple of keys / indices (root = ())."""
-    out = [prefix]
-    if isinstance(tree, dict):
-        for k, v in tree.items():
-            out += _paths(v, prefix + (k,))
-    elif isinstance(tree, list):
-        for i, v in enumerate(tree):
-            out += _paths(v, prefix + (i,))
+def _paths(tree: Any, max_depth: int = 64) -> list[tuple]:
+    """Every node position (down to ``max_depth``) of a JSON tree as a tuple of keys / indices
+    (root = ()); iterative, so deep trees are fine."""
+    out, stack = [], [((), tree)]
+    while stack:
+        prefix, node = stack.pop()
+        out.append(prefix)
+        if len(prefix) >= max_depth:
+            continue
+        if isinstance(node, dict):
+            stack += [(prefix + (k,), v) for k, v in node.items()]
+        elif isinstance(node, list):
+            stack += [(prefix + (i,), v) for i, v in enumerate(node)]
+    out.reverse()
     return out
 
 
@@ -147,8 +152,9 @@ def mutate_tree(data: Any, rng: np.random.Generator, n_mutations: int | None = N
                 node["unexpected_" + str(int(rng.integers(100)))] = 1.0
             else:
                 parent[key] = [node, node]
-        elif op == 5:  # deep nesting
+        elif op == 5:  # deep nesting (last mutation: deep trees are not copied again)
             parent[key] = _deep(int(rng.choice(deep)))
+            break
         elif op == 6 and isinstance(node, str):
             parent[key] = node + "\x00\u202e"
         else:  # swap in a sibling's value
@@ -208,9 +214,16 @@ def seed_system_files() -> list[dict]:
 
 
 def system_round_trips(system: System) -> bool:
-    """An accepted system equals what its own file form loads back to."""
+    """An accepted system equals what its own file form loads back to (to a few ulps: the
+    loader re-normalises geometric normals, and ``n / |n|`` is not idempotent in floating
+    point)."""
     back = system_from_dict(json.loads(json.dumps(system_to_dict(system))))
-    return all(np.array_equal(getattr(system, k), getattr(back, k))
+
+    def close(a: np.ndarray, b: np.ndarray) -> bool:
+        scale = float(np.max(np.abs(a), initial=0.0))
+        return a.shape == b.shape and bool(np.all(np.abs(a - b) <= 1e-14 * max(scale, 1e-300)))
+
+    return all(close(getattr(system, k), getattr(back, k))
                for k in ("W", "mu", "g_obj", "J", "joint_inputs", "g_man")) and (
         back.control == system.control)
 
@@ -386,3 +399,24 @@ def test_valid_files_survive_json_round_trip(data_dir):
         d = json.loads((data_dir / name).read_text())
         s = system_from_dict(d)
         assert np.isfinite(s.W).all()
+
+
+# ---------------------------------------------------------------------------------------------
+# Findings of benchmarks/robustness_table.py kept as strict xfails until the owners fix them.
+# ---------------------------------------------------------------------------------------------
+@pytest.mark.xfail(strict=True, reason=(
+    "planner/indeterminate.py: the consistency test of P_A zdot_I = J_AV thetadot_V uses "
+    "resid <= tol * max(|b|, 1.0); the absolute floor 1.0 breaks the tolerance policy when "
+    "the commanded speeds are below ~1e-8 (found by the degenerate-system campaign)"))
+@pytest.mark.parametrize("speed", [1e-9, 1e-10])
+def test_rod_prediction_does_not_depend_on_the_speed_unit(speed):
+    """Sec. 5.1 rod: the same modes at 1 m/s and at ``speed``; every certificate re-checks."""
+    from certify import check_certificate
+    from test_paper import rod
+
+    ref = feasible_modes(rod(0.4, 0.25, 0.3, 0.3, speed=1.0))
+    slow_system = rod(0.4, 0.25, 0.3, 0.3, speed=speed)
+    slow = feasible_modes(slow_system)
+    for fm in slow.modes + slow.indeterminate_modes:
+        check_certificate(slow_system, fm)  # "R1 R2": contact 1 rolling but moves
+    assert slow.labels == ref.labels == ["S+1 R2"]
