@@ -101,3 +101,34 @@ def test_region_dict_round_trip_and_inequalities():
     assert names == ["mu_1 c_1n - c_1t>=0", "mu_1 c_1n + c_1t>=0", "c_3n>=0"]
     with pytest.raises(InputError, match="expected keys mode, unknowns, denominator"):
         ClosedFormRegion.from_dict({"mode": "R1 B2 S-3"})
+
+
+def test_closed_form_agrees_on_random_noncompliant_systems():
+    """Random contact configurations (3-5 contacts, velocity joints only): every admissible
+    3S / RS mode's closed form agrees with force_stage away from boundaries."""
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from randsys import random_system
+
+    from planner.muspace import closed_form_regions
+
+    rng = np.random.default_rng(21)
+    bad = checked = 0
+    for _ in range(20):
+        s = random_system(rng, int(rng.integers(3, 6)), n_effort=0)
+        cand = enumerate_modes(s.n_contacts, s.dof)
+        kin = kinematic_stage(s, cand)
+        idx = np.flatnonzero(kin.ok)
+        regions = closed_form_regions(s)
+        assert [r.label for r in regions] == [
+            closed_form_region(s.W, s.g_obj, cand.codes[i], kin.xi[i]).label for i in idx]
+        mu = rng.uniform(0, 1, (500, s.n_contacts))
+        fs = force_stage(s, cand, idx, kin.xi[idx], mu)
+        for j, reg in enumerate(regions):
+            cf = reg.margin(mu)
+            general = fs.margin[:, j]
+            clear = (np.abs(general) > 1e-9) & (np.abs(cf) > 1e-9) & fs.nonsingular[:, j]
+            checked += int(clear.sum())
+            bad += int(np.sum((cf[clear] >= 0) != (general[clear] >= 0)))
+    assert checked > 5_000 and bad == 0
