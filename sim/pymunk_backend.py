@@ -16,6 +16,7 @@ from collections.abc import Mapping
 import numpy as np
 import pymunk
 
+from planner.errors import InputError
 from sim.scene import (
     ABSENT,
     Body,
@@ -74,8 +75,9 @@ class PymunkBackend:
             else:
                 body = pymunk.Body(b.mass, _moment(b))
                 body.center_of_gravity = tuple(b.com)
-            body.position = (b.pose[0], b.pose[1])
+            # angle first: Chipmunk keeps the centre of gravity fixed when the angle is set
             body.angle = b.pose[2]
+            body.position = (b.pose[0], b.pose[1])
             shapes: list[pymunk.Shape] = []
             for s in b.shapes:
                 if isinstance(s, Polygon):
@@ -139,6 +141,28 @@ class PymunkBackend:
             space.on_collision(sa.collision_type, sb.collision_type,
                                pre_solve=self._pre_solve, post_solve=self._post_solve,
                                data=p.name)
+        if scene.only_pairs:
+            self._filter_to_pairs(scene)
+
+    def _filter_to_pairs(self, scene: Scene) -> None:
+        """Category bit per paired shape, mask = bits of its partners; unpaired shapes collide
+        with nothing (Chipmunk collides a and b when a.categories & b.mask and vice versa)."""
+        bit: dict[int, int] = {}
+        for p in scene.pairs:
+            for s in (self.shapes[p.body_a][p.shape_a], self.shapes[p.body_b][p.shape_b]):
+                bit.setdefault(id(s), 1 << len(bit))
+        if len(bit) > 32:
+            raise InputError(f"only_pairs: expected at most 32 paired shapes, got {len(bit)}")
+        mask = dict.fromkeys(bit, 0)
+        for p in scene.pairs:
+            a = id(self.shapes[p.body_a][p.shape_a])
+            b = id(self.shapes[p.body_b][p.shape_b])
+            mask[a] |= bit[b]
+            mask[b] |= bit[a]
+        for shapes in self.shapes.values():
+            for s in shapes:
+                s.filter = (pymunk.ShapeFilter(categories=bit[id(s)], mask=mask[id(s)])
+                            if id(s) in bit else pymunk.ShapeFilter(categories=0, mask=0))
 
     def _pre_solve(self, arbiter: pymunk.Arbiter, space: pymunk.Space, name: str) -> None:
         arbiter.friction = self._mu[name]

@@ -210,7 +210,8 @@ class Load:
 @dataclass(frozen=True)
 class Scene:
     """Everything a backend needs. ``bounds`` (4,) ``(xmin, ymin, xmax, ymax)`` [m]: a dynamic
-    body whose COM leaves it is a fault. ``length_scale`` [m] sets tolerances."""
+    body whose COM leaves it is a fault. ``length_scale`` [m] sets tolerances; ``only_pairs``
+    restricts collisions to the declared pairs."""
 
     bodies: tuple[Body, ...]
     pairs: tuple[ContactPair, ...]
@@ -219,6 +220,10 @@ class Scene:
     bounds: tuple[float, float, float, float] = (-10.0, -10.0, 10.0, 10.0)
     length_scale: float = 0.1
     meta: Mapping[str, Any] = field(default_factory=dict)
+    #: True: only the shapes of declared pairs collide, with each other (MuJoCo always works
+    #: this way; pymunk otherwise collides every pair of shapes, e.g. a finger link with the
+    #: palm it is mounted on).
+    only_pairs: bool = False
 
     def __post_init__(self) -> None:
         names = [b.name for b in self.bodies]
