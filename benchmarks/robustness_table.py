@@ -229,6 +229,7 @@ def hypothesis_campaign(n: int) -> Campaign:
 
 
 def plan_campaign(n: int, seed: int, workdir: Path) -> Campaign:
+    """Inputs rotate over stale-digest tree mutations, re-signed ones and byte mutations."""
     c = Campaign("plan loader: mutated files")
     try:
         import test_fuzz_plan as tfp
@@ -237,45 +238,36 @@ def plan_campaign(n: int, seed: int, workdir: Path) -> Campaign:
         return c
     rng = np.random.default_rng(seed)
     base_path = tfp.valid_plan_file(workdir)
-    base = json.loads(base_path.read_text())
+    base_text = base_path.read_text()
+    base = json.loads(base_text)
     path = workdir / "plan.json"
+    kinds = {"stale digest": 0, "re-signed": 0, "bytes": 0}
     for k in range(n):
-        if k % 2 == 0:
-            data = mutate_tree(base, rng, deep=(3, 50, 5000), values=NASTY_VALUES +
-                               KNOWN_CRASH_VALUES)
-            example = _short(data)
-            try:
-                text = json.dumps(data)
-            except (ValueError, RecursionError):
-                text = json.dumps(data, allow_nan=True) if _depth_ok(data) else "[" * 10**5
-            blob = text.encode("utf-8", "surrogatepass")
-            changed = data != base
-        else:
-            blob = mutate_text(base_path.read_text(), rng)
+        kind = ("stale digest", "re-signed", "bytes")[k % 3]
+        kinds[kind] += 1
+        if kind == "bytes":
+            blob = mutate_text(base_text, rng)
+            path.write_bytes(blob)
             example = repr(blob[:300])
-            changed = blob != base_path.read_bytes()
-        path.write_bytes(blob)
+        else:
+            data = mutate_tree(base, rng, deep=(3, 50, 5000),
+                               values=NASTY_VALUES + KNOWN_CRASH_VALUES)
+            if kind == "re-signed":
+                tfp.resign(data)
+            tfp._write(path, data)
+            example = f"{kind}: {_short(data, 2000)}"
         c.inputs += 1
         ok, plan = c.guarded(tfp.load_plan, path, example=example, count_rejection=True)
-        if ok:
-            c.accepted += 1
-            if changed and not tfp.same_plan_content(plan, base_path):
-                c.wrong_answer("tampered plan accepted (stale digest)", example)
+        if not ok:
+            continue
+        c.accepted += 1
+        if kind != "re-signed" and not tfp.same_plan_content(plan, base_path):
+            c.wrong_answer("tampered or corrupted plan accepted", example)
+        if kind == "re-signed" and not (np.all(np.isfinite(plan.poses()))
+                                        and np.all(np.diff(plan.times()) > 0)):
+            c.wrong_answer("re-signed plan with non-finite poses or unordered times", example)
+    c.notes.append(f"inputs per kind: {kinds}")
     return c
-
-
-def _depth_ok(data: Any, limit: int = 500) -> bool:
-    depth, stack = 0, [(data, 0)]
-    while stack:
-        node, d = stack.pop()
-        depth = max(depth, d)
-        if depth > limit:
-            return False
-        if isinstance(node, dict):
-            stack += [(v, d + 1) for v in node.values()]
-        elif isinstance(node, list):
-            stack += [(v, d + 1) for v in node]
-    return True
 
 
 # ---------------------------------------------------------------------------------------------
