@@ -236,7 +236,7 @@ def brost_mason_mode(points, normals, mu, codes, xi, g_obj, tol: float = 1e-12
         External wrench ``(f_x [N], f_y [N], m_z [N m] about the origin)``.
 
     Returns DEGENERATE when two lines of action are parallel (e.g. ``mu_R = 0`` at the rolling
-    contact, or ``W_Amu`` singular with parallel edges).
+    contact) or all three meet in one point (``W_Amu`` singular; Corollary 1 assumes it is not).
     """
     points = np.asarray(points, float)
     normals = np.asarray(normals, float)
@@ -268,6 +268,9 @@ def brost_mason_mode(points, normals, mu, codes, xi, g_obj, tol: float = 1e-12
         for j in range(i + 1, len(f_arr)):
             if abs(cross2(f_arr[i], f_arr[j])) < 1e-9:
                 return BrostMasonResult(GraphicalVerdict.DEGENERATE, r_arr, f_arr, who_arr, None)
+    wrenches = np.vstack([f_arr.T, cross2(r_arr, f_arr)])  # (3, 3): columns [f; r x f]
+    if abs(np.linalg.det(wrenches)) < 1e-9:  # concurrent lines: W_Amu singular (Corollary 1)
+        return BrostMasonResult(GraphicalVerdict.DEGENERATE, r_arr, f_arr, who_arr, None)
     labels = moment_labels(r_arr, f_arr, tol)
     ok = labels.moment_signs_ok(-np.asarray(g_obj, float), tol)
     return BrostMasonResult(GraphicalVerdict.FEASIBLE if ok else GraphicalVerdict.INFEASIBLE,

@@ -127,3 +127,14 @@ def test_brost_mason_degenerate_and_bad_input():
         brost_mason_mode(pts, nrm, [0.3] * 2, (ROLL, SLIDE, BREAK), (0, 1, 0), [0, -1, 0])
     with pytest.raises(InputError, match=r"expected points and normals \(n_c, 2\)"):
         brost_mason_mode(pts[:, :1], nrm, [0.3] * 3, (ROLL, SLIDE, BREAK), (0, 1, 0), [0, -1, 0])
+
+
+def test_brost_mason_concurrent_lines_are_degenerate():
+    """Three sliding forces whose lines meet in one point: W_Amu singular -> DEGENERATE."""
+    from planner.graphical import brost_mason_mode
+
+    ang = np.array([0.3, 2.2, 4.1])
+    nrm = np.column_stack([np.cos(ang), np.sin(ang)])
+    pts = 0.7 * nrm  # mu = 0: every force acts along its normal, all through the origin
+    res = brost_mason_mode(pts, nrm, [0.0] * 3, (SLIDE,) * 3, (1, 1, 1), [0, -1, 0])
+    assert res.verdict is GraphicalVerdict.DEGENERATE and res.labels is None
