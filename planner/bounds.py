@@ -204,70 +204,62 @@ class ModeBand:
         return self.mode.label
 
 
-def _poly_fit(x: np.ndarray, y: np.ndarray, deg: int, lo: float, hi: float) -> np.ndarray:
-    """Coefficients (power basis in ``mu``) of the polynomial through samples ``y(x)``."""
-    mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
-    u = (x - mid) / half
-    c = np.polynomial.chebyshev.chebfit(u, y, deg)
-    # back to power series in mu
-    return _shift(np.polynomial.chebyshev.cheb2poly(c), mid, half)
-
-
-def _shift(coef_u: np.ndarray, mid: float, half: float) -> np.ndarray:
-    """Power coefficients in ``u = (mu - mid)/half`` -> power coefficients in ``mu``."""
-    out = np.zeros(1)
-    base = np.array([-mid / half, 1.0 / half])
-    term = np.array([1.0])
-    for a in coef_u:
-        out = npoly.polyadd(out, a * term)
-        term = npoly.polymul(term, base)
-    return out
-
-
-def _roots_in(coef: np.ndarray, lo: float, hi: float) -> list[float]:
-    c = np.trim_zeros(np.asarray(coef, dtype=float), "b")
-    if len(c) < 2 or not np.any(np.abs(c[1:]) > 1e-14 * max(1.0, np.max(np.abs(c)))):
-        return []
+def _roots_in_u(coef: np.ndarray) -> np.ndarray:
+    """Real roots in (-1, 1) of a power series in ``u`` (trailing tiny terms trimmed)."""
+    c = np.asarray(coef, dtype=float)
+    big = np.max(np.abs(c)) if c.size else 0.0
+    if big == 0.0:
+        return np.zeros(0)
+    keep = np.flatnonzero(np.abs(c) > 1e-11 * big)
+    c = c[: keep[-1] + 1]
+    if len(c) < 2:
+        return np.zeros(0)
     r = npoly.polyroots(c)
     real = r[np.abs(r.imag) <= 1e-9 * (1 + np.abs(r.real))].real
-    return [float(x) for x in real if lo < x < hi]
+    return real[(real > -1.0) & (real < 1.0)]
 
 
 def critical_mus(system: System, lo: float, hi: float, *, stage=None, index=None,
                  samples: int | None = None) -> np.ndarray:
     """Critical friction values in ``[lo, hi]`` (common model) for every admissible mode:
     the ends plus roots of ``det``, ``s1``, ``(s0/s1)'`` and ``s0_j s1_k - s0_k s1_j``
-    (module docstring).  Each is computed from polynomial fits of ``det*s0, det*s1, det``."""
+    (module docstring).  ``det*s0``, ``det*s1`` and ``det`` are polynomials in ``mu`` (degree at
+    most ``n_c + 1``); they are recovered exactly (up to rounding) by least squares on Chebyshev
+    nodes in the scaled variable ``u = (mu - mid) / half`` and their roots mapped back."""
     if stage is None:
         stage, index = admissible_modes(system)
     n_c = system.n_contacts
-    pts = [lo, hi]
+    pts = [np.array([lo, hi])]
     if hi - lo <= 1e-12 * max(1.0, abs(hi)) or len(index) == 0:
-        return np.unique(np.array(pts))
+        return np.unique(pts[0])
     deg = n_c + 2
     n_s = samples or (2 * deg + 3)
-    x = lo + (hi - lo) * 0.5 * (1 - np.cos(np.pi * (np.arange(n_s) + 0.5) / n_s))
+    u = -np.cos(np.pi * (np.arange(n_s) + 0.5) / n_s)
+    mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
+    x = mid + half * u
     rows = mode_rows(system, np.repeat(x[:, None], n_c, axis=1), stage=stage, index=index)
     D = rows.det  # (L, m)
-    N0 = rows.s0 * D[..., None]
-    N1 = rows.s1 * D[..., None]
+    V = np.vander(u, deg + 1, increasing=True)
+    pinv = np.linalg.pinv(V)
+    cD = pinv @ D  # (deg+1, m)
+    c0 = np.einsum("ij,jmr->imr", pinv, rows.s0 * D[..., None])
+    c1 = np.einsum("ij,jmr->imr", pinv, rows.s1 * D[..., None])
+    roots = []
     for j in range(len(index)):
-        dpoly = _poly_fit(x, D[:, j], deg, lo, hi)
-        pts += _roots_in(dpoly, lo, hi)
+        roots.append(_roots_in_u(cD[:, j]))
         act = np.flatnonzero(rows.active[j])
         polys = []
         for r in act:
-            a = _poly_fit(x, N1[:, j, r], deg, lo, hi)
-            b = _poly_fit(x, N0[:, j, r], deg, lo, hi)
+            a, b = c1[:, j, r], c0[:, j, r]
             polys.append((a, b))
-            pts += _roots_in(a, lo, hi)
-            # d/dmu (b/a) = (b'a - b a') / a^2
+            roots.append(_roots_in_u(a))
             deriv = npoly.polysub(npoly.polymul(npoly.polyder(b), a),
                                   npoly.polymul(b, npoly.polyder(a)))
-            pts += _roots_in(deriv, lo, hi)
+            roots.append(_roots_in_u(deriv))
         for (a1, b1), (a2, b2) in itertools.combinations(polys, 2):
-            pts += _roots_in(npoly.polysub(npoly.polymul(b1, a2), npoly.polymul(b2, a1)), lo, hi)
-    pts_arr = np.unique(np.clip(np.array(pts), lo, hi))
+            roots.append(_roots_in_u(npoly.polysub(npoly.polymul(b1, a2), npoly.polymul(b2, a1))))
+    ur = np.concatenate(roots) if roots else np.zeros(0)
+    pts_arr = np.unique(np.clip(np.concatenate([pts[0], mid + half * ur]), lo, hi))
     # Points just beside each interior critical point guard the one-sided limits at poles.
     eps = 1e-7 * (hi - lo)
     side = np.concatenate([pts_arr - eps, pts_arr + eps])

@@ -142,6 +142,8 @@ def plan_hand(
     ``mu.interval``.  ``control``: ``"auto"`` or the index of the velocity-controlled joint.
     Raises :class:`planner.errors.DegenerateError` when no partition can guarantee the mode.
     """
+    if policy not in POLICIES and not (policy.startswith("rival:") and len(policy) > 6):
+        raise InputError(f"policy: expected one of {POLICIES} or 'rival:MODE', got {policy!r}")
     path = resolve_hand_path(scenario)
     hand, q0, data = load_hand(path)
     seg_spec = data.get("segment")
@@ -192,8 +194,9 @@ def plan_hand(
     # Hold intervals: the command of waypoint k is held until k+1, so it must sit in both bands.
     hold = [_intersect(pieces[k], pieces[min(k + 1, len(pieces) - 1)]) for k in range(len(pieces))]
     hold = [h if not h.empty else p for h, p in zip(hold, pieces)]
-    lo_hi = _bounds_at(hand, seg, vel, mu)
-    taus, predicted = _choose(policy, hold, gs, scale, lo_hi)
+    mu_lo, mu_hi = _mu_ends(mu, hand.n_contacts)
+    at_lo, at_hi = _bands_at_ends(hand, seg, vel, mu_lo, mu_hi)
+    taus, predicted = _choose(policy, hold, gs, scale, at_hi)
     wps = []
     for k in range(len(seg.t)):
         tau = taus[k]
@@ -210,8 +213,7 @@ def plan_hand(
             rivals=gs[k].rivals,
         ))
     control_t = tuple("velocity" if k == vel else "effort" for k in range(hand.n_fingers))
-    mu_lo, mu_hi = _mu_ends(mu, hand.n_contacts)
-    curves = _curves(hand, seg, vel, gs, mu_lo, mu_hi)
+    curves = _curves(seg, gs, at_lo, at_hi, mu_lo, mu_hi)
     return Plan(
         hand=data,
         claim=seg.mode,
@@ -239,16 +241,17 @@ def _mu_ends(mu: Any, n_c: int) -> tuple[np.ndarray, np.ndarray]:
     return parse_mu_interval(mu, n_c)
 
 
-def _bounds_at(hand: Hand, seg: Segment, vel: int, mu: Any):
-    """Per waypoint, every mode's interval at the upper friction end (for the negative control)."""
-    _, mu_hi = _mu_ends(mu, hand.n_contacts)
-    out = []
+def _bands_at_ends(hand: Hand, seg: Segment, vel: int, mu_lo: np.ndarray, mu_hi: np.ndarray):
+    """Per waypoint, every mode's interval at the friction interval's two ends:
+    ``(at_lo, at_hi)``, each a list of ``{label: (family, Interval)}``."""
+    at_lo, at_hi = [], []
     for k in range(len(seg.t)):
         system = hand.system(seg.q[k], 0.0,
                              _joints(hand.n_fingers, vel, float(seg.thetadot[k, vel])))
-        bands = mode_bands(system, np.stack([mu_hi, mu_hi], 1))
-        out.append({b.label: (b.mode.family, b.possible) for b in bands})
-    return out
+        for mu_v, out in ((mu_lo, at_lo), (mu_hi, at_hi)):
+            bands = mode_bands(system, np.stack([mu_v, mu_v], 1))
+            out.append({b.label: (b.mode.family, b.possible) for b in bands})
+    return at_lo, at_hi
 
 
 def _choose(
@@ -301,29 +304,26 @@ def _choose(
     return taus, predicted
 
 
-def _curves(hand: Hand, seg: Segment, vel: int, gs: tuple[Guarantee, ...],
+def _curves(seg: Segment, gs: tuple[Guarantee, ...], at_lo: list[dict], at_hi: list[dict],
             mu_lo: np.ndarray, mu_hi: np.ndarray) -> dict[str, Any]:
     """Band curves for Figures 10-13: per mode, interval at ``mu_lo``, at ``mu_hi``, guaranteed
-    and possible over the interval (None = unbounded or empty)."""
+    and possible over the interval (None = empty; None inside a pair = unbounded)."""
     def enc(iv: Interval) -> list[float | None] | None:
         return None if iv.empty else iv.to_list()
 
+    n = len(seg.t)
     modes: dict[str, dict[str, Any]] = {}
-    for k in range(len(seg.t)):
-        system = hand.system(seg.q[k], 0.0,
-                             _joints(hand.n_fingers, vel, float(seg.thetadot[k, vel])))
-        at_lo = {b.label: b.possible for b in mode_bands(system, np.stack([mu_lo, mu_lo], 1))}
-        at_hi = {b.label: b.possible for b in mode_bands(system, np.stack([mu_hi, mu_hi], 1))}
+    for k in range(n):
         for b in gs[k].bands:
-            m = modes.setdefault(b.label, {"family": b.mode.family, "at_lo": [None] * len(seg.t),
-                                           "at_hi": [None] * len(seg.t),
-                                           "guaranteed": [None] * len(seg.t),
-                                           "possible": [None] * len(seg.t)})
-            m["at_lo"][k] = enc(at_lo.get(b.label, EMPTY))
-            m["at_hi"][k] = enc(at_hi.get(b.label, EMPTY))
+            m = modes.setdefault(b.label, {"family": b.mode.family, "at_lo": [None] * n,
+                                           "at_hi": [None] * n, "guaranteed": [None] * n,
+                                           "possible": [None] * n})
+            m["at_lo"][k] = enc(at_lo[k].get(b.label, ("", EMPTY))[1])
+            m["at_hi"][k] = enc(at_hi[k].get(b.label, ("", EMPTY))[1])
             m["guaranteed"][k] = enc(b.guaranteed)
             m["possible"][k] = enc(b.possible)
-    return {"t": [float(x) for x in seg.t], "travel": [
-        float(x) for x in np.concatenate([[0.0], np.cumsum(np.linalg.norm(
-            np.diff(seg.q[:, :2], axis=0), axis=1))])],
-        "mu_lo": [float(x) for x in mu_lo], "mu_hi": [float(x) for x in mu_hi], "modes": modes}
+    travel = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(seg.q[:, :2], axis=0),
+                                                              axis=1))])
+    return {"t": [float(x) for x in seg.t], "travel": [float(x) for x in travel],
+            "mu_lo": [float(x) for x in mu_lo], "mu_hi": [float(x) for x in mu_hi],
+            "modes": modes}

@@ -168,7 +168,10 @@ def save_plan(plan: Plan, path: str | os.PathLike[str]) -> Path:
     """Write ``plan`` atomically as indented JSON with its digest; returns the path."""
     if not isinstance(plan, Plan):
         raise InputError(f"save_plan: expected a Plan, got {type(plan).__name__}")
-    text = json.dumps(plan.to_dict(), indent=1, allow_nan=False) + "\n"
+    try:
+        text = json.dumps(plan.to_dict(), indent=1, allow_nan=False) + "\n"
+    except (ValueError, TypeError) as exc:
+        raise InputError(f"save_plan: expected JSON-serialisable finite content ({exc})") from None
     return atomic_write_text(path, text)
 
 
