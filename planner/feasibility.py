@@ -513,6 +513,28 @@ def feasible_modes(
     if not (np.isfinite(tol) and tol >= 0):
         raise InputError(f"tol: expected a finite number >= 0, got {tol}")
     cand = enumerate_modes(system.n_contacts, system.dof)
+    prediction, _ = _predict_candidates(
+        system, cand, mu_arr, tol=tol, singular_tol=singular_tol, indeterminate=indeterminate
+    )
+    return prediction
+
+
+def _predict_candidates(
+    system: System,
+    cand: CandidateSet,
+    mu_arr: np.ndarray,
+    *,
+    tol: float,
+    singular_tol: float,
+    indeterminate: bool | None,
+) -> tuple[Prediction, int]:
+    """Kinematic then force stage on the candidates ``cand`` and the :class:`Prediction`
+    (eqs. 23-28); also the number of candidates that reached the force stage.
+
+    ``cand`` is every eq. (49) candidate for :func:`feasible_modes`, and the candidates that
+    survive the pruning for :func:`planner.search.search_modes` (same arithmetic per
+    candidate, same assembly); ``candidates`` in the result is always the eq. (49) count.
+    """
     kin = kinematic_stage(system, cand, tol=tol, singular_tol=singular_tol)
     idx = np.flatnonzero(kin.ok)
     fs = force_stage(system, cand, idx, kin.xi[idx], mu_arr, singular_tol=singular_tol)
@@ -579,7 +601,7 @@ def feasible_modes(
         reason = f"{n_feasible} feasible mode(s)"
     if boundary or any(m.on_boundary for m in modes + list(extra)):
         reason += "; some decisions are within tolerance of a boundary"
-    return Prediction(
+    prediction = Prediction(
         status=status,
         candidates=n_cand,
         modes=tuple(modes),
@@ -590,3 +612,4 @@ def feasible_modes(
         mu=np.array(mu_arr, dtype=float),
         reason=reason,
     )
+    return prediction, len(idx)

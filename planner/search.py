@@ -54,21 +54,18 @@ from typing import Any
 
 import numpy as np
 
-from planner.errors import DegenerateError, InputError
+from planner.errors import InputError
 from planner.feasibility import (
     DEFAULT_SINGULAR_TOL,
     DEFAULT_TOL,
-    INDETERMINATE_AUTO_MAX_CONTACTS,
-    FeasibleMode,
     Prediction,
-    Status,
+    _predict_candidates,
     equilibrated_kinematics,
     force_rhs,
-    force_stage,
     kinematic_stage,
 )
 from planner.model import System
-from planner.modes import BREAK, ROLL, SLIDE, CandidateSet, Mode, candidate_count, enumerate_modes
+from planner.modes import BREAK, ROLL, SLIDE, CandidateSet, candidate_count, enumerate_modes
 from planner.validation import as_friction
 
 #: Default largest subtree (in candidates) that is tested in one batch instead of branched.
@@ -573,9 +570,8 @@ def search_modes(
             stack.append((child, child_xi))
     codes = _canonical_order(np.unique(leaves.kept_codes(), axis=0))
     cand = candidates_from_codes(codes, k)
-    prediction, force_tested = _predict(
-        system, cand, mu_arr, n_cand, tol=tol, singular_tol=singular_tol,
-        indeterminate=indeterminate,
+    prediction, force_tested = _predict_candidates(
+        system, cand, mu_arr, tol=tol, singular_tol=singular_tol, indeterminate=indeterminate
     )
     stats = SearchStats(
         candidates=n_cand,
@@ -598,93 +594,3 @@ def _canonical_order(codes: np.ndarray) -> np.ndarray:
     keys += [-(codes[:, i] == ROLL).astype(int) for i in reversed(range(n_c))]
     keys.append(n_r)
     return codes[np.lexsort(keys)]
-
-
-def _predict(
-    system: System,
-    cand: CandidateSet,
-    mu_arr: np.ndarray,
-    n_cand: int,
-    *,
-    tol: float,
-    singular_tol: float,
-    indeterminate: bool | None,
-) -> tuple[Prediction, int]:
-    """Kinematic then force stage on ``cand``; assemble a Prediction as ``feasible_modes`` does."""
-    kin = kinematic_stage(system, cand, tol=tol, singular_tol=singular_tol)
-    idx = np.flatnonzero(kin.ok)
-    fs = force_stage(system, cand, idx, kin.xi[idx], mu_arr, singular_tol=singular_tol)
-    margin = np.minimum(fs.margin[0], kin.margin[idx])
-    feasible = fs.nonsingular[0] & (margin >= -tol)
-    finite = np.isfinite(kin.qdot[idx]).all(axis=1) & np.isfinite(fs.c_A[0]).all(axis=1)
-    if np.any(fs.nonsingular[0] & ~finite):
-        raise DegenerateError(
-            "numerical overflow while solving eqs. (24)/(26): expected inputs whose magnitudes "
-            "fit in double precision products (rescale lengths, forces or speeds)"
-        )
-    modes = []
-    for j in np.flatnonzero(feasible):
-        i = idx[j]
-        modes.append(
-            FeasibleMode(
-                mode=Mode(tuple(int(c) for c in cand.codes[i]), tuple(int(x) for x in kin.xi[i])),
-                qdot=kin.qdot[i].copy(),
-                joint_velocities=kin.joint_velocities[i].copy(),
-                contact_velocities=kin.v[i].reshape(-1, 2).copy(),
-                contact_forces=fs.contact_forces[0, j].copy(),
-                joint_efforts=fs.joint_efforts[0, j].copy(),
-                margin=float(margin[j]),
-                on_boundary=bool(abs(margin[j]) <= tol),
-            )
-        )
-    boundary = tuple(
-        Mode(tuple(int(c) for c in cand.codes[i]), tuple(int(x) for x in kin.xi[i]))
-        for i in np.flatnonzero(kin.boundary)
-    )
-    degenerate = int(np.count_nonzero(~kin.nonsingular)) + int(
-        np.count_nonzero(~fs.nonsingular[0])
-    )
-    if indeterminate is None:
-        indeterminate = system.n_contacts <= INDETERMINATE_AUTO_MAX_CONTACTS
-    extra: tuple[FeasibleMode, ...] = ()
-    if indeterminate:
-        from planner.indeterminate import indeterminate_modes
-
-        extra = tuple(indeterminate_modes(system, mu_arr, tol=tol, singular_tol=singular_tol))
-    n_feasible = len(modes) + len(extra)
-    if n_cand == 0:
-        status = Status.NO_CANDIDATES
-        reason = (
-            f"the utility conditions (29)-(32) admit no mode: {system.n_contacts} contact(s) "
-            f"cannot supply 2 n_R + n_S = {system.dof} kinematic constraints"
-        )
-    elif kin.velocity_scale == 0.0:
-        status = Status.AT_REST
-        reason = (
-            "every commanded joint velocity is zero: nothing slides or breaks; "
-            + (f"{n_feasible} static equilibrium mode(s) hold" if n_feasible else
-               "no static equilibrium holds")
-        )
-    elif n_feasible == 0:
-        status = Status.JAMMED
-        reason = "no candidate mode is feasible" + (
-            f" ({degenerate} candidate(s) violate the rank conditions (30)-(32))"
-            if degenerate else ""
-        )
-    else:
-        status = Status.UNIQUE if n_feasible == 1 else Status.AMBIGUOUS
-        reason = f"{n_feasible} feasible mode(s)"
-    if boundary or any(m.on_boundary for m in modes + list(extra)):
-        reason += "; some decisions are within tolerance of a boundary"
-    pred = Prediction(
-        status=status,
-        candidates=n_cand,
-        modes=tuple(modes),
-        indeterminate_modes=extra,
-        boundary_modes=boundary,
-        degenerate=degenerate,
-        tol=tol,
-        mu=np.array(mu_arr, dtype=float),
-        reason=reason,
-    )
-    return pred, len(idx)
