@@ -132,14 +132,15 @@ def mutate_tree(data: Any, rng: np.random.Generator, n_mutations: int | None = N
         op = int(rng.integers(8))
         if not path:  # the root itself
             if op < 2:
-                return values[int(rng.integers(len(values)))]
+                return copy.deepcopy(values[int(rng.integers(len(values)))])
             continue
         parent, key = _get(tree, path[:-1]), path[-1]
         node = parent[key]
         if op == 0:  # delete
             del parent[key]
         elif op in (1, 2):  # wrong type / non-finite / extreme
-            parent[key] = values[int(rng.integers(len(values)))]
+            # a copy: the pool's lists and dicts must not be mutated in place later
+            parent[key] = copy.deepcopy(values[int(rng.integers(len(values)))])
         elif op == 3 and isinstance(node, (int, float)) and not isinstance(node, bool):
             parent[key] = float(node) * float(rng.choice([-1.0, 0.0, 1e-12, 1 + 1e-12, 1e12]))
         elif op == 3 or op == 4:  # grow or empty a container
@@ -151,7 +152,7 @@ def mutate_tree(data: Any, rng: np.random.Generator, n_mutations: int | None = N
             elif isinstance(node, dict):
                 node["unexpected_" + str(int(rng.integers(100)))] = 1.0
             else:
-                parent[key] = [node, node]
+                parent[key] = [node, copy.deepcopy(node)]
         elif op == 5:  # deep nesting (last mutation: deep trees are not copied again)
             parent[key] = _deep(int(rng.choice(deep)))
             break
@@ -321,6 +322,7 @@ def test_seed_files_are_valid_and_mutations_are_rejected():
     for d in SEEDS:
         assert system_round_trips(system_from_dict(d))
     rng = np.random.default_rng(0)
+    pool = repr(NASTY_VALUES)
     rejected = 0
     for _ in range(200):
         try:
@@ -328,6 +330,7 @@ def test_seed_files_are_valid_and_mutations_are_rejected():
         except QsplanError:
             rejected += 1
     assert rejected > 100
+    assert repr(NASTY_VALUES) == pool  # mutations never alter the shared value pool
 
 
 @pytest.mark.parametrize("blob,match", [
