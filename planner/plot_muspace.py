@@ -113,7 +113,10 @@ def plot_slices(
         mu = np.tile(g.base_mu, (X.size, 1))
         mu[:, g.vary[0]] = X.ravel()
         mu[:, g.vary[1]] = Y.ravel()
-        for j, lab in enumerate(g.labels):
+        for lab in shown:  # widest first, so narrower curves stay visible on top
+            if lab not in g.labels:
+                continue
+            j = g.labels.index(lab)
             c, ls = style[lab]
             if lab in regions:
                 Z = _signed_margin(regions[lab], mu).reshape(X.shape)
