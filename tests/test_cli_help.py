@@ -1,5 +1,7 @@
 """Every registered subcommand has a useful --help; bad input exits 2."""
 
+from pathlib import Path
+
 import pytest
 
 from planner.cli import build_parser, main
@@ -40,3 +42,37 @@ def test_report_bad_run_dir_exits_2(tmp_path, capsys):
 
 def test_no_command_exits_2():
     assert main([]) == 2
+
+
+def test_readme_table_lists_every_subcommand():
+    readme = (Path(__file__).resolve().parent.parent / "README.md").read_text()
+    table = readme[readme.index("## Command line"):readme.index("## Documentation")]
+    missing = [name for name, _ in _commands() if f"`qsplan {name}" not in table]
+    assert not missing, f"README command table: expected a row for every subcommand, missing {missing}"
+
+
+EX41 = str(Path(__file__).resolve().parent.parent / "scenarios" / "data" / "example_4_1.json")
+BAD_INPUT = [
+    ("modes", ["modes", "{tmp}/missing.json"], "expected an existing file"),
+    ("modes", ["modes", EX41, "--mu", "a,b"], "--mu: expected comma-separated numbers"),
+    ("modes", ["modes", EX41, "--mu", "0.3,0.2"], "expected 3 friction coefficients"),
+    ("muspace", ["muspace", EX41, "--vary", "1", "--out", "{tmp}/m"], "--vary: expected"),
+    ("plan", ["plan", "no_such_hand", "--out", "{tmp}/p.json"], "scenario: expected"),
+    ("validate", ["validate", EX41, "--engine", "bullet"], "--engine: expected one of"),
+    ("sweep", ["sweep", "mu", EX41, "--mu-range", "1,0", "--out", "{tmp}/s.json"],
+     "expected 0 <= lo <= hi"),
+    ("scenarios", ["scenarios", "run", "nosuch", "--engine", "pymunk", "--out", "{tmp}/r"],
+     "unknown scenario 'nosuch'"),
+    ("report", ["report", "{tmp}/missing"], "expected an existing directory"),
+]
+
+
+@pytest.mark.parametrize("name,argv,message", BAD_INPUT,
+                         ids=[f"{a[0]}-{i}" for i, a in enumerate(BAD_INPUT)])
+def test_bad_input_exits_2_with_message(name, argv, message, tmp_path, capsys):
+    registered = {n for n, _ in _commands()}
+    if name not in registered:
+        pytest.skip(f"qsplan {name} is not registered yet")
+    assert main([a.replace("{tmp}", str(tmp_path)) for a in argv]) == 2
+    err = capsys.readouterr().err
+    assert f"qsplan {name}: error:" in err and message in err, err

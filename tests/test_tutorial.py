@@ -1,4 +1,4 @@
-"""Run the code blocks of docs/tutorial.md and docs/file-formats.md that are marked for testing.
+"""Run the code blocks of docs/tutorial.md, docs/file-formats.md and README.md marked for testing.
 
 A fenced block is tested when the line before its opening fence is a marker comment::
 
@@ -32,7 +32,7 @@ import pytest
 from planner.cli import build_parser
 
 ROOT = Path(__file__).resolve().parent.parent
-DOCS = ("docs/tutorial.md", "docs/file-formats.md")
+DOCS = ("docs/tutorial.md", "docs/file-formats.md", "README.md")
 MARKER = re.compile(r"^<!-- test: (\w+)(.*?)-->\s*$")
 FENCE = re.compile(r"^```(\w*)\s*$")
 KINDS = ("file", "shell", "python", "none")
