@@ -50,8 +50,11 @@ class MujocoBackend:
     def __init__(self, noslip_iterations: int = 20,
                  solref: tuple[float, float] = (0.004, 1.0),
                  solimp: tuple[float, ...] = (0.99, 0.999, 0.001, 0.5, 2.0),
-                 impratio: float = 1.0) -> None:
+                 impratio: float = 1.0, out_of_plane_stiffness: float = 0.0) -> None:
         self.impratio = impratio
+        #: spring [N/m] (critically damped) holding dynamic bodies' out-of-plane slide at z = 0:
+        #: a sphere touching a capsule is unstable out of the plane when friction is ~0.
+        self.out_of_plane_stiffness = out_of_plane_stiffness
         self.noslip_iterations = noslip_iterations
         self.solref = solref
         self.solimp = solimp
@@ -115,7 +118,11 @@ class MujocoBackend:
                         axes.append(("z", mujoco.mjtJoint.mjJNT_SLIDE, [0, 0, 1]))
                     axes.append(("rz", mujoco.mjtJoint.mjJNT_HINGE, [0, 0, 1]))
                     for suffix, jt, axis in axes:
-                        body.add_joint(name=f"{b.name}:{suffix}", type=jt, axis=axis)
+                        jn = body.add_joint(name=f"{b.name}:{suffix}", type=jt, axis=axis)
+                        if suffix == "z" and self.out_of_plane_stiffness > 0:
+                            k = self.out_of_plane_stiffness
+                            jn.stiffness = [k, 0.0, 0.0]
+                            jn.damping = [2.0 * np.sqrt(k * mass), 0.0, 0.0]
                         names.append(f"{b.name}:{suffix}")
                 self._dofs[b.name] = names
             for k, shp in enumerate(b.shapes):
