@@ -1,8 +1,10 @@
 """Self-contained HTML report of a run directory (issue 8).
 
-Scans a run directory recursively for ``*.png``, ``*.gif`` (embedded as base64 ``<img>``),
-``summary*.json`` (one table row each: ``scenario``, ``engine``, ``expect``, ``agreement``,
-``passed``) and ``plan*.json`` (listed with their top-level keys). Written atomically.
+Scans a run directory recursively for ``*.png``, ``*.gif`` (embedded as base64 ``<img>``,
+grouped by folder), ``summary*.json`` (one table row each: ``scenario``, ``engine``, ``expect``,
+``status``, ``agreement``, ``passed``, ``reason``; see docs/file-formats.md) and ``plan*.json``
+(qsplan plan files: claim, friction interval, policy, waypoints, smallest torque margin, end
+event; other JSON: its top-level keys). Written atomically.
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ from planner.errors import InputError
 from planner.fileio import atomic_write_text
 
 _MIME = {".png": "image/png", ".gif": "image/gif"}
-SUMMARY_FIELDS = ("scenario", "engine", "expect", "agreement", "passed")
+SUMMARY_FIELDS = ("scenario", "engine", "expect", "status", "agreement", "passed", "reason")
 
 
 @dataclass(frozen=True)
@@ -51,6 +53,44 @@ def _load(path: Path) -> dict | None:
     return data if isinstance(data, dict) else None
 
 
+def _cell(value: object) -> str:
+    if isinstance(value, float):
+        return f"{value:.4g}"
+    return str(value)
+
+
+def _plans_table(root: Path, plans: tuple[Path, ...]) -> str:
+    """One row per plan file: claim, mu, policy, waypoints, smallest margin, end event."""
+    esc = html.escape
+    rows = ["<table><tr><th>file</th><th>claim</th><th>mu</th><th>control</th><th>policy</th>"
+            "<th>waypoints</th><th>smallest torque margin</th><th>segment ends</th></tr>"]
+    for rel in plans:
+        data = _load(root / rel) or {}
+        if data.get("format") != "qsplan-plan":
+            keys = ", ".join(sorted(data))
+            rows.append(f"<tr><td>{esc(str(rel))}</td><td colspan='7'>keys: {esc(keys)}</td></tr>")
+            continue
+        wps = data.get("waypoints")
+        wps = wps if isinstance(wps, list) else []
+        margins = [w.get("margin") for w in wps if isinstance(w, dict)
+                   and isinstance(w.get("margin"), (int, float))]
+        mu = data.get("mu") or {}
+        intervals = mu.get("intervals") if isinstance(mu, dict) else None
+        mu_text = (f"{mu.get('model', '')} {intervals[0]}" if isinstance(intervals, list)
+                   and intervals else str(mu))
+        event = data.get("event") or {}
+        ev = (f"{event.get('kind', '')} ({event.get('detail', '')}) at t = "
+              f"{_cell(event.get('t', ''))} s" if isinstance(event, dict) else str(event))
+        control = data.get("control")
+        cells = [str(rel), data.get("claim", ""), mu_text,
+                 ", ".join(map(str, control)) if isinstance(control, list) else control or "",
+                 data.get("policy", ""), len(wps),
+            _cell(min(margins)) if margins else "", ev]
+        rows.append("<tr>" + "".join(f"<td>{esc(str(c))}</td>" for c in cells) + "</tr>")
+    rows.append("</table>")
+    return "\n".join(rows)
+
+
 def build_html(run_dir: str | Path) -> str:
     """The report page as one HTML string with every image inlined as base64."""
     root = Path(run_dir)
@@ -61,7 +101,8 @@ def build_html(run_dir: str | Path) -> str:
         f"<title>qsplan report: {esc(root.name)}</title>",
         "<style>body{font-family:sans-serif;max-width:1100px;margin:auto}"
         "td,th{border:1px solid #aaa;padding:3px 6px}table{border-collapse:collapse}"
-        ".ok{background:#dfd}.bad{background:#fdd}img{max-width:100%}</style></head><body>",
+        ".ok{background:#dfd}.bad{background:#fdd}.info{background:#eef}img{max-width:100%}"
+        "</style></head><body>",
         f"<h1>qsplan report: {esc(root.name)}</h1>",
         "<h2>What held and what did not</h2>",
     ]
@@ -71,20 +112,23 @@ def build_html(run_dir: str | Path) -> str:
         for rel in found.summaries:
             data = _load(root / rel) or {}
             passed = data.get("passed")
-            cls = "ok" if passed is True else "bad"
-            cells = "".join(f"<td>{esc(str(data.get(f, '')))}</td>" for f in SUMMARY_FIELDS)
+            cls = ("ok" if passed else "bad") if isinstance(passed, bool) else "info"
+            cells = "".join(f"<td>{esc(_cell(data.get(f, '')))}</td>" for f in SUMMARY_FIELDS)
             out.append(f"<tr class='{cls}'><td>{esc(str(rel))}</td>{cells}</tr>")
         out.append("</table>")
+        n_ok = sum((_load(root / r) or {}).get("passed") is True for r in found.summaries)
+        out.append(f"<p>{n_ok} of {len(found.summaries)} summaries passed.</p>")
     else:
         out.append("<p>No summary*.json files found.</p>")
     if found.plans:
-        out.append("<h2>Plans</h2><ul>")
-        for rel in found.plans:
-            keys = ", ".join(sorted((_load(root / rel) or {}).keys()))
-            out.append(f"<li>{esc(str(rel))}: {esc(keys)}</li>")
-        out.append("</ul>")
+        out.append("<h2>Plans</h2>")
+        out.append(_plans_table(root, found.plans))
     out.append("<h2>Figures</h2>")
+    folder = None
     for rel in found.images:
+        if rel.parent != folder:
+            folder = rel.parent
+            out.append(f"<h3>{esc(str(folder) if str(folder) != '.' else root.name)}</h3>")
         data = base64.b64encode((root / rel).read_bytes()).decode("ascii")
         mime = _MIME[rel.suffix.lower()]
         out.append(

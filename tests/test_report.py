@@ -41,3 +41,26 @@ def test_html_embeds_images_and_rows(tmp_path):
 def test_missing_dir(tmp_path):
     with pytest.raises(InputError, match="expected an existing directory"):
         scan_run(tmp_path / "nope")
+
+
+def test_plan_table_and_info_rows(tmp_path):
+    (tmp_path / "hand").mkdir()
+    (tmp_path / "hand" / "plan.json").write_text(json.dumps({
+        "format": "qsplan-plan", "claim": "S+1 S+2 S-3 S-4", "policy": "midband",
+        "control": ["effort", "velocity"], "mu": {"model": "common", "intervals": [[0.0, 0.2]]},
+        "event": {"kind": "new contact", "detail": "vertex 4", "t": 13.3},
+        "waypoints": [{"margin": 0.003}, {"margin": 0.00117}, {"margin": 0.002}]}))
+    (tmp_path / "hand" / "bounds.png").write_bytes(PNG_1x1)
+    (tmp_path / "summary.json").write_text(json.dumps({"scenario": "muspace_ex41"}))
+    page = build_html(tmp_path)
+    assert "S+1 S+2 S-3 S-4" in page and "0.00117" in page and "new contact (vertex 4)" in page
+    assert "class='info'" in page and "0 of 1 summaries passed" in page
+    assert "<h3>hand</h3>" in page
+
+
+def test_garbage_json_does_not_break_the_page(tmp_path):
+    (tmp_path / "summary.json").write_text("{not json")
+    (tmp_path / "plan.json").write_text(json.dumps({"format": "qsplan-plan", "waypoints": 3,
+                                                    "mu": "x", "control": 5}))
+    page = build_html(tmp_path)
+    assert "summary.json" in page and "plan.json" in page
