@@ -72,7 +72,9 @@ sys.path.insert(0, str(ROOT / "tests"))
 from certify import check_certificate  # noqa: E402
 from randsys import random_system  # noqa: E402
 from test_fuzz import (  # noqa: E402
+    KNOWN_CRASH_LITERALS,
     KNOWN_CRASH_VALUES,
+    LITERALS,
     NASTY_VALUES,
     json_values,
     mutate_text,
@@ -196,7 +198,8 @@ def system_bytes_campaign(n: int, seed: int, workdir: Path) -> Campaign:
     rng = np.random.default_rng(seed)
     path = workdir / "system.json"
     for _ in range(n):
-        blob = mutate_text(seeds[int(rng.integers(len(seeds)))], rng)
+        blob = mutate_text(seeds[int(rng.integers(len(seeds)))], rng,
+                           literals=LITERALS + KNOWN_CRASH_LITERALS)
         path.write_bytes(blob)
         example = repr(blob[:300])
         c.inputs += 1
@@ -247,7 +250,7 @@ def plan_campaign(n: int, seed: int, workdir: Path) -> Campaign:
         kind = ("stale digest", "re-signed", "bytes")[k % 3]
         kinds[kind] += 1
         if kind == "bytes":
-            blob = mutate_text(base_text, rng)
+            blob = mutate_text(base_text, rng, literals=LITERALS + KNOWN_CRASH_LITERALS)
             path.write_bytes(blob)
             example = repr(blob[:300])
         else:

@@ -14,6 +14,7 @@ from __future__ import annotations
 import copy
 import json
 import math
+import re
 from pathlib import Path
 from typing import Any
 
@@ -167,8 +168,16 @@ def mutate_tree(data: Any, rng: np.random.Generator, n_mutations: int | None = N
     return tree
 
 
-def mutate_text(text: str, rng: np.random.Generator) -> bytes:
-    """File bytes derived from valid JSON ``text``: truncated, bit-flipped, non-UTF-8, ..."""
+#: Literals spliced into file text (``KNOWN_CRASH_LITERALS`` still crash a loader).
+LITERALS: tuple[bytes, ...] = (b"NaN", b"Infinity", b"-Infinity", b"1e999", b"-0", b"1e-400")
+KNOWN_CRASH_LITERALS: tuple[bytes, ...] = (b"1" + b"0" * 400,)
+
+
+def mutate_text(text: str, rng: np.random.Generator,
+                literals: tuple[bytes, ...] = LITERALS) -> bytes:
+    """File bytes derived from valid JSON ``text``: truncated, bit-flipped, non-UTF-8, ...
+    ``literals`` are spliced in at random places (most give a syntax error; in a number's
+    place they are values)."""
     raw = text.encode("utf-8")
     op = int(rng.integers(9))
     i = int(rng.integers(len(raw) + 1))
@@ -182,7 +191,13 @@ def mutate_text(text: str, rng: np.random.Generator) -> bytes:
     if op == 3:
         return b"\xef\xbb\xbf" + raw  # UTF-8 byte-order mark
     if op == 4:
-        return raw[:i] + rng.choice([b"NaN", b"Infinity", b"-Infinity", b"1e999", b"-0"]) + raw[i:]
+        lit = literals[int(rng.integers(len(literals)))]
+        if rng.random() < 0.5:  # replace a number so the file stays valid JSON
+            nums = [m.span() for m in re.finditer(rb"-?\d+\.?\d*(?:[eE][-+]?\d+)?", raw)]
+            if nums:
+                a, b = nums[int(rng.integers(len(nums)))]
+                return raw[:a] + lit + raw[b:]
+        return raw[:i] + lit + raw[i:]
     if op == 5:
         depth = int(rng.choice([100, 5000, 200_000]))
         return b"[" * depth + b"]" * depth
