@@ -1,53 +1,170 @@
-"""sim.plan_exec.compare and the `qsplan validate` argument checks (issue 5)."""
+"""sim.plan_exec: comparison, shortened plan runs in both engines, the negative control, and
+`qsplan validate` exit codes (issue 5)."""
 
 from __future__ import annotations
+
+import dataclasses
+import json
 
 import numpy as np
 import pytest
 
 from planner.cli import main
 from planner.errors import InputError
-from sim.plan_exec import ExecStatus, compare
 
-CLAIM = "S-1 S-2 S+3 S+4"
+CLAIM = "S+1 S+2 S-3 S-4"
+R2S = "R1 B2 S-3 S-4"
+SHORT = 4  # waypoints of the shortened runs (~1 s of the 13.3 s segment)
 
 
 def _poses(n, dx=-0.001):
     return np.column_stack([dx * np.arange(n), np.zeros(n), np.zeros(n)])
 
 
+# ---- pure comparison ----------------------------------------------------------------------------
 def test_agreeing_run_passes():
-    n = 40
-    obs = [CLAIM] * 39 + ["R1 S-2 S+3 S+4"]
-    c = compare(CLAIM, obs, _poses(n), _poses(n))
-    assert c.status is ExecStatus.PASSED and c.agree_fraction == pytest.approx(39 / 40)
+    from sim.plan_exec import ExecStatus, compare
+
+    obs = [CLAIM] * 39 + ["R1 S+2 S-3 S-4"]
+    c = compare(CLAIM, obs, [(CLAIM,)] * 40, _poses(10), _poses(10))
+    assert c.status is ExecStatus.PASSED and c.claim_fraction == pytest.approx(39 / 40)
     assert c.reasons == ()
 
 
-def test_rival_mode_fails_with_reason():
-    n = 40
-    obs = ["R1 S-2 S+3 S+4"] * 20 + [CLAIM] * 20
-    c = compare(CLAIM, obs, _poses(n), _poses(n))
+def test_rival_mode_fails_but_matches_its_prediction():
+    from sim.plan_exec import ExecStatus, compare
+
+    obs = [R2S] * 20 + [CLAIM] * 20
+    pred = [(R2S,)] * 20 + [(CLAIM,)] * 20
+    c = compare(CLAIM, obs, pred, _poses(3), _poses(3), interval=[0] * 20 + [1] * 20)
     assert c.status is ExecStatus.FAILED
-    assert "50.0%" in c.reasons[0] and "R1 S-2 S+3 S+4" in c.reasons[0]
+    assert "observed on 50.0% of the segment" in c.reasons[0] and R2S in c.reasons[0]
+    assert c.predicted_fraction == 1.0 and c.waypoint_observed == (R2S, CLAIM)
 
 
 def test_pose_drift_fails():
-    n = 40
-    sim = _poses(n)
+    from sim.plan_exec import ExecStatus, compare
+
+    sim = _poses(40)
     sim[-1, 0] += 0.05 * 0.039  # 5 % of the 39 mm travel
-    c = compare(CLAIM, [CLAIM] * n, _poses(n), sim)
+    c = compare(CLAIM, [CLAIM] * 5, [(CLAIM,)] * 5, _poses(40), sim)
     assert c.status is ExecStatus.FAILED and c.final_error_of_travel == pytest.approx(0.05)
     assert "of travel" in c.reasons[0]
 
 
 def test_bad_shapes_rejected():
+    from sim.plan_exec import compare
+
     with pytest.raises(InputError, match=r"expected shape \(3, 3\).*got \(3, 2\)"):
-        compare(CLAIM, [CLAIM] * 3, np.zeros((3, 2)), np.zeros((3, 3)))
+        compare(CLAIM, [CLAIM], [(CLAIM,)], np.zeros((3, 3)), np.zeros((3, 2)))
     with pytest.raises(InputError, match="positive travel, got 0"):
-        compare(CLAIM, [CLAIM] * 3, np.zeros((3, 3)), np.zeros((3, 3)))
+        compare(CLAIM, [CLAIM], [(CLAIM,)], np.zeros((3, 3)), np.zeros((3, 3)))
+    with pytest.raises(InputError, match="expected 2 label sets .one per step., got 1"):
+        compare(CLAIM, [CLAIM] * 2, [(CLAIM,)], _poses(3), _poses(3))
 
 
-def test_validate_cli_bad_input(tmp_path):
+# ---- plans ---------------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def plans():
+    from planner.hand_planner import plan_hand
+
+    return {p: plan_hand("two_finger_hand", mu=(0.0, 0.2), policy=p)
+            for p in ("midband", "rival:R2S")}
+
+
+def _short(plan, n=SHORT):
+    return dataclasses.replace(plan, waypoints=plan.waypoints[:n])
+
+
+@pytest.mark.parametrize("engine", ["pymunk", "mujoco"])
+def test_short_midband_plan_passes(plans, engine, tmp_path):
+    from sim.plan_exec import ExecStatus, run_plan
+
+    render = engine == "pymunk"  # drawing is engine-independent; once is enough
+    res = run_plan(plans["midband"], engine, 0.1, tmp_path, waypoints=SHORT, render=render)
+    c = res.comparison
+    assert c.status is ExecStatus.PASSED, c.reasons
+    assert c.claim_fraction >= 0.95 and c.final_error_of_travel < 0.02
+    s = json.loads((tmp_path / "summary.json").read_text())
+    assert s["passed"] is True and s["claim"] == CLAIM and s["engine"] == engine
+    if render:
+        assert (tmp_path / "timeline.png").stat().st_size > 0
+        assert (tmp_path / "animation.gif").read_bytes()[:3] == b"GIF"
+
+
+@pytest.mark.parametrize("engine", ["pymunk", "mujoco"])
+def test_negative_control_fails_and_shows_r2s(plans, engine):
+    """Torque in the R2S band while claiming 4S (mu = 0.2): the validator must disagree, and what
+    it sees at the start is the rival the planner predicted there."""
+    from sim.plan_exec import ExecStatus, run_plan
+
+    plan = plans["rival:R2S"]
+    assert plan.claim == CLAIM and R2S in plan.waypoints[0].predicted
+    res = run_plan(plan, engine, 0.2, waypoints=SHORT, render=False)
+    c = res.comparison
+    assert c.status is ExecStatus.FAILED
+    assert c.claim_fraction < 0.5 and c.waypoint_observed[0] == R2S
+    assert c.predicted_fraction > c.claim_fraction
+
+
+def test_run_plan_input_errors(plans):
+    from sim.plan_exec import run_plan
+
+    with pytest.raises(InputError, match=r"engine: expected one of \['mujoco', 'pymunk'\], got 'bullet'"):
+        run_plan(plans["midband"], "bullet", 0.1, waypoints=2, render=False)
+    with pytest.raises(InputError, match=r"mu: expected a coefficient >= 0 or 4 of them"):
+        run_plan(plans["midband"], "pymunk", [0.1, 0.2], waypoints=2, render=False)
+    with pytest.raises(InputError, match=r"truncated: expected 2 <= n <= 41, got 1"):
+        run_plan(plans["midband"], "pymunk", 0.1, waypoints=1, render=False)
+
+
+# ---- qsplan validate -----------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def plan_files(plans, tmp_path_factory):
+    from planner.plan import save_plan
+
+    d = tmp_path_factory.mktemp("plans")
+    return {"good": save_plan(_short(plans["midband"], 3), d / "good.json"),
+            "neg": save_plan(_short(plans["rival:R2S"], 3), d / "neg.json")}
+
+
+def test_validate_exit_codes(plan_files, tmp_path, capsys):
+    assert main(["validate", str(plan_files["good"]), "--mu", "0.1", "--no-render",
+                 "--out", str(tmp_path / "v")]) == 0
+    assert "PASSED" in capsys.readouterr().out
+    assert (tmp_path / "v" / "summary.json").is_file()
+    assert main(["validate", str(plan_files["neg"]), "--mu", "0.2", "--no-render"]) == 1
+    assert "FAILED" in capsys.readouterr().out
+
+
+def test_validate_bad_input(plan_files, tmp_path, capsys):
     assert main(["validate", str(tmp_path / "missing.json")]) == 2
-    assert main(["validate", str(tmp_path / "missing.json"), "--engine", "bullet"]) == 2
+    assert "expected an existing plan file" in capsys.readouterr().err
+    assert main(["validate", str(plan_files["good"]), "--engine", "bullet"]) == 2
+    assert "expected one of pymunk, mujoco, got 'bullet'" in capsys.readouterr().err
+    assert main(["validate", str(plan_files["good"]), "--mu", "abc"]) == 2
+    assert "--mu: expected numbers separated by commas" in capsys.readouterr().err
+    assert main(["validate", str(plan_files["good"]), "--mu", "-0.1"]) == 2
+    # tampered: one torque changed by hand -> digest mismatch
+    data = json.loads(plan_files["good"].read_text())
+    data["waypoints"][1]["torque_command"] = -0.0001
+    bad = tmp_path / "tampered.json"
+    bad.write_text(json.dumps(data))
+    assert main(["validate", str(bad), "--no-render"]) == 2
+    assert "digest mismatch" in capsys.readouterr().err
+    bad.write_text("{not json")
+    assert main(["validate", str(bad)]) == 2
+    assert "expected JSON" in capsys.readouterr().err
+
+
+def test_validate_fault_exit_code(plan_files, monkeypatch):
+    """A simulator fault is exit 3, never a pass (run_plan replaced by a faulting stub)."""
+    import sim.plan_exec as pe
+
+    def faulty(plan, engine, mu, out=None, **kw):
+        comp = pe.Comparison(pe.ExecStatus.FAULT, plan.claim, 0.0, 0.0, 0, np.nan, np.nan,
+                             np.nan, np.nan, np.nan, (), (), ("nan at t=0.1 s: injected",))
+        return pe.PlanRun(comp, None, (), {"settings": {"wall_time_s": 0.0}})
+
+    monkeypatch.setattr(pe, "run_plan", faulty)
+    assert main(["validate", str(plan_files["good"]), "--mu", "0.1"]) == 3

@@ -1,68 +1,79 @@
-"""sim.hand_scene: the two-finger hand builds and runs in both engines (issue 5, smoke level)."""
+"""sim.hand_scene: the two-finger hand file as a scene in both engines (issue 5)."""
 
 from __future__ import annotations
+
+import json
 
 import numpy as np
 import pytest
 
 from planner.errors import InputError
-from sim.hand_scene import hand_scene
+from planner.hand import load_hand
+from sim.hand_scene import hand_scene, pair_names, polygon_inertia
+from sim.plan_exec import ENGINE_SETTINGS, hand_backend, scaled_hand
 from sim.run import RunSettings, run_scene
-from sim.scene import Control, make_backend
-
-R = 0.002  # finger half-width [m]
-GAP = 0.9 * R * 2**0.5  # pivot offset: links start 0.2 mm into the workpiece corners
-GEOM = {
-    "palm": {"left": [[-0.1, -0.001], [-0.005, -0.001]],
-             "right": [[0.005, -0.001], [0.1, -0.001]], "radius": 0.001},
-    "fingers": [
-        {"name": "left", "pivot": [-0.07 - GAP, 0.0], "length": 0.07, "width": 2 * R,
-         "angle": np.pi / 4},
-        {"name": "right", "pivot": [0.07 + GAP, 0.0], "length": 0.07, "width": 2 * R,
-         "angle": 3 * np.pi / 4},
-    ],
-    "workpiece": {"vertices": [[-0.03, 0.0], [0.03, 0.0], [0.03, 0.04], [-0.03, 0.04]],
-                  "mass": 0.1, "pose": [0.0, 0.0, 0.0]},
-    "g_obj": [0.0, 0.0, 0.0],
-}
 
 
-def _scene(torque, speed):
-    return hand_scene(GEOM, [0.1] * 4, [Control.EFFORT, Control.VELOCITY],
-                      [lambda t, s: torque, lambda t, s: speed])
+@pytest.fixture(scope="module")
+def hand_file(data_dir):
+    return load_hand(data_dir / "two_finger_hand.json")
+
+
+def _scene(data, tau=-0.003, speed=0.02, mu=0.1):
+    return hand_scene(data, mu, ["effort", "velocity"], [lambda t, s: tau, lambda t, s: speed])
+
+
+def test_scene_layout(hand_file):
+    hand, q0, data = hand_file
+    scene = _scene(data)
+    assert [p.name for p in scene.pairs] == list(pair_names(4)) == ["c1", "c2", "c3", "c4"]
+    assert scene.only_pairs and scene.loads[0].force == tuple(hand.load_force)
+    wp = scene.body("workpiece")
+    assert wp.pose == pytest.approx(tuple(q0[:3])) and wp.mass == hand.mass
+    # each palm contact has its own palm shape and its own vertex circle
+    palm_pairs = [p for p in scene.pairs if p.body_a == "palm"]
+    assert len({p.shape_a for p in palm_pairs}) == len({p.shape_b for p in palm_pairs}) == 2
+    # a vertex circle touches its feature where the sharp vertex does
+    pts, nrm, _ = hand.contact_geometry(q0)
+    for i, p in enumerate(scene.pairs[:3]):
+        c = wp.shapes[p.shape_b]
+        centre = np.asarray(c.center) + q0[:2]
+        assert np.allclose(centre - c.radius * nrm[i], pts[i], atol=1e-5)
+
+
+def test_polygon_inertia_of_a_square():
+    sq = np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]])
+    assert polygon_inertia(sq, 3.0, np.zeros(2)) == pytest.approx(3.0 * 4 / 6)
 
 
 @pytest.mark.parametrize("engine", ["pymunk", "mujoco"])
-def test_velocity_finger_pushes_workpiece_left(engine):
-    rec = run_scene(_scene(-0.01, 0.05), make_backend(engine), RunSettings(
-        duration=0.5, dt=1e-3, slip_speed=1e-4, penetration_tol=0.003))
+def test_contacts_and_normals_match_the_model(hand_file, engine):
+    """With the hand settings (sim.plan_exec.ENGINE_SETTINGS): all four contacts touch, along the model's inward normals, and the
+    driven finger pushes the workpiece to the left (the 4S direction)."""
+    hand, q0, data = hand_file
+    es = ENGINE_SETTINGS[engine]
+    rec = run_scene(_scene(scaled_hand(data, es.mass_scale)), hand_backend(engine), RunSettings(
+        duration=0.3, dt=1e-3, slip_speed=1e-4, penetration_tol=2e-3))
     assert rec.fault is None
+    assert rec.present[-50:].all()
+    _, nrm, _ = hand.contact_geometry(q0)
+    assert np.allclose(rec.normals[-1], nrm, atol=0.02)
+    assert np.all(rec.normal_force[-1] > 0)
     i = rec.body_names.index("workpiece")
-    assert rec.poses[-1, i, 0] < -1e-3  # moved left by more than 1 mm
-    # reversing the finger lets the torque finger push it right instead
-    rec2 = run_scene(_scene(-0.01, -0.05), make_backend(engine), RunSettings(
-        duration=0.5, dt=1e-3, slip_speed=1e-4, penetration_tol=0.003))
-    assert rec2.fault is None and rec2.poses[-1, i, 0] > 1e-3
+    assert rec.poses[-1, i, 0] < -1e-4
 
 
-def test_bad_inputs_rejected():
-    with pytest.raises(InputError, match=r"expected 4 coefficients.*got shape \(3,\)"):
-        hand_scene(GEOM, [0.1] * 3, [Control.EFFORT, Control.VELOCITY], [None, None])
+def test_bad_inputs_rejected(hand_file):
+    _, _, data = hand_file
+    with pytest.raises(InputError, match=r"expected a scalar or 4 coefficients.*got shape \(3,\)"):
+        hand_scene(data, [0.1] * 3, ["effort", "velocity"], [None, None])
+    with pytest.raises(InputError, match=r"mu: expected finite coefficients >= 0, got \[-0.1"):
+        hand_scene(data, -0.1, ["effort", "velocity"], [None, None])
+    with pytest.raises(InputError, match="expected 2 each .one per finger., got 1/2"):
+        hand_scene(data, 0.1, ["effort"], [None, None])
+    with pytest.raises(InputError, match="expected 'velocity' or 'effort' per joint"):
+        hand_scene(data, 0.1, ["effort", "torque"], [None, None])
+    broken = json.loads(json.dumps(data))
+    del broken["palm"]
     with pytest.raises(InputError, match="expected key 'palm'"):
-        hand_scene({}, [0.1] * 4, [Control.EFFORT, Control.VELOCITY], [None, None])
-
-
-@pytest.mark.parametrize("engine", ["pymunk", "mujoco"])
-def test_schedule_with_wrong_claim_fails(engine):
-    from sim.plan_exec import ExecStatus, Schedule, run_schedule
-
-    times = tuple(np.linspace(0.0, 0.5, 11))
-    # predicted poses: pushed left 1 mm at constant rate; claim "R1 R2 R3 R4" cannot be
-    # observed while the workpiece slides on the palm, so the validator must disagree
-    poses = tuple((-0.002 * s, 0.0, 0.0) for s in times)
-    sched = Schedule(times=times, velocity=(0.05,) * 11, torque=(-0.01,) * 11, poses=poses,
-                     claim="R1 R2 R3 R4", controls=("effort", "velocity"))
-    comp, rec, obs = run_schedule(GEOM, [0.1] * 4, sched, engine, drive_speed=3e-3)
-    assert comp.status is ExecStatus.FAILED
-    assert "R1 R2 R3 R4" in comp.reasons[0] and comp.agree_fraction < 0.5
-    assert len(obs) == 11
+        hand_scene(broken, 0.1, ["effort", "velocity"], [None, None])
