@@ -162,3 +162,16 @@ def test_negative_control_plan_predicts_r2s_in_the_first_half():
     assert all(p == ("R1 B2 S-3 S-4",) for p in first)  # ... but predicts R2S early on
     assert neg.waypoints[-1].predicted == (CLAIM,)
     assert any(w.margin < 0 for w in neg.waypoints)
+
+
+def test_cli_plan_per_contact_intervals(tmp_path, capsys):
+    out = tmp_path / "p.json"
+    rc = main(["plan", "two_finger_hand", "--mu", "0:0.2,0:0.1,0:0.3,0:0.2", "--model",
+               "independent", "--waypoints", "3", "--out", str(out)])
+    assert rc == 0
+    plan = load_plan(out)
+    assert plan.mu_model == "independent"
+    assert plan.mu_intervals == ((0.0, 0.2), (0.0, 0.1), (0.0, 0.3), (0.0, 0.2))
+    rc = main(["plan", "two_finger_hand", "--mu", "0:0.2,0:0.1,0:0.3,0:0.2", "--waypoints", "3",
+               "--out", str(tmp_path / "q.json")])
+    assert rc == 2 and "independent" in capsys.readouterr().err

@@ -23,7 +23,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         ),
     )
     p.add_argument("scenario", help="hand file or scenario name (e.g. two_finger_hand)")
-    p.add_argument("--mu", help="friction interval LO:HI (e.g. 0:0.2), default from the file")
+    p.add_argument("--mu", help="friction interval LO:HI (e.g. 0:0.2), or one LO:HI per contact "
+                   "separated by commas; default from the hand file")
     p.add_argument("--model", default="common", choices=("common", "independent"),
                    help="one coefficient for all contacts (paper) or one per contact")
     p.add_argument("--policy", default="midband",
@@ -36,20 +37,27 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def parse_interval(text: str | None) -> tuple[float, float] | None:
-    """``"0:0.2"`` -> (0.0, 0.2); a single number -> (x, x)."""
+def parse_interval(text: str | None) -> tuple[float, float] | list[tuple[float, float]] | None:
+    """``"0:0.2"`` -> (0.0, 0.2); a number -> (x, x); ``"0:0.2,0:0.3,..."`` -> one interval per
+    contact (used with ``--model independent``)."""
     if text is None:
         return None
-    parts = text.split(":")
-    try:
-        vals = [float(x) for x in parts]
-    except ValueError:
-        raise InputError(f"--mu: expected LO:HI (e.g. 0:0.2) or a number, got {text!r}") from None
-    if len(vals) == 1:
-        vals = vals * 2
-    if len(vals) != 2:
-        raise InputError(f"--mu: expected LO:HI (e.g. 0:0.2) or a number, got {text!r}")
-    return vals[0], vals[1]
+    out = []
+    for item in text.split(","):
+        parts = item.split(":")
+        try:
+            vals = [float(x) for x in parts]
+        except ValueError:
+            raise InputError(
+                "--mu: expected LO:HI (e.g. 0:0.2), a number, or one LO:HI per contact, "
+                f"got {text!r}"
+            ) from None
+        if len(vals) == 1:
+            vals = vals * 2
+        if len(vals) != 2:
+            raise InputError(f"--mu: expected LO:HI (e.g. 0:0.2) or a number, got {item!r}")
+        out.append((vals[0], vals[1]))
+    return out[0] if len(out) == 1 else out
 
 
 def run(args: argparse.Namespace) -> int:
@@ -75,8 +83,10 @@ def run(args: argparse.Namespace) -> int:
     if not quiet:
         m = plan.margins()
         print(f"plan: {path}  ({len(plan.waypoints)} waypoints, {time.perf_counter() - t0:.2f} s)")
+        ivs = sorted({tuple(iv) for iv in plan.mu_intervals})
+        mu_text = " ".join(f"[{a:g}, {b:g}]" for a, b in ivs)
         print(f"  claim {plan.claim}; control {', '.join(plan.control)}; mu {plan.mu_model} "
-              f"{list(plan.mu_intervals[0])}; policy {plan.policy}")
+              f"{mu_text}; policy {plan.policy}")
         print(f"  segment ends at t = {plan.event['t']:.3g} s: {plan.event['kind']} "
               f"({plan.event['detail']}); travel {1e3 * plan.travel():.2f} mm")
         print(f"  smallest torque margin {m.min():.3g} N m; exact bounds: {plan.exact}")
