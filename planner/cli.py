@@ -39,6 +39,13 @@ def build_parser() -> argparse.ArgumentParser:
         register = getattr(module, "register", None)
         if register is not None:
             register(sub)
+    # -q/-v are accepted after the subcommand too (``qsplan plan ... -q``).
+    for subparser in sub.choices.values():
+        group = subparser.add_mutually_exclusive_group()
+        group.add_argument("-q", "--quiet", action="store_true", default=argparse.SUPPRESS,
+                           help="print only errors")
+        group.add_argument("-v", "--verbose", action="store_true", default=argparse.SUPPRESS,
+                           help="print more detail")
     return parser
 
 
