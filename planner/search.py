@@ -2,9 +2,9 @@
 
 The paper tests all eq. (49) candidates (Sec. 4.7: 20 min at ``n_c = 12``) and names as future
 work finding all solutions without enumerating the modes (Secs. 4.7, 6).  This module does that
-with a depth-first branch-and-bound over *partial* mode assignments with LP relaxations of the
-kinematic and force constraints.  Full description, exactness argument and measurements:
-``docs/scaling.md``.
+with a depth-first branch-and-bound over *partial* mode assignments, pruned by an LP relaxation
+of the force constraints, with the kinematics decided by batched tests at the leaves.  Full
+description, exactness argument and measurements: ``docs/scaling.md``.
 
 Algorithm
 ---------
@@ -14,30 +14,35 @@ A feasible mode has ``z`` and contact forces ``c (2 n_c)`` with ``W c = -g_obj``
 ``J_E^T c = tau_E - g_man_E`` (eq. 26 over all contacts) and per contact: B ``v_n > 0, c = 0``
 (eqs. 11, 25); S ``v_n = 0, xi v_t > 0, c_t = -mu xi c_n, c_n >= 0`` (eqs. 10, 16, 17, 22);
 R ``v_n = 0, v_t = 0, |c_t| <= mu c_n`` (eqs. 9, 21).  A node gives each contact a state:
-``FREE`` (relaxed to ``v_n >= 0`` and ``c`` in the cone), ``CONTACT`` (R or S: ``v_n = 0``, ``c``
-in the cone), or B / R / S+ / S- (strict inequalities relaxed by ``eps``).  Children
-``FREE -> B | CONTACT`` and ``CONTACT -> R | S+ | S-`` partition the parent's candidates.  One
-warm-started HiGHS LP per node; a node is discarded only when HiGHS proves its relaxation
-infeasible.  Subtrees with at most ``batch_size`` candidates are generated and tested by the
-same batched code as the exhaustive path (:func:`planner.feasibility.kinematic_stage`, then
+``FREE`` (undecided), ``CONTACT`` (R or S, undecided), or B / R / S+ / S-.  Children
+``FREE -> B | CONTACT`` and ``CONTACT -> R | S+ | S-`` partition the parent's candidates.  The
+node's force relaxation (one warm-started HiGHS LP over ``c``: equilibrium; ``c = 0`` at B;
+``c`` in the friction cone at FREE / CONTACT / R; ``c_t = -mu xi c_n``, ``c_n >= 0`` at S, the
+inequalities relaxed by ``eps N``) is solved when the branching changed its bounds (``FREE ->
+CONTACT`` and ``CONTACT -> R`` do not); a node is discarded only when HiGHS proves it
+infeasible.  Velocities and forces share no variable, and the velocity half of the relaxation
+pruned almost nothing (docs/scaling.md), so it is left to the leaves: subtrees with at most
+``batch_size`` candidates are generated and queued, and tested in batches by the same code as
+the exhaustive path (:func:`planner.feasibility.kinematic_stage`, then
 :func:`planner.feasibility.force_stage` on the kinematically admissible ones).
 
 Why it is exact
 ---------------
-A mode that exhaustive enumeration reports feasible gives a point ``(z, c)`` that satisfies the
-relaxation of every ancestor node (equalities solved exactly; strict inequalities hold with
-margin ``tol`` and are relaxed by ``eps >> tol``; Coulomb holds to ``tol max|c_A|``, bounded by
-``eps_f sum c_n``), so it is never pruned; the children partition the candidates; and each
-surviving candidate is decided by the same arithmetic as :func:`planner.feasibility.
-feasible_modes` (same row order and equilibration).  Differences by design: ``degenerate``
-counts singular candidates among those tested, and ``boundary_modes`` lists only kinematic
-boundary cases whose subtree was not proved force-infeasible (a subset).
+A mode that exhaustive enumeration reports feasible has forces ``c`` that satisfy the force
+relaxation of every ancestor node (equilibrium solved exactly; Coulomb holds to
+``tol max|c_A|``, bounded by ``eps_f sum c_n`` with ``eps_f >> tol``), so it is never pruned;
+the children partition the candidates; and each surviving candidate is decided by the same
+arithmetic as :func:`planner.feasibility.feasible_modes` (same row order and equilibration,
+one candidate's arithmetic independent of its batch).  Differences by design:
+``degenerate`` counts singular candidates among those tested, and ``boundary_modes`` lists only
+kinematic boundary cases whose subtree was not proved force-infeasible (a subset).
 
 Cost
 ----
-One LP (``3 n_c`` unknowns, ``7 n_c + k`` rows) per expanded node plus one batched test per
-leaf; the number of nodes grows with the partial assignments whose relaxation is feasible, not
-with eq. (49).  Exponential in the worst case (the problem contains an LCP).
+One LP (``2 n_c`` unknowns, ``5 n_c + k`` rows) per node whose force bounds changed, plus the
+batched kinematic test of the queued leaves; the number of nodes grows with the partial
+assignments whose force relaxation is feasible, not with eq. (49).  Exponential in the worst
+case (the problem contains an LCP).
 
 References
 ----------
@@ -71,7 +76,7 @@ from planner.validation import as_friction
 DEFAULT_BATCH_SIZE = 256
 #: Subtrees with fewer candidates than this are tested without a pruning LP first.
 DEFAULT_LP_MIN_SIZE = 64
-#: Relative slack on ``v_in >= 0`` in the pruning LPs (well above ``DEFAULT_TOL``).
+#: Relative slack of the pruning LP's Coulomb rows (well above ``DEFAULT_TOL``).
 DEFAULT_PRUNE_EPS = 1e-7
 
 
@@ -88,7 +93,7 @@ class SearchStats:
     force_tested : int
         Candidates that passed it and went through the force stage (eqs. 26-28).
     lp_solves : int
-        Pruning LPs solved.
+        Pruning LPs solved (force relaxations).
     """
 
     candidates: int
@@ -500,7 +505,8 @@ def search_modes(
     batch_size : int
         Subtrees with at most this many candidates are tested in one batch, not branched.
     prune_eps : float
-        Relative slack of ``v_in >= 0`` in the pruning LPs (must exceed ``tol``).
+        Relative slack of the force relaxation: its Coulomb rows are relaxed by
+        ``eps_f N`` with ``eps_f = 10 prune_eps max(1, mu_max)`` (must exceed ``tol``).
 
     Returns
     -------

@@ -101,3 +101,46 @@ def test_linprog_fallback_gives_the_same_modes(monkeypatch):
         res = search_modes(system, indeterminate=False, batch_size=8, lp_min_size=0)
         assert res.stats.lp_solves > 1
         assert_same(res.prediction, feasible_modes(system, indeterminate=False))
+
+
+@pytest.mark.parametrize("k", [3, 7, 12])
+def test_one_lu_gives_numpy_det_and_solve(k):
+    """The batched LU shared by the rank test (30)-(32) and the solves (24), (26) agrees with
+    numpy.linalg.det / solve, including matrices that need row exchanges and singular ones."""
+    from planner.feasibility import _lu_det_solve
+
+    rng = np.random.default_rng(k)
+    A = rng.normal(size=(500, k, k))
+    A[::5, 0, 0] = 0.0  # first pivot must come from another row
+    A[1::5, :, 0] = 0.0  # exactly singular: a zero column
+    A[2::5, -1] = A[2::5, 0]  # exactly singular: repeated row
+    A[3::5] *= 0.1  # smaller but regular
+    b = rng.normal(size=(500, k))
+    X = np.empty((k + 1, k, 500))
+    X[:k] = A.transpose(2, 1, 0)  # X[c, a, m] = A[m, a, c]
+    X[k] = b.T
+    det, z = _lu_det_solve(X)
+    ref = np.linalg.det(A)
+    np.testing.assert_allclose(det, ref, rtol=1e-9, atol=1e-12 * np.abs(ref).max())
+    singular = (np.arange(500) % 5 == 1) | (np.arange(500) % 5 == 2)
+    assert np.all(np.abs(det[singular]) <= 1e-12 * np.abs(ref).max())
+    np.testing.assert_allclose(
+        z.T[~singular], np.linalg.solve(A[~singular], b[~singular][..., None])[..., 0],
+        rtol=1e-7, atol=1e-9,
+    )
+
+
+def test_kinematic_decision_does_not_depend_on_the_batch():
+    """Leaves are queued and tested together: a candidate's kinematic decision, xi and
+    velocities must not depend on which other candidates share its batch."""
+    from planner.feasibility import kinematic_stage
+
+    system = random_system(3, 9)
+    cand = enumerate_modes(9, 9)
+    full = kinematic_stage(system, cand)
+    pick = np.random.default_rng(0).permutation(len(cand))[:333]
+    part = kinematic_stage(system, candidates_from_codes(cand.codes[pick], 9))
+    np.testing.assert_array_equal(part.ok, full.ok[pick])
+    np.testing.assert_array_equal(part.boundary, full.boundary[pick])
+    np.testing.assert_array_equal(part.xi, full.xi[pick])
+    np.testing.assert_allclose(part.qdot, full.qdot[pick], rtol=1e-12, atol=1e-12)
