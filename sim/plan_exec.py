@@ -402,22 +402,36 @@ def run_plan(
     settings: EngineSettings | None = None,
     waypoints: int | None = None,
     render: bool = True,
+    name: str | None = None,
+    expect: str = "agree",
 ) -> PlanRun:
     """Execute ``plan`` (:class:`planner.plan.Plan`) in ``engine`` at friction ``mu`` (scalar or
     per contact) and compare (module docstring). ``waypoints``: run only the first so many
     (shortened runs for tests). With ``out_dir``: write ``summary.json``, ``timeline.png``
-    (observed vs predicted tokens per contact) and ``animation.gif``."""
+    (observed vs predicted tokens per contact) and ``animation.gif``.
+
+    ``expect``: ``"agree"`` (the plan should pass) or ``"disagree"`` (a negative control that
+    should fail); the summary's ``passed`` says whether that expectation held (a fault never
+    passes), ``status`` is the validation outcome itself."""
+    if expect not in ("agree", "disagree"):
+        raise InputError(f"expect: expected 'agree' or 'disagree', got {expect!r}")
     from planner.fileio import atomic_write_json
 
     sched = Schedule.from_plan(plan)
     if waypoints is not None:
         sched = sched.truncated(waypoints)
     comp, rec, labels, details = run_schedule(plan.hand, mu, sched, engine, settings=settings)
+    held = (comp.status is not ExecStatus.FAULT
+            and (comp.status is ExecStatus.PASSED) == (expect == "agree"))
     summary: dict[str, Any] = {
         "task": "two-finger hand plan validation (issue 5, Sec. 5.2)",
+        "scenario": name or f"plan {getattr(plan, 'policy', '')} mu={mu}",
         "engine": engine,
-        "passed": comp.status is ExecStatus.PASSED,
-        "outcome": comp.status.value,
+        "expect": expect,
+        "status": comp.status.value,
+        "agreement": comp.claim_fraction,
+        "passed": held,
+        "validation_passed": comp.status is ExecStatus.PASSED,
         "reason": "; ".join(comp.reasons) if comp.reasons else
         f"{comp.claim_fraction:.1%} of the segment in the claimed mode, final position "
         f"{comp.final_error_of_travel:.2%} of travel from the prediction",
@@ -427,6 +441,7 @@ def run_plan(
         "waypoints": len(sched.times),
         "duration_s": sched.times[-1],
         "fault": rec.fault.reason if rec.fault is not None else None,
+        "observed_segments": observed_segments(labels, rec.times),
         "thresholds": {"mode_fraction": MODE_FRACTION_REQUIRED,
                        "pose_of_travel": POSE_TOLERANCE_OF_TRAVEL},
         **comp.to_dict(),
@@ -443,6 +458,18 @@ def run_plan(
         summary["files"] = {k: Path(v).name for k, v in files.items()}
         files["summary"] = str(atomic_write_json(out / "summary.json", summary))
     return PlanRun(comp, rec, tuple(labels), summary, files)
+
+
+def observed_segments(labels: Sequence[str], times: Any) -> list[dict[str, Any]]:
+    """Runs of equal observed labels: ``[{"mode", "start_s", "end_s"}, ...]`` (the compressed
+    timeline written to summary.json)."""
+    out: list[dict[str, Any]] = []
+    for lab, t in zip(labels, np.asarray(times, dtype=float)):
+        if out and out[-1]["mode"] == lab:
+            out[-1]["end_s"] = float(t)
+        else:
+            out.append({"mode": lab, "start_s": float(t), "end_s": float(t)})
+    return out
 
 
 # ---- drawing (matplotlib imported lazily, Agg) ----------------------------------------------
