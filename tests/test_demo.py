@@ -1,0 +1,83 @@
+"""`qsplan demo` (issue 5 main job): wiring and expectations with stubbed simulator runs (fast),
+bad input, and the real quick demo in both engines (slow)."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from planner.cli import main
+
+CLAIM = "S+1 S+2 S-3 S-4"
+R2S = "R1 B2 S-3 S-4"
+
+
+@pytest.fixture(scope="module")
+def small_plans():
+    from planner.hand_planner import plan_hand
+
+    return {p: plan_hand("two_finger_hand", mu=(0.0, 0.2), policy=p, waypoints=5)
+            for p in ("midband", "rival:R2S")}
+
+
+def _stub(negative_passes: bool):
+    def job(j):
+        agree = j["expect"] == "agree"
+        ok = agree or negative_passes
+        s = {"scenario": j["name"], "engine": j["engine"], "expect": j["expect"],
+             "status": "passed" if ok else "failed", "claim_fraction": 1.0 if ok else 0.3,
+             "predicted_fraction": 1.0, "final_error_of_travel": 0.001, "travel_m": 0.015,
+             "final_angle_error_rad": 0.0, "observed_counts": {CLAIM if ok else R2S: 10},
+             "observed_segments": [{"mode": R2S, "start_s": 0.0, "end_s": 1.0}],
+             "settings": {"mu": [j["mu"]] * 4, "wall_time_s": 0.1}, "folder": j["out"],
+             "passed": ok == agree, "fault": None}
+        if not agree:
+            s.update({"rival_predicted": [R2S], "rival_stretch_s": [0.0, 6.6],
+                      "rival_observed_s": 1.0, "rival_observed_fraction": 0.2,
+                      "rival_first_observed_s": 0.2, "rival_first_interval_majority": R2S})
+        return s
+    return job
+
+
+@pytest.mark.parametrize("negative_passes, code", [(False, 0), (True, 1)])
+def test_demo_expectations(small_plans, monkeypatch, tmp_path, capsys, negative_passes, code):
+    """All expectations held -> 0; a negative control that passes validation -> 1."""
+    import planner.commands.demo as demo
+    import planner.hand_planner as hp
+
+    monkeypatch.setattr(hp, "plan_hand", lambda s, mu, policy: small_plans[policy])
+    monkeypatch.setattr(demo, "_validate_job", _stub(negative_passes))
+    out = tmp_path / "report"
+    assert main(["demo", "--out", str(out), "--jobs", "1", "--no-render"]) == code
+    checks = json.loads((out / "checks.json").read_text())
+    assert checks["held"] is (code == 0)
+    names = [c["check"] for c in checks["checks"]]
+    assert sum("negative control" in n for n in names) == 4
+    assert sum("4S plan in" in n for n in names) == 12  # 2 engines x 3 mu x (mode, pose)
+    held = {c["check"]: c["held"] for c in checks["checks"]}
+    assert held["plan.json reloads to the same plan"]
+    assert held["a plan with one torque edited by hand is rejected"]
+    report = (out / "REPORT.md").read_text()
+    assert ("all expectations held" if code == 0 else "SOME EXPECTATIONS FAILED") in report
+    assert (out / "index.html").is_file() and (out / "plan.json").is_file()
+    assert (out / "negative_control" / "plan_negative.json").is_file()
+    assert not (out / "negative_control" / "tampered_copy.json").exists()
+
+
+def test_demo_bad_input(tmp_path, capsys):
+    assert main(["demo", "--out", str(tmp_path), "--engines", "bullet"]) == 2
+    assert "--engines: expected names from pymunk, mujoco, got 'bullet'" in capsys.readouterr().err
+    assert main(["demo", "--out", str(tmp_path), "--jobs", "0"]) == 2
+    assert "--jobs: expected >= 1, got 0" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_quick_demo_end_to_end(tmp_path):
+    """The real thing on the first quarter of the segment, both engines (~1 min)."""
+    out = tmp_path / "report"
+    assert main(["demo", "--out", str(out), "--quick"]) == 0
+    checks = json.loads((out / "checks.json").read_text())
+    assert checks["held"] and len(checks["runs"]) == 8
+    assert (out / "validate" / "mujoco" / "mu_0.1" / "animation.gif").is_file()
+    assert (out / "figures" / "fig13_guaranteed.png").is_file()
