@@ -211,3 +211,23 @@ def test_skip_only_for_unregistered_commands():
     assert blocks[0].skip.startswith("qsplan nosuchcmd is not registered yet")
     assert blocks[1].skip.startswith("needs p.json, whose block was skipped: qsplan nosuchcmd")
     assert blocks[2].skip == ""
+
+
+#: Pages other engineers are writing now (issue 5); links to them are checked once they exist.
+PENDING_PAGES = {"docs/plan-format.md", "docs/two-finger-task.md"}
+LINKED_DOCS = ("README.md", "docs/index.md", "docs/tutorial.md", "docs/file-formats.md",
+               "docs/notation.md", "docs/dask.md")
+
+
+@pytest.mark.parametrize("doc", LINKED_DOCS)
+def test_relative_links_resolve(doc):
+    path = ROOT / doc
+    broken = []
+    for target in re.findall(r"\]\(([^)\s]+)\)", path.read_text()):
+        if re.match(r"[a-z]+:", target) or target.startswith("#"):
+            continue
+        file_part = target.split("#")[0]
+        resolved = (path.parent / file_part).resolve()
+        if not resolved.exists() and str(resolved.relative_to(ROOT)) not in PENDING_PAGES:
+            broken.append(target)
+    assert not broken, f"{doc}: links to missing files {broken}"
