@@ -14,6 +14,7 @@ Writes JSON (atomic) and prints a table.  Timings are medians over ``--repeat`` 
 from __future__ import annotations
 
 import argparse
+import os
 import platform
 import sys
 import time
@@ -104,6 +105,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--loop-max-nc", type=int, default=12, help="largest n_c for the loop")
     ap.add_argument("--out", default="benchmarks/results/bench_modes.json")
     args = ap.parse_args(argv)
+    load_start = os.getloadavg()  # other jobs on the machine inflate absolute times
     lo, hi = (int(x) for x in args.nc.split("-"))
     rows = []
     print(f"{'n_c':>4} {'candidates':>10} {'batched [s]':>12} {'loop [s]':>10} {'ratio':>7} agree")
@@ -127,8 +129,9 @@ def main(argv: list[str] | None = None) -> int:
     out = {
         "benchmark": "bench_modes",
         "command": "PYTHONPATH=. python benchmarks/bench_modes.py " + " ".join(sys.argv[1:]),
+        "load_average_1_5_15": {"start": list(load_start), "end": list(os.getloadavg())},
         "machine": {"python": platform.python_version(), "processor": platform.processor(),
-                    "cpus": __import__("os").cpu_count(), "numpy": np.__version__},
+                    "cpus": os.cpu_count(), "numpy": np.__version__},
         "rows": rows,
     }
     atomic_write_json(args.out, out)

@@ -74,6 +74,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--workers", type=int, default=None, help="local worker processes")
     ap.add_argument("--out", default="benchmarks/results/bench_search.json")
     args = ap.parse_args(argv)
+    load_start = os.getloadavg()  # other jobs on the machine inflate absolute times
     lo, hi = (int(x) for x in args.nc.split("-"))
     executor = make_executor(args.dask, args.workers)
     rng = np.random.default_rng(0)
@@ -150,6 +151,7 @@ def main(argv: list[str] | None = None) -> int:
     out = {
         "benchmark": "bench_search",
         "command": "PYTHONPATH=. python benchmarks/bench_search.py " + " ".join(sys.argv[1:]),
+        "load_average_1_5_15": {"start": list(load_start), "end": list(os.getloadavg())},
         "machine": {"python": platform.python_version(), "processor": platform.processor(),
                     "cpus": os.cpu_count(), "numpy": np.__version__},
         "note": "'~' / *_measured = false: extrapolated from a timed sample of candidates",

@@ -52,6 +52,7 @@ Trinkle & Zeng (1994), eqs. (5), (9)-(11), (16)-(17), (21)-(26), (29), (49); Sec
 from __future__ import annotations
 
 import itertools
+from collections import deque
 from dataclasses import dataclass
 from functools import lru_cache
 from math import comb
@@ -78,6 +79,8 @@ DEFAULT_BATCH_SIZE = 256
 DEFAULT_LP_MIN_SIZE = 64
 #: Relative slack of the pruning LP's Coulomb rows (well above ``DEFAULT_TOL``).
 DEFAULT_PRUNE_EPS = 1e-7
+#: Default number of open nodes handed to an executor by :func:`search_modes`.
+DEFAULT_SUBTREES = 64
 
 
 @dataclass(frozen=True)
@@ -492,6 +495,8 @@ def search_modes(
     batch_size: int = DEFAULT_BATCH_SIZE,
     prune_eps: float = DEFAULT_PRUNE_EPS,
     lp_min_size: int = DEFAULT_LP_MIN_SIZE,
+    executor: Any = None,
+    subtrees: int = DEFAULT_SUBTREES,
 ) -> SearchResult:
     """Every feasible mode of ``system`` (same set as exhaustive eq. 49 enumeration), pruned.
 
@@ -507,6 +512,15 @@ def search_modes(
     prune_eps : float
         Relative slack of the force relaxation: its Coulomb rows are relaxed by
         ``eps_f N`` with ``eps_f = 10 prune_eps max(1, mu_max)`` (must exceed ``tol``).
+    lp_min_size : int
+        Subtrees with at most this many candidates are not pruned by an LP first.
+    executor : planner.executor.Executor, optional
+        Search independent subtrees in parallel (Sec. 6's "test modes in parallel"): the tree
+        is expanded breadth-first here until ``subtrees`` nodes are open, and each open node's
+        subtree is searched by ``executor.map`` (local processes or Dask).  The modes are the
+        same as without it; ``stats`` sums the workers' counts.
+    subtrees : int
+        Open nodes handed to the executor.
 
     Returns
     -------
@@ -519,29 +533,87 @@ def search_modes(
     mu_arr = system.mu if mu is None else as_friction(mu, system.n_contacts)
     if not (np.isfinite(tol) and tol >= 0):
         raise InputError(f"tol: expected a finite number >= 0, got {tol}")
-    if isinstance(batch_size, bool) or not isinstance(batch_size, (int, np.integer)) or (
-        batch_size < 1
-    ):
-        raise InputError(f"batch_size: expected an integer >= 1, got {batch_size!r}")
+    for name, value, low in (("batch_size", batch_size, 1), ("lp_min_size", lp_min_size, 0),
+                             ("subtrees", subtrees, 1)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
+            raise InputError(f"{name}: expected an integer >= {low}, got {value!r}")
     if not (np.isfinite(prune_eps) and prune_eps > tol):
         raise InputError(f"prune_eps: expected a finite number > tol ({tol}), got {prune_eps}")
     n_c, k = system.n_contacts, system.dof
     n_cand = candidate_count(n_c, k)
+    params = _Params(k, tol, singular_tol, batch_size, prune_eps, lp_min_size)
     pruner = _Pruner(system, prune_eps, mu_arr)
     leaves = _LeafBatches(system, k, tol=tol, singular_tol=singular_tol)
-    # Depth-first; a node is (state per contact, xi per contact).  FREE -> BREAK | CONTACT,
-    # CONTACT -> ROLL | SLIDE xi=+1 | SLIDE xi=-1: the children partition the parent's codes.
-    # A node also carries its parent's LP solution and whether its own branching changed
-    # the force bounds (FREE -> CONTACT and CONTACT -> R do not: the parent's answer stands).
-    stack: list[tuple[np.ndarray, np.ndarray, np.ndarray | None, bool]] = [
-        (np.full(n_c, FREE, dtype=np.int8), np.zeros(n_c, dtype=np.int8), None, True)
-    ]
-    while stack:
-        states, xi, point, changed = stack.pop()
+    root: _Node = (np.full(n_c, FREE, dtype=np.int8), np.zeros(n_c, dtype=np.int8), None, True)
+    open_nodes: deque[_Node] = deque([root])
+    lp_solves = 0
+    if executor is None:
+        _expand(open_nodes, pruner, leaves, mu_arr, params)
+    else:
+        _expand(open_nodes, pruner, leaves, mu_arr, params, breadth_until=subtrees)
+        jobs = [(system, mu_arr, node, params) for node in open_nodes]
+        for kept, tested, solves in executor.map(_search_subtree, jobs):
+            leaves.kept.append(kept)
+            leaves.tested += tested
+            lp_solves += solves
+    lp_solves += pruner.solves
+    codes = _canonical_order(np.unique(leaves.kept_codes(), axis=0))
+    cand = candidates_from_codes(codes, k)
+    prediction, force_tested = _predict_candidates(
+        system, cand, mu_arr, tol=tol, singular_tol=singular_tol, indeterminate=indeterminate
+    )
+    stats = SearchStats(
+        candidates=n_cand,
+        tested=leaves.tested,
+        force_tested=force_tested,
+        lp_solves=lp_solves,
+    )
+    return SearchResult(prediction, stats)
+
+
+#: A search node: state per contact, xi per contact, the parent's LP solution (or None) and
+#: whether the node's branching changed the force bounds.
+_Node = tuple[np.ndarray, np.ndarray, "np.ndarray | None", bool]
+
+
+@dataclass(frozen=True)
+class _Params:
+    n_rows: int
+    tol: float
+    singular_tol: float
+    batch_size: int
+    prune_eps: float
+    lp_min_size: int
+
+
+def _expand(
+    open_nodes: deque[_Node],
+    pruner: _Pruner,
+    leaves: _LeafBatches,
+    mu_arr: np.ndarray,
+    params: _Params,
+    *,
+    breadth_until: int | None = None,
+) -> None:
+    """Branch and bound over ``open_nodes`` (module docstring).
+
+    Depth-first until no node is open; with ``breadth_until``, breadth-first and only until
+    that many nodes are open (they are left in ``open_nodes``).  FREE -> BREAK | CONTACT,
+    CONTACT -> ROLL | SLIDE xi=+1 | SLIDE xi=-1: the children partition the parent's codes.  A
+    child inherits its parent's LP solution when its branching left the force bounds
+    unchanged (FREE -> CONTACT, CONTACT -> R): the parent's answer stands.
+    """
+    k = params.n_rows
+    while open_nodes:
+        if breadth_until is not None and len(open_nodes) >= breadth_until:
+            return
+        states, xi, point, changed = (
+            open_nodes.pop() if breadth_until is None else open_nodes.popleft()
+        )
         size = _subtree_size(states, k)
         if size == 0:
             continue
-        if size > lp_min_size:
+        if size > params.lp_min_size:
             if changed or point is None:
                 point = pruner.solve(states, xi)
                 if point is None:
@@ -549,7 +621,7 @@ def search_modes(
         else:
             point = None
         undecided = np.any((states == FREE) | (states == CONTACT))
-        if size <= batch_size or not undecided:
+        if size <= params.batch_size or not undecided:
             leaves.add(_completions(states, k), states, xi)
             continue
         i = _branch_contact(states, point, mu_arr)
@@ -561,19 +633,16 @@ def search_modes(
         for code, x in children:
             child, child_xi = states.copy(), xi.copy()
             child[i], child_xi[i] = code, x
-            stack.append((child, child_xi, point, _Pruner.key(code, x) != parent_key))
-    codes = _canonical_order(np.unique(leaves.kept_codes(), axis=0))
-    cand = candidates_from_codes(codes, k)
-    prediction, force_tested = _predict_candidates(
-        system, cand, mu_arr, tol=tol, singular_tol=singular_tol, indeterminate=indeterminate
-    )
-    stats = SearchStats(
-        candidates=n_cand,
-        tested=leaves.tested,
-        force_tested=force_tested,
-        lp_solves=pruner.solves,
-    )
-    return SearchResult(prediction, stats)
+            open_nodes.append((child, child_xi, point, _Pruner.key(code, x) != parent_key))
+
+
+def _search_subtree(job: tuple[System, np.ndarray, _Node, _Params]) -> tuple[np.ndarray, int, int]:
+    """Executor task: search one node's subtree; its kept codes, tested count and LP count."""
+    system, mu_arr, node, params = job
+    pruner = _Pruner(system, params.prune_eps, mu_arr)
+    leaves = _LeafBatches(system, params.n_rows, tol=params.tol, singular_tol=params.singular_tol)
+    _expand(deque([node]), pruner, leaves, mu_arr, params)
+    return leaves.kept_codes(), leaves.tested, pruner.solves
 
 
 def _canonical_order(codes: np.ndarray) -> np.ndarray:

@@ -106,3 +106,27 @@ def test_sweep_cli_bad_input_exit_2(tmp_path, capsys):
 
     assert main(["sweep", "mu", "--out", str(tmp_path / "x.json")]) == 2
     assert "expected a SYSTEM.json argument" in capsys.readouterr().err
+
+
+def test_search_subtrees_in_parallel_same_modes_locally_and_through_dask(dask_client):
+    """search_modes(executor=...) hands open subtrees to the executor: same modes as the
+    serial search and as exhaustive enumeration, in processes and through Dask."""
+    from planner.search import search_modes
+
+    system = random_system(1, 10)
+    serial = search_modes(system, indeterminate=False)
+    exhaustive = feasible_modes(system, indeterminate=False)
+    local = LocalExecutor(2)
+    try:
+        procs = search_modes(system, indeterminate=False, executor=local, subtrees=8)
+    finally:
+        local.close()
+    dask = search_modes(
+        system, indeterminate=False, executor=make_executor(dask_client), subtrees=8
+    )
+    for res in (serial, procs, dask):
+        assert res.prediction.labels == exhaustive.labels
+        assert res.prediction.status == exhaustive.status
+    assert procs.stats.tested == dask.stats.tested > 0
+    with pytest.raises(InputError, match="subtrees: expected an integer >= 1, got 0"):
+        search_modes(system, executor=local, subtrees=0)
