@@ -131,6 +131,7 @@ def _all_blocks() -> list[Block]:
 
 
 BLOCKS = _all_blocks()
+RAN: set[str] = set()  # ids of the blocks run in this session (file blocks included)
 
 
 @pytest.fixture(scope="module")
@@ -164,9 +165,16 @@ def test_block(block: Block, workdirs):
     if block.kind == "file":
         (cwd / block.arg).parent.mkdir(parents=True, exist_ok=True)
         (cwd / block.arg).write_text(block.body)
+        RAN.add(block.id)
         return
     for f in filter(None, block.opts.get("needs", "").split(",")):
+        maker = next((b for b in BLOCKS if b.doc == block.doc and f in b.opts.get(
+            "makes", "").split(",")), None)
+        if maker is not None and maker.id not in RAN:
+            pytest.skip(f"needs {f} from {maker.id}, which was not selected in this run "
+                        "(run the whole file: -m 'slow or not slow')")
         assert (cwd / f).exists(), f"{block.id}: needs {f}, which no earlier block made"
+    RAN.add(block.id)
     cmd = ["bash", "-e", "-o", "pipefail", "-c", block.body] if block.kind == "shell" else [
         sys.executable, "-c", block.body]
     res = subprocess.run(cmd, cwd=cwd, env=env, capture_output=True, text=True, timeout=600)
