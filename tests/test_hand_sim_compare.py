@@ -168,3 +168,18 @@ def test_validate_fault_exit_code(plan_files, monkeypatch):
 
     monkeypatch.setattr(pe, "run_plan", faulty)
     assert main(["validate", str(plan_files["good"]), "--mu", "0.1"]) == 3
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("engine", ["pymunk", "mujoco"])
+def test_acceptance_full_segment(plans, engine):
+    """Issue 5 acceptance: the full 13.3 s segment with the midband torque passes at mu = 0,
+    0.1, 0.2 (4S >= 95 %, final position within 2 % of travel); the negative control fails."""
+    from sim.plan_exec import ExecStatus, run_plan
+
+    for mu in (0.0, 0.1, 0.2):
+        c = run_plan(plans["midband"], engine, mu, render=False).comparison
+        assert c.status is ExecStatus.PASSED, (mu, c.reasons)
+        assert c.claim_fraction >= 0.95 and c.final_error_of_travel <= 0.02
+    c = run_plan(plans["rival:R2S"], engine, 0.2, render=False).comparison
+    assert c.status is ExecStatus.FAILED and c.waypoint_observed[0] == R2S

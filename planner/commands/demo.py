@@ -182,6 +182,8 @@ def run(args: argparse.Namespace) -> int:
     else:
         results = [_validate_job(j) for j in jobs]
     t_sims = time.perf_counter() - t0
+    for r in results:
+        r["folder"] = Path(r.get("folder", "")).relative_to(out).as_posix()
 
     faults = [r for r in results if r["status"] == "fault"]
     for r in results:
@@ -284,7 +286,7 @@ def _report_md(plan, neg, checks, results, figures, quick, n_wp, t_plan, t_sims,
         top = sorted(r["observed_counts"].items(), key=lambda kv: -kv[1])[:2]
         n = max(1, sum(r["observed_counts"].values()))
         obs = "; ".join(f"{k} {v / n:.0%}" for k, v in top)
-        folder = "/".join(Path(r.get("folder", "")).parts[-3:])
+        folder = r.get("folder", "")
         L.append(f"| {r['scenario']} | {r['status']} | {r['claim_fraction']:.1%} | "
                  f"{r['predicted_fraction']:.1%} | {r['final_error_of_travel']:.2%} | {obs} | "
                  f"{r['settings']['wall_time_s']:.1f} | {folder} |")
