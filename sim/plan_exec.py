@@ -356,8 +356,10 @@ def run_schedule(
     # drive speed: the velocity joint's contact-point speed (classifier thresholds, SIM-NOTES)
     v_joint = list(schedule.controls).index("velocity")
     pts, _, _ = model.contact_geometry(q0)
-    radius = max(float(np.linalg.norm(pts[i] - np.asarray(model.fingers[c.finger].pivot)))
-                 for i, c in enumerate(model.contacts) if c.kind != "palm" and c.finger == v_joint)
+    radius = max([float(np.linalg.norm(pts[i] - np.asarray(model.fingers[c.finger].pivot)))
+                  for i, c in enumerate(model.contacts)
+                  if c.kind != "palm" and c.finger == v_joint]
+                 or [model.fingers[v_joint].length])
     drive_speed = float(np.max(np.abs(schedule.velocity))) * radius
     load = float(np.linalg.norm(model.load_force)) or 1e-3
     wall = time.perf_counter()
