@@ -71,12 +71,18 @@ def main(argv: list[str] | None = None) -> int:
                     help="largest n_c whose modes are checked against exhaustive enumeration")
     ap.add_argument("--sample", type=int, default=20_000, help="candidates for extrapolation")
     ap.add_argument("--dask", default=None, help="Dask scheduler address for chunked checks")
+    ap.add_argument("--first-seed", type=int, default=0, help="seeds first-seed .. + seeds - 1")
     ap.add_argument("--workers", type=int, default=None, help="local worker processes")
+    ap.add_argument("--search-workers", type=int, default=1,
+                    help="also time search_modes with subtrees on this many local processes")
+    ap.add_argument("--parallel-min", type=int, default=17,
+                    help="smallest n_c timed with --search-workers")
     ap.add_argument("--out", default="benchmarks/results/bench_search.json")
     args = ap.parse_args(argv)
     load_start = os.getloadavg()  # other jobs on the machine inflate absolute times
     lo, hi = (int(x) for x in args.nc.split("-"))
     executor = make_executor(args.dask, args.workers)
+    search_pool = make_executor(workers=args.search_workers)
     rng = np.random.default_rng(0)
     rows = []
     search_modes(random_system(0, 6))  # warm-up: imports and HiGHS initialisation
@@ -85,7 +91,7 @@ def main(argv: list[str] | None = None) -> int:
     print(head)
     try:
         for n_c in range(lo, hi + 1):
-            for seed in range(args.seeds):
+            for seed in range(args.first_seed, args.first_seed + args.seeds):
                 system = random_system(seed, n_c)
                 t0 = time.perf_counter()
                 res = search_modes(system, indeterminate=False)
@@ -93,6 +99,12 @@ def main(argv: list[str] | None = None) -> int:
                 n_cand = res.stats.candidates
                 row = {"n_contacts": n_c, "seed": seed, "search_s": t_s,
                        "modes": res.prediction.labels, **res.stats.to_dict()}
+                if args.search_workers > 1 and n_c >= args.parallel_min:
+                    t0 = time.perf_counter()
+                    par = search_modes(system, indeterminate=False, executor=search_pool)
+                    row["search_parallel_s"] = time.perf_counter() - t0
+                    row["search_workers"] = args.search_workers
+                    row["parallel_same_modes"] = par.prediction.labels == res.prediction.labels
                 # (a) exhaustive batched enumeration
                 exhaustive_labels = None
                 if n_c <= args.exhaustive_max:
@@ -131,9 +143,12 @@ def main(argv: list[str] | None = None) -> int:
                       f"{ex_mark:>1}{row['exhaustive_s']:>8.2f}"
                       f" {row['exhaustive_over_search']:>8.1f} {lp_mark:>1}{row['loop_s']:>8.1f}"
                       f" {row['loop_over_search']:>9.0f} {len(res.prediction.labels):>5}"
-                      f" {row.get('exact', '-')}", flush=True)
+                      f" {row.get('exact', '-')}"
+                      + (f"  parallel {row['search_parallel_s']:.3f}s"
+                         if "search_parallel_s" in row else ""), flush=True)
     finally:
         executor.close()
+        search_pool.close()
     summary = []
     for n_c in range(lo, hi + 1):
         sel = [r for r in rows if r["n_contacts"] == n_c]
@@ -143,6 +158,11 @@ def main(argv: list[str] | None = None) -> int:
             "median_tested": median(r["tested"] for r in sel),
             "median_search_s": median(r["search_s"] for r in sel),
             "max_search_s": max(r["search_s"] for r in sel),
+            "median_search_parallel_s": median(r["search_parallel_s"] for r in sel)
+            if all("search_parallel_s" in r for r in sel) else None,
+            "max_search_parallel_s": max(r["search_parallel_s"] for r in sel)
+            if all("search_parallel_s" in r for r in sel) else None,
+            "median_lp_solves": median(r["lp_solves"] for r in sel),
             "median_exhaustive_over_search": median(r["exhaustive_over_search"] for r in sel),
             "median_loop_over_search": median(r["loop_over_search"] for r in sel),
             "exact": all(r.get("exact", True) for r in sel)

@@ -225,10 +225,6 @@ class _Pruner:
 
     def _set(self, i: int, state: int, xi: int) -> None:
         """Bounds of contact ``i`` in ``state`` (FREE, CONTACT, BREAK, ROLL, SLIDE with ``xi``)."""
-        key = self.key(state, xi)
-        if self.state[i] == key:
-            return
-        self.state[i] = key
         h, inf, n_c, o = self.lp, self.inf, self.n_c, self.o
         sp, sm = state == SLIDE and xi > 0, state == SLIDE and xi < 0
         h.changeRowBounds(o + i, 0.0 if state == SLIDE else -inf, inf)
@@ -244,8 +240,12 @@ class _Pruner:
     def solve(self, states: np.ndarray, xi: np.ndarray) -> np.ndarray | None:
         """Solve the relaxation; None when HiGHS proves it infeasible, else forces
         ``c (2 n_c,)`` (zeros when HiGHS gave no verdict: the node is kept)."""
-        for i in range(self.n_c):
-            self._set(i, int(states[i]), int(xi[i]))
+        keys = np.where(
+            (states == FREE) | (states == CONTACT) | (states == ROLL), 0, 1 + 4 * states + xi
+        )
+        for i in np.flatnonzero(keys != self.state):  # only contacts whose bounds change
+            self._set(int(i), int(states[i]), int(xi[i]))
+        self.state[:] = keys
         self.solves += 1
         x = self.lp.solve()
         if x is _INFEASIBLE:
