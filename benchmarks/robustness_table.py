@@ -408,6 +408,7 @@ def feasibility_campaign(name: str, make: Callable[[np.random.Generator], tuple[
     c = Campaign(name)
     rng = np.random.default_rng(seed)
     per_kind: dict[str, int] = {}
+    boundary_kind: dict[str, int] = {}
     for k in range(n):
         ok, made = c.guarded(make, rng, example=f"generator seed {seed} input {k}",
                              count_rejection=True)
@@ -426,8 +427,11 @@ def feasibility_campaign(name: str, make: Callable[[np.random.Generator], tuple[
             try:
                 check_certificate(system, fm)
             except AssertionError as exc:
-                c.wrong_answer(f"certificate re-check: {str(exc).split(' ')[0:4]}",
-                               f"{fm.label} ({exc}); {example}")
+                what = " ".join(str(exc).split(" ")[2:5]) if str(exc).startswith("contact") \
+                    else " ".join(str(exc).split(" ")[:3])
+                cls = "force-indeterminate" if fm.force_indeterminate else "determinate"
+                c.wrong_answer(f"certificate re-check fails ({cls} mode, {kind.split(' ')[0]}"
+                               f" input): {what}", f"{fm.label} ({exc}); {example}")
         ok_p, other = c.guarded(perturbed, system, rng, example=example)
         if ok_p:
             ok_q, pred2 = c.guarded(feasible_modes, other, example=example)
@@ -442,7 +446,10 @@ def feasibility_campaign(name: str, make: Callable[[np.random.Generator], tuple[
                 c.wrong_answer("search_modes lists other modes than feasible_modes",
                                f"{res.prediction.labels} vs {pred.labels}; {example}")
         c.boundary += flagged
+        short = kind.split(" ")[0]
+        boundary_kind[short] = boundary_kind.get(short, 0) + flagged
     c.notes.append(f"inputs per kind: {dict(sorted(per_kind.items()))}")
+    c.notes.append(f"boundary-flagged per kind: {dict(sorted(boundary_kind.items()))}")
     return c
 
 
