@@ -275,9 +275,7 @@ def test_fuzz_loader_text(text):
     _only_documented_errors(system_from_json, text)
 
 
-@FAST
-@given(st.data())
-def test_fuzz_public_api(data):
+def _public_api_case(data):
     n = data.draw(st.integers(1, 5))
     arr = st.lists(st.lists(numbers, min_size=2, max_size=2), min_size=n, max_size=n)
     kwargs = dict(points=data.draw(arr), normals=data.draw(arr),
@@ -286,6 +284,46 @@ def test_fuzz_public_api(data):
     s = _only_documented_errors(lambda: System.from_contacts(**kwargs))
     if s is not None:
         _only_documented_errors(feasible_modes, s, data.draw(st.one_of(vec(n), st.floats())))
+
+
+@FAST
+@given(st.data())
+def test_fuzz_public_api(data):
+    _public_api_case(data)
+
+
+def _random_system_case(seed: int) -> None:
+    """A seeded random system (3-5 contacts, at most one effort joint, lengths 1e-2..1e2)
+    through feasible_modes: no exception at all, and every certificate of a determinate mode
+    re-checks (tests/certify.py)."""
+    from certify import check_certificate
+
+    rng = np.random.default_rng(seed)
+    n_c = int(rng.integers(3, 6))
+    s = random_system(rng, n_c, int(rng.integers(0, 2)), scale=float(10 ** rng.uniform(-2, 2)))
+    pred = feasible_modes(s)
+    for fm in pred.modes:
+        check_certificate(s, fm)
+
+
+@FAST
+@given(st.integers(0, 2**32 - 1))
+def test_fuzz_random_systems(seed):
+    _random_system_case(seed)
+
+
+@pytest.mark.slow
+@LONG
+@given(st.data())
+def test_fuzz_public_api_long(data):
+    _public_api_case(data)
+
+
+@pytest.mark.slow
+@LONG
+@given(st.integers(0, 2**32 - 1))
+def test_fuzz_random_systems_long(seed):
+    _random_system_case(seed)
 
 
 @pytest.mark.slow
