@@ -73,3 +73,20 @@ def test_probe_detects_a_broken_image(tmp_path):
     (run / "broken.png").write_bytes(PNG_1x1[:20])  # truncated: the browser cannot decode it
     page = write_report(run, tmp_path / "report.html")
     assert _loaded_images(page, tmp_path / "profile") == (1, 2)
+
+
+@pytest.mark.slow
+def test_demo_report_images_load(tmp_path):
+    """The real thing: every figure and GIF of `qsplan demo --quick` renders in Chromium."""
+    from planner.cli import build_parser
+
+    sub = next(a for a in build_parser()._actions if a.__class__.__name__ == "_SubParsersAction")
+    if "demo" not in sub.choices:
+        pytest.skip("qsplan demo is not registered yet")
+    out = tmp_path / "report"
+    main(["-q", "demo", "--quick", "--out", str(out)])  # exit 1/3 still writes the report
+    page = out / "index.html"
+    assert page.exists(), "qsplan demo wrote no index.html"
+    loaded, total = _loaded_images(page, tmp_path / "profile")
+    assert total >= 4
+    assert loaded == total
