@@ -64,6 +64,7 @@ BAD_INPUT = [
     ("scenarios", ["scenarios", "run", "nosuch", "--engine", "pymunk", "--out", "{tmp}/r"],
      "unknown scenario 'nosuch'"),
     ("report", ["report", "{tmp}/missing"], "expected an existing directory"),
+    ("demo", ["demo", "--engines", "bullet", "--out", "{tmp}/d"], "--engines: expected names"),
 ]
 
 
