@@ -74,7 +74,7 @@ from planner.modes import BREAK, ROLL, SLIDE, CandidateSet, candidate_count, enu
 from planner.validation import as_friction
 
 #: Default largest subtree (in candidates) that is tested in one batch instead of branched.
-DEFAULT_BATCH_SIZE = 256
+DEFAULT_BATCH_SIZE = 128
 #: Subtrees with fewer candidates than this are tested without a pruning LP first.
 DEFAULT_LP_MIN_SIZE = 64
 #: Relative slack of the pruning LP's Coulomb rows (well above ``DEFAULT_TOL``).
