@@ -1,10 +1,16 @@
 """Self-contained HTML report of a run directory (issue 8).
 
-Scans a run directory recursively for ``*.png``, ``*.gif`` (embedded as base64 ``<img>``,
-grouped by folder), ``summary*.json`` (one table row each: ``scenario``, ``engine``, ``expect``,
-``status``, ``agreement``, ``passed``, ``reason``; see docs/file-formats.md) and ``plan*.json``
-(qsplan plan files: claim, friction interval, policy, waypoints, smallest torque margin, end
-event; other JSON: its top-level keys). Written atomically.
+Scans a run directory recursively for
+
+* ``*.png``, ``*.gif``: embedded as base64 ``<img>``, grouped by folder;
+* ``checks*.json``: ``{"task", "held", "checks": [{"check", "expected", "measured", "held"}]}``
+  as ``qsplan demo`` writes it, shown first;
+* ``summary*.json``: one table row each (``scenario``, ``engine``, ``expect``, ``status``,
+  ``agreement``, ``passed``, ``reason``; docs/file-formats.md);
+* ``plan*.json``: qsplan plan files (claim, friction interval, policy, waypoints, smallest
+  torque margin, end event); other JSON: its top-level keys.
+
+Written atomically.
 """
 
 from __future__ import annotations
@@ -29,6 +35,7 @@ class ReportContents:
     images: tuple[Path, ...]
     summaries: tuple[Path, ...]
     plans: tuple[Path, ...]
+    checks: tuple[Path, ...] = ()
 
 
 def scan_run(run_dir: str | Path) -> ReportContents:
@@ -42,6 +49,7 @@ def scan_run(run_dir: str | Path) -> ReportContents:
         images=tuple(p for p in rel if p.suffix.lower() in _MIME),
         summaries=tuple(p for p in rel if p.name.startswith("summary") and p.suffix == ".json"),
         plans=tuple(p for p in rel if p.name.startswith("plan") and p.suffix == ".json"),
+        checks=tuple(p for p in rel if p.name.startswith("checks") and p.suffix == ".json"),
     )
 
 
@@ -57,6 +65,30 @@ def _cell(value: object) -> str:
     if isinstance(value, float):
         return f"{value:.4g}"
     return str(value)
+
+
+def _checks_table(root: Path, rel: Path) -> str:
+    """Table of a checks file: each check, what was expected, what was measured, held or not."""
+    esc = html.escape
+    data = _load(root / rel) or {}
+    checks = data.get("checks")
+    checks = [c for c in checks if isinstance(c, dict)] if isinstance(checks, list) else []
+    held = data.get("held")
+    verdict = ("every expectation held" if held is True else
+               "NOT every expectation held" if held is False else "")
+    rows = [f"<h3>{esc(str(rel))}: {esc(str(data.get('task', '')))}</h3>"]
+    if verdict:
+        rows.append(f"<p class='{'ok' if held else 'bad'}'><b>{verdict}</b> "
+                    f"({sum(c.get('held') is True for c in checks)} of {len(checks)} checks)</p>")
+    rows.append("<table><tr><th>check</th><th>expected</th><th>measured</th><th>held</th></tr>")
+    for c in checks:
+        ok = c.get("held")
+        cls = ("ok" if ok else "bad") if isinstance(ok, bool) else "info"
+        cells = "".join(f"<td>{esc(_cell(c.get(k, '')))}</td>"
+                        for k in ("check", "expected", "measured", "held"))
+        rows.append(f"<tr class='{cls}'>{cells}</tr>")
+    rows.append("</table>")
+    return "\n".join(rows)
 
 
 def _plans_table(root: Path, plans: tuple[Path, ...]) -> str:
@@ -106,6 +138,8 @@ def build_html(run_dir: str | Path) -> str:
         f"<h1>qsplan report: {esc(root.name)}</h1>",
         "<h2>What held and what did not</h2>",
     ]
+    for rel in found.checks:
+        out.append(_checks_table(root, rel))
     if found.summaries:
         out.append("<table><tr><th>file</th>" + "".join(
             f"<th>{f}</th>" for f in SUMMARY_FIELDS) + "</tr>")

@@ -1,4 +1,5 @@
 import json
+from pathlib import Path
 
 import pytest
 
@@ -64,3 +65,16 @@ def test_garbage_json_does_not_break_the_page(tmp_path):
                                                     "mu": "x", "control": 5}))
     page = build_html(tmp_path)
     assert "summary.json" in page and "plan.json" in page
+
+
+def test_checks_file_is_shown_first(tmp_path):
+    (tmp_path / "checks.json").write_text(json.dumps({
+        "task": "issue 5", "held": False, "checks": [
+            {"check": "planning time", "expected": "<= 5 s", "measured": "2.5 s", "held": True},
+            {"check": "negative control fails", "expected": "fails", "measured": "passed",
+             "held": False}]}))
+    (tmp_path / "summary.json").write_text(json.dumps({"scenario": "x", "passed": True}))
+    page = build_html(tmp_path)
+    assert scan_run(tmp_path).checks == (Path("checks.json"),)
+    assert "NOT every expectation held" in page and "1 of 2 checks" in page
+    assert page.index("negative control fails") < page.index("<th>scenario</th>")
