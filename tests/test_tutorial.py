@@ -19,6 +19,8 @@ yet" is reported as xfail with its message (it runs for real as soon as it is im
 
 from __future__ import annotations
 
+import dataclasses
+import importlib
 import os
 import re
 import shlex
@@ -239,3 +241,44 @@ def test_relative_links_resolve(doc):
         if not resolved.exists() and str(resolved.relative_to(ROOT)) not in PENDING_PAGES:
             broken.append(target)
     assert not broken, f"{doc}: links to missing files {broken}"
+
+
+NOTATION_MODULES = ("model", "modes", "feasibility", "kinematics", "muspace", "closed_form",
+                    "graphical", "search", "executor", "indeterminate", "hand", "trajectory",
+                    "bounds", "hand_planner", "plan", "io")
+
+
+def _member(obj, name):
+    if hasattr(obj, name):
+        return getattr(obj, name)
+    if dataclasses.is_dataclass(obj) and name in {f.name for f in dataclasses.fields(obj)}:
+        return object()
+    if name in getattr(obj, "__annotations__", {}):
+        return object()
+    raise AttributeError(name)
+
+
+def test_notation_code_names_exist():
+    """Every code name in the first column of docs/notation.md resolves in planner/."""
+    ns: dict[str, object] = {}
+    for m in NOTATION_MODULES:
+        ns[m] = importlib.import_module(f"planner.{m}")
+    for m in NOTATION_MODULES:
+        for k, v in vars(ns[m]).items():
+            if not k.startswith("__"):
+                ns.setdefault(k, v)
+    missing, seen = [], 0
+    for line in (ROOT / "docs" / "notation.md").read_text().splitlines():
+        if not line.startswith("| `"):
+            continue
+        for tok in re.findall(r"`([A-Za-z_][\w.]*)", line.split("|")[1]):
+            seen += 1
+            parts = tok.split(".")
+            try:
+                obj = ns[parts[0]]
+                for p in parts[1:]:
+                    obj = _member(obj, p)
+            except (KeyError, AttributeError):
+                missing.append(tok)
+    assert seen >= 50
+    assert not missing, f"docs/notation.md names that are not in planner/: {missing}"
