@@ -11,7 +11,6 @@ Writes benchmarks/results/plan_bench.json.  Target: planning <= 5 s.
 from __future__ import annotations
 
 import argparse
-import json
 import platform
 import statistics
 import time
