@@ -476,3 +476,19 @@ def test_rod_prediction_does_not_depend_on_the_speed_unit(speed):
     for fm in slow.modes + slow.indeterminate_modes:
         check_certificate(slow_system, fm)  # "R1 R2": contact 1 rolling but moves
     assert slow.labels == ref.labels == ["S+1 R2"]
+
+
+@pytest.mark.xfail(strict=True, raises=ValueError, reason=(
+    "planner/search.py search_modes -> feasibility.force_stage with no candidates "
+    "(n_c = 2, |tau_I| = 2, eq. 49 count 0): 'operands could not be broadcast together with "
+    "shapes (1,0,5) (1,0,4)' (64 of 10,000 random systems in the benchmark)"))
+def test_search_modes_without_candidates():
+    from planner import Status
+    from planner.search import search_modes
+
+    s = System.from_contacts(
+        points=[[-1, 0], [1, 0]], normals=[[0, 1], [0, 1]], mu=0.3, external_wrench=[0, -1, 0],
+        jacobian=[[[1, 0, 0], [0, 1, 0]], [[0, 0, 1], [1, 0, 0]]],
+        joints=[{"velocity": 1.0}, {"effort": 1.0}, {"effort": 2.0}])
+    assert feasible_modes(s).status is Status.NO_CANDIDATES
+    assert search_modes(s).prediction.status is Status.NO_CANDIDATES
