@@ -290,3 +290,17 @@ def test_system_loader_ignores_code_in_extra_keys(tmp_path, data_dir):
     (tmp_path / "s.json").write_text(json.dumps(d))
     s = load_system(tmp_path / "s.json")
     assert s.n_contacts == 3 and not marker.exists()
+
+
+@pytest.mark.parametrize("mask", [0o022, 0o077])
+def test_written_files_follow_the_umask(tmp_path, mask):
+    """mkstemp creates 0600; atomically written plans, reports and figures must still get
+    the permissions a plain write would (a report served to a group must be readable)."""
+    old = os.umask(mask)
+    try:
+        plain = tmp_path / "plain.txt"
+        plain.write_text("x")
+        atomic = atomic_write_text(tmp_path / "atomic.txt", "x")
+    finally:
+        os.umask(old)
+    assert (atomic.stat().st_mode & 0o777) == (plain.stat().st_mode & 0o777) == 0o666 & ~mask
