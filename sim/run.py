@@ -16,6 +16,7 @@ normal force exceeds ``jam_force`` for ``jam_window`` seconds and records ``jamm
 from __future__ import annotations
 
 import sys
+import threading
 from dataclasses import dataclass
 from enum import Enum
 from typing import Any
@@ -35,6 +36,28 @@ class FaultKind(str, Enum):
 
 #: MuJoCo warnings that mean a non-finite or huge state (MuJoCo resets the state after them).
 _MUJOCO_BAD_STATE = ("mjWARN_BADQPOS", "mjWARN_BADQVEL", "mjWARN_BADQACC")
+
+
+_SINKS = threading.local()
+_HOOK_LOCK = threading.Lock()
+_PREVIOUS_HOOK: list[Any] = []
+
+
+def _dispatch_unraisable(unraisable: Any) -> None:
+    """``sys.unraisablehook``: to the current thread's running :class:`EngineWatch`, if any;
+    otherwise to the hook that was installed before."""
+    sink = getattr(_SINKS, "sink", None)
+    if sink is not None:
+        sink.append(unraisable)
+    else:
+        (_PREVIOUS_HOOK[0] if _PREVIOUS_HOOK else sys.__unraisablehook__)(unraisable)
+
+
+def _install_unraisable_dispatch() -> None:
+    with _HOOK_LOCK:
+        if sys.unraisablehook is not _dispatch_unraisable:
+            _PREVIOUS_HOOK[:] = [sys.unraisablehook]
+            sys.unraisablehook = _dispatch_unraisable
 
 
 class EngineWatch:
@@ -66,13 +89,15 @@ class EngineWatch:
         return {nm: int(data.warning[self._index[nm]].number) for nm in self._names}
 
     def step(self, dt: float) -> None:
-        """``backend.step(dt)`` with swallowed exceptions collected."""
-        previous = sys.unraisablehook
-        sys.unraisablehook = self.swallowed.append
+        """``backend.step(dt)`` with swallowed exceptions collected (per thread, so runs in
+        parallel threads neither mix their reports nor leave a stale hook behind)."""
+        _install_unraisable_dispatch()
+        outer = getattr(_SINKS, "sink", None)
+        _SINKS.sink = self.swallowed
         try:
             self.backend.step(dt)
         finally:
-            sys.unraisablehook = previous
+            _SINKS.sink = outer
 
     def check(self) -> tuple[FaultKind, str] | None:
         """``(kind, detail)`` of the first alarm raised since the last call, else ``None``."""

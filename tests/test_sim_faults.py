@@ -175,3 +175,30 @@ def test_clean_run_raises_no_engine_alarm(engine, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     rec = run_scene(_scene(), make_backend(engine), _settings())
     assert rec.fault is None and len(rec.times) == 300
+
+
+def test_swallowed_exceptions_stay_with_their_thread(monkeypatch):
+    """Runs in parallel threads (a thread-pool executor): each run gets only its own engine's
+    swallowed exceptions, and outside a run the previously installed hook still gets them."""
+    import sys
+    from concurrent.futures import ThreadPoolExecutor
+
+    import sim.run
+
+    seen = []
+    monkeypatch.setattr(sim.run, "_PREVIOUS_HOOK", [])  # restored with the hook after the test
+    monkeypatch.setattr(sys, "unraisablehook", seen.append)
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        failing = pool.submit(run_scene, _scene(), _FailingReadout(), _settings())
+        clean = pool.submit(run_scene, _scene(), PymunkBackend(), _settings())
+        rec_failing, rec_clean = failing.result(), clean.result()
+    assert rec_failing.fault is not None and rec_failing.fault.kind == FaultKind.ENGINE_WARNING
+    assert rec_clean.fault is None and len(rec_clean.times) == 300
+    assert seen == []  # nothing leaked to the outer hook during the runs
+
+    class Boom:
+        def __del__(self):
+            raise RuntimeError("outside any run")
+
+    Boom()  # an unraisable exception outside a run goes to the hook installed before
+    assert [str(u.exc_value) for u in seen] == ["outside any run"]
