@@ -42,6 +42,7 @@ are inputs whose prediction the tool itself flagged as within tolerance of a bou
         --out benchmarks/results/robustness_table.json
 
 Writes JSON (atomic) and prints a Markdown table. ``--n 300`` is a 1-minute smoke run.
+``--only overhead`` times ``sim.run.EngineWatch`` (same run with and without, both engines).
 """
 
 from __future__ import annotations
@@ -568,6 +569,44 @@ def fault_campaign(workdir: Path) -> Campaign:
     return c
 
 
+def watch_overhead_campaign(workdir: Path, repeat: int = 3) -> Campaign:
+    """Cost of ``sim.run.EngineWatch``: the same 1000-step run with and without it, both
+    engines, best of ``repeat``, in this process (ratios in ``notes``; not part of the table
+    unless asked for with ``--only overhead``)."""
+    import test_sim_faults as tsf
+
+    from sim.run import EngineWatch, run_scene
+    from sim.scene import make_backend
+
+    c = Campaign("EngineWatch overhead")
+    cwd = os.getcwd()
+    os.chdir(workdir)
+
+    def best(engine: str) -> float:
+        times = []
+        for _ in range(repeat):
+            t0 = time.perf_counter()
+            run_scene(tsf._scene(), make_backend(engine), tsf._settings(duration=1.0))
+            times.append(time.perf_counter() - t0)
+        return min(times)
+
+    check, step = EngineWatch.check, EngineWatch.step
+    try:
+        for engine in tsf.ENGINES:
+            with_watch = best(engine)
+            EngineWatch.check = lambda self: None  # type: ignore[method-assign]
+            EngineWatch.step = lambda self, dt: self.backend.step(dt)  # type: ignore
+            without = best(engine)
+            EngineWatch.check, EngineWatch.step = check, step  # type: ignore[method-assign]
+            c.inputs += 2 * repeat
+            c.notes.append(f"{engine}: 1000 steps {with_watch:.3f} s with the watch, "
+                           f"{without:.3f} s without, ratio {with_watch / without:.3f}")
+    finally:
+        EngineWatch.check, EngineWatch.step = check, step  # type: ignore[method-assign]
+        os.chdir(cwd)
+    return c
+
+
 def _small_arena_run() -> Any:
     import mujoco
     import test_sim_faults as tsf
@@ -625,8 +664,9 @@ def main(argv: list[str] | None = None) -> int:
             args.search_every),
         "api": lambda wd: api_argument_campaign(args.n, args.seed + 5),
         "faults": fault_campaign,
+        "overhead": watch_overhead_campaign,
     }
-    chosen = [k for k in keys if not args.only or k in args.only.split(",")]
+    chosen = [k for k in keys if (k in args.only.split(",")) or (not args.only and k != "overhead")]
     # overflow warnings of extreme-scale inputs are expected; the answers are what we check
     warnings.simplefilter("ignore", RuntimeWarning)
     rows = []
@@ -639,6 +679,8 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{camp.name}: {camp.inputs} inputs, {camp.crashes} crashes, "
                   f"{camp.wrong} wrong, {camp.boundary} boundary ({camp.seconds:.0f} s)",
                   file=sys.stderr)
+            if key == "overhead":
+                print("    " + "\n    ".join(camp.notes), file=sys.stderr)
             for kind, info in camp.crash_kinds.items():
                 print(f"    crash x{info['count']}: {kind}: {info['message'][:120]}",
                       file=sys.stderr)

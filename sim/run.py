@@ -84,9 +84,11 @@ class EngineWatch:
         self._counts = self._read()
         self.swallowed: list[Any] = []
 
-    def _read(self) -> dict[str, int]:
-        data = getattr(self.backend, "data", None)
-        return {nm: int(data.warning[self._index[nm]].number) for nm in self._names}
+    def _read(self) -> np.ndarray:
+        """All warning counters at once, indexed by ``mjtWarning`` (one vectorised read)."""
+        if not self._names:
+            return np.zeros(0, dtype=np.int64)
+        return np.array(self.backend.data.warning.number, dtype=np.int64)
 
     def step(self, dt: float) -> None:
         """``backend.step(dt)`` with swallowed exceptions collected (per thread, so runs in
@@ -110,14 +112,15 @@ class EngineWatch:
         if not self._names:
             return None
         now = self._read()
-        risen = [nm for nm in self._names if now[nm] > self._counts[nm]]
-        self._counts = now
-        if not risen:
+        rose = now > self._counts
+        self._counts = now  # also follows counters reset by mj_resetData
+        if not np.any(rose):
             return None
+        risen = [nm for nm in self._names if rose[self._index[nm]]]
         data = self.backend.data
         detail = "; ".join(
-            f"MuJoCo {nm} (count {now[nm]}, info {int(data.warning[self._index[nm]].lastinfo)})"
-            for nm in risen)
+            f"MuJoCo {nm} (count {now[self._index[nm]]}, "
+            f"info {int(data.warning[self._index[nm]].lastinfo)})" for nm in risen)
         bad_state = any(nm in _MUJOCO_BAD_STATE for nm in risen)
         if bad_state:
             detail = "NaN/Inf/huge state, reset by MuJoCo: " + detail
