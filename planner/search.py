@@ -142,6 +142,13 @@ def candidates_from_codes(codes: np.ndarray, n_rows: int) -> CandidateSet:
     """
     codes = np.asarray(codes, dtype=np.int8)
     M, n_c = codes.shape
+    if M == 0:  # e.g. no candidate at all (n_c < n_rows / 2, eq. 49 count 0)
+        empty = np.zeros((0, n_rows), dtype=np.int64)
+        return CandidateSet(n_c, n_rows, codes, empty, empty.astype(bool), empty.copy())
+    if n_rows > 2 * n_c:
+        raise InputError(
+            f"n_rows: expected at most 2 n_c = {2 * n_c} constraint rows, got {n_rows}"
+        )
     idx = np.arange(n_c)
     big = 4 * n_c
     key_n = np.where(codes == ROLL, idx, np.where(codes == SLIDE, 2 * n_c + idx, big))

@@ -144,3 +144,20 @@ def test_kinematic_decision_does_not_depend_on_the_batch():
     np.testing.assert_array_equal(part.boundary, full.boundary[pick])
     np.testing.assert_array_equal(part.xi, full.xi[pick])
     np.testing.assert_allclose(part.qdot, full.qdot[pick], rtol=1e-12, atol=1e-12)
+
+
+def test_search_without_candidates_reports_no_candidates():
+    """n_c = 2 contacts cannot supply 3 + |tau_I| = 5 rows (eq. 49 count 0)."""
+    from planner.feasibility import Status
+    from planner.model import System
+
+    s = System.from_contacts(
+        points=[[-1, 0], [1, 0]], normals=[[0, 1], [0, 1]], mu=0.3, external_wrench=[0, -1, 0],
+        jacobian=[[[1, 0, 0], [0, 1, 0]], [[0, 0, 1], [1, 0, 0]]],
+        joints=[{"velocity": 1.0}, {"effort": 1.0}, {"effort": 2.0}])
+    res = search_modes(s)
+    assert res.prediction.status is Status.NO_CANDIDATES
+    assert res.prediction.status is feasible_modes(s).status
+    assert res.stats.tested == res.stats.candidates == 0
+    with pytest.raises(InputError, match="n_rows: expected at most 2 n_c = 4 constraint rows"):
+        candidates_from_codes(np.zeros((1, 2), dtype=np.int8), 5)
