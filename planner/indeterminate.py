@@ -85,7 +85,8 @@ def indeterminate_kinematics(
         Pf, bf = P[idx], b[idx]
         z = (np.linalg.pinv(Pf) @ bf[..., None])[..., 0]  # generalised inverse (Sec. 3.2)
         resid = np.max(np.abs((Pf @ z[..., None])[..., 0] - bf), axis=1)
-        consistent = resid <= tol * max(float(np.max(np.abs(bn))), 1.0)
+        b_scale = float(np.max(np.abs(bn)))  # relative to the commanded motion (no floor)
+        consistent = resid <= tol * (b_scale if b_scale > 0 else 1.0)
         idx, z = idx[consistent], z[consistent]
         if idx.size == 0:
             continue

@@ -222,7 +222,11 @@ def _get(d: Any, key: str, where: str) -> Any:
 def _num(v: Any, where: str, *, allow_none: bool = False) -> float:
     if v is None and allow_none:
         return math.nan
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+    try:
+        ok = not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v)
+    except OverflowError:  # an integer literal beyond the float range
+        ok = False
+    if not ok:
         raise FileFormatError(f"{where}: expected a finite number, got {_short(v)}")
     return float(v)
 
@@ -281,6 +285,8 @@ def plan_from_dict(data: Any) -> Plan:
         actual = digest(body)
     except ValueError as exc:  # NaN sneaked in through a non-standard writer
         raise FileFormatError(f"expected finite numbers ({exc})") from None
+    except RecursionError:
+        raise FileFormatError("expected a plan, got content nested too deeply") from None
     if actual != value:
         raise FileFormatError(
             "digest mismatch: the plan was modified after it was written "

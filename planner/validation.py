@@ -33,7 +33,7 @@ def as_array(value: Any, shape: Sequence[int | None], name: str) -> np.ndarray:
     """Convert ``value`` to a finite float array of ``shape`` (``None`` = any length)."""
     try:
         arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError) as exc:
+    except (TypeError, ValueError, OverflowError) as exc:
         raise InputError(
             f"{name}: expected numbers of shape {_shape_text(shape)}, got {_describe(value)}"
         ) from exc
@@ -57,7 +57,7 @@ def as_friction(value: Any, n_c: int, name: str = "mu") -> np.ndarray:
     """Friction coefficients: a scalar (broadcast) or ``(n_c,)``, each finite and ``>= 0``."""
     try:
         arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError) as exc:
+    except (TypeError, ValueError, OverflowError) as exc:
         raise InputError(
             f"{name}: expected {n_c} friction coefficients, got {_describe(value)}"
         ) from exc
