@@ -79,17 +79,14 @@ def _reject_constant(name: str) -> Any:
 def _numbers(value: Any, key: str) -> Any:
     """Reject bools and strings hiding in numeric fields (json gives them as Python types)."""
 
-    stack = [(value, 0)]  # iterative: no RecursionError on absurdly deep nesting
+    stack = [value]  # iterative: no RecursionError on absurdly deep nesting
     while stack:
-        v, depth = stack.pop()
+        v = stack.pop()
         if isinstance(v, bool) or isinstance(v, str) or v is None or isinstance(v, dict):
             text = repr(v) if not isinstance(v, dict) else "an object"
             raise InputError(f"{key}: expected numbers, got {text[:60]}")
         if isinstance(v, list):
-            if depth > 8:
-                raise InputError(f"{key}: expected numbers or (nested) lists of numbers, got "
-                                 f"lists nested more than 8 deep")
-            stack.extend((item, depth + 1) for item in v)
+            stack.extend(v)
     return value
 
 
