@@ -84,8 +84,8 @@ NASTY_VALUES: tuple[Any, ...] = (
     [0.0], [1.0, 2.0, 3.0, 4.0, 5.0], {"velocity": 1.0}, {"effort": math.nan},
 )
 
-#: Values that still crash a loader with a non-project exception (see the strict xfails below);
-#: the robustness benchmark mixes them in and counts the crashes.
+#: Values that still crash a loader with a non-project exception in some fields (see the strict
+#: xfails below); the robustness benchmark mixes them in and counts the crashes.
 KNOWN_CRASH_VALUES: tuple[Any, ...] = (10**400,)
 
 
@@ -120,12 +120,13 @@ def _deep(depth: int) -> Any:
 
 
 def mutate_tree(data: Any, rng: np.random.Generator, n_mutations: int | None = None,
-                deep: tuple[int, ...] = (3, 50), values: tuple[Any, ...] = NASTY_VALUES) -> Any:
+                deep: tuple[int, ...] = (3, 50),
+                values: tuple[Any, ...] = NASTY_VALUES) -> Any:
     """A copy of the JSON tree ``data`` with 1-3 random structural / value mutations.
 
     ``deep``: nesting depths used by the deep-nesting mutation (a parsed file never nests
-    deeper than ``json.loads`` allows; deeper trees only reach the dict API, see
-    :func:`test_system_from_dict_deep_nesting`)."""
+    deeper than ``json.loads`` allows; deeper trees only reach the dict APIs, where some
+    error messages still crash on them: :func:`test_system_from_dict_deep_nesting_in_mu`)."""
     tree = copy.deepcopy(data)
     for _ in range(n_mutations or int(rng.integers(1, 4))):
         paths = _paths(tree)
@@ -420,10 +421,6 @@ def test_mutations_of_example_41_are_rejected(data_dir, key, value, match):
     _only_documented_errors(feasible_modes, s)
 
 
-@pytest.mark.xfail(strict=True, raises=RecursionError, reason=(
-    "planner/io.py _numbers walks nested lists recursively: a dict nested deeper than the "
-    "recursion limit raises RecursionError instead of InputError (files are safe: json.loads "
-    "refuses such depth and system_from_json maps it to FileFormatError)"))
 def test_system_from_dict_deep_nesting(data_dir):
     d = json.loads((data_dir / "example_4_1.json").read_text())
     d["wrench_matrix"] = _deep(5000)
@@ -431,9 +428,37 @@ def test_system_from_dict_deep_nesting(data_dir):
         system_from_dict(d)
 
 
+@pytest.mark.xfail(strict=True, raises=RecursionError, reason=(
+    "planner/validation.py _describe (and io.py's contact message) repr() the offending value: "
+    "a value nested deeper than the recursion limit crashes the error message itself "
+    "(dict API only; files are refused by json.loads first)"))
+@pytest.mark.parametrize("key", ["mu", "external_wrench"])
+def test_system_from_dict_deep_nesting_in_mu(data_dir, key):
+    d = json.loads((data_dir / "example_4_1.json").read_text())
+    d[key] = _deep(5000)
+    with pytest.raises(QsplanError, match=key):
+        system_from_dict(d)
+
+
 @pytest.mark.xfail(strict=True, raises=OverflowError, reason=(
-    "planner/validation.py as_array/as_friction catch (TypeError, ValueError) but not the "
-    "OverflowError of float(int) for an integer literal beyond 1.8e308 in a system file"))
+    "planner/model.py _is_numeric (jacobian) and parse_joint (joint values) convert with "
+    "np.asarray / float() and do not catch the OverflowError of an integer beyond 1.8e308"))
+@pytest.mark.parametrize("field", ["jacobian", "joint"])
+def test_huge_integer_in_manipulator_fields(field):
+    d = system_to_dict(_jacobian_system())
+    if field == "jacobian":
+        d["manipulator"]["jacobian"][0][0][0] = 10**400
+    else:
+        d["manipulator"]["joints"][0] = {next(iter(d["manipulator"]["joints"][0])): 10**400}
+    with pytest.raises(QsplanError, match=field):
+        system_from_json(json.dumps(d))
+
+
+def _jacobian_system() -> System:
+    """A seeded random system in the Jacobian form (3 contacts, one effort joint)."""
+    return random_system(np.random.default_rng(3), 3, 1, virtual=False)
+
+
 def test_huge_integer_literal_in_a_file(tmp_path, data_dir):
     text = (data_dir / "example_4_1.json").read_text().replace('"mu": [0.2,', '"mu": [1' +
                                                                "0" * 400 + ",")
@@ -458,12 +483,9 @@ def test_valid_files_survive_json_round_trip(data_dir):
 
 
 # ---------------------------------------------------------------------------------------------
-# Findings of benchmarks/robustness_table.py kept as strict xfails until the owners fix them.
+# Regression tests for what benchmarks/robustness_table.py found (strict xfails until fixed in
+# 9140c51 and 1009693; docs/robustness.md has the before/after table).
 # ---------------------------------------------------------------------------------------------
-@pytest.mark.xfail(strict=True, reason=(
-    "planner/indeterminate.py: the consistency test of P_A zdot_I = J_AV thetadot_V uses "
-    "resid <= tol * max(|b|, 1.0); the absolute floor 1.0 breaks the tolerance policy when "
-    "the commanded speeds are below ~1e-8 (found by the degenerate-system campaign)"))
 @pytest.mark.parametrize("speed", [1e-9, 1e-10])
 def test_rod_prediction_does_not_depend_on_the_speed_unit(speed):
     """Sec. 5.1 rod: the same modes at 1 m/s and at ``speed``; every certificate re-checks."""
@@ -478,10 +500,6 @@ def test_rod_prediction_does_not_depend_on_the_speed_unit(speed):
     assert slow.labels == ref.labels == ["S+1 R2"]
 
 
-@pytest.mark.xfail(strict=True, raises=ValueError, reason=(
-    "planner/search.py search_modes -> feasibility.force_stage with no candidates "
-    "(n_c = 2, |tau_I| = 2, eq. 49 count 0): 'operands could not be broadcast together with "
-    "shapes (1,0,5) (1,0,4)' (64 of 10,000 random systems in the benchmark)"))
 def test_search_modes_without_candidates():
     from planner import Status
     from planner.search import search_modes
