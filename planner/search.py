@@ -421,16 +421,27 @@ def _branch_contact(states: np.ndarray, point: np.ndarray | None, mu: np.ndarray
     """Contact to branch on, from the relaxed forces ``c``: the FREE contact with the largest
     normal force (its ``B`` child, ``c_i = 0``, is the most likely to be infeasible); else the
     CONTACT one deepest inside its friction cone (largest ``mu c_n - |c_t|``: its sliding
-    children are the most likely to be infeasible).  ``point is None``: the lowest index."""
+    children are the most likely to be infeasible).  When no FREE contact carries force in
+    ``c``, splitting one cannot prune (its ``B`` child is satisfied by ``c``, its ``CONTACT``
+    child inherits ``c``), so a CONTACT one is split first if there is one.  ``point is None``:
+    the lowest index."""
     free = np.flatnonzero(states == FREE)
     con = np.flatnonzero(states == CONTACT)
     if point is None:
         return int(free[0]) if len(free) else int(con[0])
     c = point
-    if len(free):
-        return int(free[np.argmax(c[2 * free])])
+    free_force = c[2 * free]
+    if len(free) and (
+        not len(con) or np.max(free_force) > _ZERO_FORCE * max(float(np.max(np.abs(c))), 1e-300)
+    ):
+        return int(free[np.argmax(free_force)])
     fn, ft = c[2 * con], c[2 * con + 1]
     return int(con[np.argmax(mu[con] * fn - np.abs(ft))])
+
+
+#: Relative size below which a relaxed normal force counts as zero in :func:`_branch_contact`
+#: (a heuristic: it orders the branching, never decides a mode).
+_ZERO_FORCE = 1e-9
 
 
 #: Leaf candidates collected before one batched kinematic test (amortises the batched LU).
