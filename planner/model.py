@@ -143,7 +143,7 @@ def check_wrench_matrix(W: Any, tol: float = WRENCH_COLUMN_TOL) -> np.ndarray:
 def _is_numeric(value: Any) -> bool:
     try:
         np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError, RecursionError):
         return False
     return True
 
@@ -435,9 +435,12 @@ def parse_joint(spec: Any, index: int) -> tuple[JointControl, float]:
     value = spec[key]
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise InputError(f"joint {index + 1}: expected a number for '{key}', got {value!r}")
-    val = float(value)
+    try:
+        val = float(value)
+    except OverflowError:
+        val = float("inf")
     if not np.isfinite(val):
-        raise InputError(f"joint {index + 1}: expected a finite '{key}', got {val}")
+        raise InputError(f"joint {index + 1}: expected a finite '{key}', got {str(value)[:40]}")
     return (JointControl.VELOCITY if has_v else JointControl.EFFORT), val
 
 

@@ -251,7 +251,10 @@ def _str(v: Any, where: str) -> str:
 
 
 def _short(v: Any) -> str:
-    text = repr(v)
+    try:
+        text = repr(v)
+    except RecursionError:
+        return f"a {type(v).__name__} nested too deeply to print"
     return text if len(text) <= 60 else text[:57] + "..."
 
 

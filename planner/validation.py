@@ -25,7 +25,10 @@ NORMAL_TOL = 1e-6
 def _describe(value: Any) -> str:
     if isinstance(value, np.ndarray):
         return f"array of shape {value.shape}"
-    text = repr(value)
+    try:
+        text = repr(value)
+    except RecursionError:  # absurdly deep nesting: describe it instead of crashing
+        return f"a {type(value).__name__} nested too deeply to print"
     return text if len(text) <= 60 else text[:57] + "..."
 
 
