@@ -79,14 +79,14 @@ def plausible_system():
 # ---------------------------------------------------------------------------------------------
 #: Replacement values: wrong types, non-finite and extreme numbers, containers.
 NASTY_VALUES: tuple[Any, ...] = (
-    None, True, False, "", "0.5", "NaN", "\u0000", "\udcff", 0, -1, 1, 2**63, -(10**30),
+    None, True, False, "", "0.5", "NaN", "\u0000", "\udcff", 0, -1, 1, 2**63, 10**400, -(10**30),
     0.0, -0.0, 1e-320, 1e308, -1e308, math.nan, math.inf, -math.inf, [], {}, [[]], {"": None},
     [0.0], [1.0, 2.0, 3.0, 4.0, 5.0], {"velocity": 1.0}, {"effort": math.nan},
 )
 
-#: Values that still crash a loader with a non-project exception in some fields (see the strict
-#: xfails below); the robustness benchmark mixes them in and counts the crashes.
-KNOWN_CRASH_VALUES: tuple[Any, ...] = (10**400,)
+#: Values that still crash a loader with a non-project exception (none since caa1110; keep the
+#: hook for the next finding: the benchmark mixes them in and counts the crashes, CI does not).
+KNOWN_CRASH_VALUES: tuple[Any, ...] = ()
 
 
 def _paths(tree: Any, max_depth: int = 64) -> list[tuple]:
@@ -125,8 +125,8 @@ def mutate_tree(data: Any, rng: np.random.Generator, n_mutations: int | None = N
     """A copy of the JSON tree ``data`` with 1-3 random structural / value mutations.
 
     ``deep``: nesting depths used by the deep-nesting mutation (a parsed file never nests
-    deeper than ``json.loads`` allows; deeper trees only reach the dict APIs, where some
-    error messages still crash on them: :func:`test_system_from_dict_deep_nesting_in_mu`)."""
+    deeper than ``json.loads`` allows; deeper trees only reach the dict APIs, where one error
+    message still crashes on them: :func:`test_deep_contact_entry`)."""
     tree = copy.deepcopy(data)
     for _ in range(n_mutations or int(rng.integers(1, 4))):
         paths = _paths(tree)
@@ -170,8 +170,9 @@ def mutate_tree(data: Any, rng: np.random.Generator, n_mutations: int | None = N
 
 
 #: Literals spliced into file text (``KNOWN_CRASH_LITERALS`` still crash a loader).
-LITERALS: tuple[bytes, ...] = (b"NaN", b"Infinity", b"-Infinity", b"1e999", b"-0", b"1e-400")
-KNOWN_CRASH_LITERALS: tuple[bytes, ...] = (b"1" + b"0" * 400,)
+LITERALS: tuple[bytes, ...] = (b"NaN", b"Infinity", b"-Infinity", b"1e999", b"-0", b"1e-400",
+                               b"1" + b"0" * 400)
+KNOWN_CRASH_LITERALS: tuple[bytes, ...] = ()
 
 
 def mutate_text(text: str, rng: np.random.Generator,
@@ -428,21 +429,14 @@ def test_system_from_dict_deep_nesting(data_dir):
         system_from_dict(d)
 
 
-@pytest.mark.xfail(strict=True, raises=RecursionError, reason=(
-    "planner/validation.py _describe (and io.py's contact message) repr() the offending value: "
-    "a value nested deeper than the recursion limit crashes the error message itself "
-    "(dict API only; files are refused by json.loads first)"))
 @pytest.mark.parametrize("key", ["mu", "external_wrench"])
-def test_system_from_dict_deep_nesting_in_mu(data_dir, key):
+def test_system_from_dict_deep_nesting_in_other_fields(data_dir, key):
     d = json.loads((data_dir / "example_4_1.json").read_text())
     d[key] = _deep(5000)
     with pytest.raises(QsplanError, match=key):
         system_from_dict(d)
 
 
-@pytest.mark.xfail(strict=True, raises=OverflowError, reason=(
-    "planner/model.py _is_numeric (jacobian) and parse_joint (joint values) convert with "
-    "np.asarray / float() and do not catch the OverflowError of an integer beyond 1.8e308"))
 @pytest.mark.parametrize("field", ["jacobian", "joint"])
 def test_huge_integer_in_manipulator_fields(field):
     d = system_to_dict(_jacobian_system())
@@ -457,6 +451,17 @@ def test_huge_integer_in_manipulator_fields(field):
 def _jacobian_system() -> System:
     """A seeded random system in the Jacobian form (3 contacts, one effort joint)."""
     return random_system(np.random.default_rng(3), 3, 1, virtual=False)
+
+
+@pytest.mark.xfail(strict=True, raises=RecursionError, reason=(
+    "planner/io.py system_from_dict: the 'contact i: expected an object' message formats the "
+    "entry with {c!r} before truncating it; a contact entry nested deeper than the recursion "
+    "limit crashes the message (dict API only; files are refused by json.loads first)"))
+def test_deep_contact_entry(data_dir):
+    d = {"contacts": [_deep(5000)], "external_wrench": [0, -1, 0],
+         "manipulator": {"contact_velocities": [[0.0, 1.0]]}}
+    with pytest.raises(QsplanError, match="contact 1"):
+        system_from_dict(d)
 
 
 def test_huge_integer_literal_in_a_file(tmp_path, data_dir):
@@ -484,7 +489,7 @@ def test_valid_files_survive_json_round_trip(data_dir):
 
 # ---------------------------------------------------------------------------------------------
 # Regression tests for what benchmarks/robustness_table.py found (strict xfails until fixed in
-# 9140c51 and 1009693; docs/robustness.md has the before/after table).
+# 9140c51, 1009693, b84baee and caa1110; docs/robustness.md has the before/after table).
 # ---------------------------------------------------------------------------------------------
 @pytest.mark.parametrize("speed", [1e-9, 1e-10])
 def test_rod_prediction_does_not_depend_on_the_speed_unit(speed):
