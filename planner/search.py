@@ -183,7 +183,7 @@ class _Pruner:
     Differences to the first version of this search: the kinematic half of the relaxation
     (``v_in >= 0`` / ``= 0``, ``v_it = 0`` / ``xi v_it >= 0`` over ``z``) is not solved.  It
     shares no variable with the force half, and measured on the benchmark systems it proved
-    fewer than 3 % of nodes infeasible while costing as much per LP; the kinematics are decided
+    fewer than 3 % of nodes infeasible while costing an LP per node; the kinematics are decided
     exactly by the batched test at the leaves.
     """
 
