@@ -36,6 +36,7 @@ from planner.errors import FileFormatError, InputError
 from planner.fileio import atomic_write_json
 from planner.kinematics import chain_from_dict
 from planner.model import JointControl, System
+from planner.validation import _describe
 
 #: Largest system file accepted (bytes); larger files are refused before parsing.
 MAX_FILE_BYTES = 20_000_000
@@ -137,7 +138,7 @@ def system_from_dict(data: Any, source: str = "<dict>") -> System:
             if not isinstance(c, dict) or not {"point", "normal"} <= set(c):
                 raise FileFormatError(
                     f"system file {source}: contact {i + 1}: expected an object with 'point', "
-                    f"'normal' and 'mu', got {c!r}"[:300]
+                    f"'normal' and 'mu', got {_describe(c)}"[:300]
                 )
             pts.append(_numbers(c["point"], f"contact {i + 1} point"))
             nrm.append(_numbers(c["normal"], f"contact {i + 1} normal"))
@@ -166,12 +167,13 @@ def _chain_jacobian(manip: dict[str, Any], pts: Any, nrm: Any, source: str) -> n
     if not isinstance(links, list) or len(links) != len(pts):
         raise FileFormatError(
             f"system file {source}: manipulator.contact_links: expected one link index per "
-            f"contact ({len(pts)}), got {links!r}"[:300]
+            f"contact ({len(pts)}), got {_describe(links)}"[:300]
         )
     for i, b in enumerate(links):
         if isinstance(b, bool) or not isinstance(b, int):
             raise FileFormatError(
-                f"system file {source}: contact_links[{i}]: expected an integer, got {b!r}"
+                f"system file {source}: contact_links[{i}]: expected an integer, "
+                f"got {_describe(b)}"
             )
     q = _numbers(manip.get("q", [0.0] * chain.n_joints), "manipulator.q")
     return chain.contact_jacobian(q, links, pts, nrm)

@@ -28,7 +28,7 @@ import numpy as np
 
 from planner.errors import InputError
 from planner.model import rot90
-from planner.validation import as_array, unit_normal
+from planner.validation import _describe, as_array, unit_normal
 
 REVOLUTE, PRISMATIC = "revolute", "prismatic"
 
@@ -84,7 +84,7 @@ class Chain:
             if spec.kind not in (REVOLUTE, PRISMATIC):
                 raise InputError(
                     f"chain joint {j + 1}: expected kind 'revolute' or 'prismatic', "
-                    f"got {spec.kind!r}"
+                    f"got {_describe(spec.kind)}"
                 )
             if not (-1 <= spec.parent < j):
                 raise InputError(
@@ -190,7 +190,8 @@ class Chain:
     def _check_body(self, body: int) -> None:
         if not isinstance(body, (int, np.integer)) or not (0 <= body < self.n_joints):
             raise InputError(
-                f"body: expected a joint/body index in 0..{self.n_joints - 1}, got {body!r}"
+                f"body: expected a joint/body index in 0..{self.n_joints - 1}, "
+                f"got {_describe(body)}"
             )
 
 
@@ -205,11 +206,13 @@ def chain_from_dict(data: Any) -> Chain:
     specs = []
     for j, item in enumerate(data["joints"]):
         if not isinstance(item, dict):
-            raise InputError(f"chain joint {j + 1}: expected an object, got {item!r}")
+            raise InputError(f"chain joint {j + 1}: expected an object, got {_describe(item)}")
         kind = item.get("type", item.get("kind"))
         parent = item.get("parent", -1)
         if isinstance(parent, bool) or not isinstance(parent, int):
-            raise InputError(f"chain joint {j + 1}: expected an integer parent, got {parent!r}")
+            raise InputError(
+                f"chain joint {j + 1}: expected an integer parent, got {_describe(parent)}"
+            )
         origin = as_array(item.get("origin", [0.0, 0.0]), (2,), f"chain joint {j + 1} origin")
         angle = float(as_array(item.get("angle", 0.0), (), f"chain joint {j + 1} angle"))
         specs.append(

@@ -25,6 +25,7 @@ import numpy as np
 from planner.errors import InputError
 from planner.validation import (
     WRENCH_COLUMN_TOL,
+    _describe,
     as_array,
     as_friction,
     unit_normal,
@@ -422,7 +423,8 @@ def parse_joint(spec: Any, index: int) -> tuple[JointControl, float]:
         return spec[0], float(value)
     if not isinstance(spec, dict):
         raise InputError(
-            f"joint {index + 1}: expected {{\"velocity\": v}} or {{\"effort\": tau}}, got {spec!r}"
+            f"joint {index + 1}: expected {{\"velocity\": v}} or {{\"effort\": tau}}, "
+            f"got {_describe(spec)}"
         )
     has_v = "velocity" in spec
     has_e = "effort" in spec
@@ -434,7 +436,9 @@ def parse_joint(spec: Any, index: int) -> tuple[JointControl, float]:
     key = "velocity" if has_v else "effort"
     value = spec[key]
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise InputError(f"joint {index + 1}: expected a number for '{key}', got {value!r}")
+        raise InputError(
+            f"joint {index + 1}: expected a number for '{key}', got {_describe(value)}"
+        )
     try:
         val = float(value)
     except OverflowError:
