@@ -3,6 +3,7 @@
 Format (keys exactly these; extra keys are allowed and ignored)::
 
     {
+      "format": "qsplan-system", "version": 1,           -- optional; checked when present
       "contacts": [{"point": [x, y], "normal": [nx, ny], "mu": 0.3}, ...],
           -- or instead of "contacts":
       "wrench_matrix": [[...2n_c...], [...], [...]],  "mu": [mu_1, ..., mu_nc],
@@ -40,6 +41,11 @@ from planner.validation import _describe
 
 #: Largest system file accepted (bytes); larger files are refused before parsing.
 MAX_FILE_BYTES = 20_000_000
+
+
+#: Optional format tag of system files; files without it are read as version 1.
+SYSTEM_FORMAT = "qsplan-system"
+SYSTEM_VERSION = 1
 
 
 def load_system(path: str | os.PathLike[str]) -> System:
@@ -96,6 +102,12 @@ def system_from_dict(data: Any, source: str = "<dict>") -> System:
     if not isinstance(data, dict):
         raise FileFormatError(
             f"system file {source}: expected a JSON object at top level, got {type(data).__name__}"
+        )
+    fmt, ver = data.get("format", SYSTEM_FORMAT), data.get("version", SYSTEM_VERSION)
+    if fmt != SYSTEM_FORMAT or ver != SYSTEM_VERSION:
+        raise FileFormatError(
+            f"system file {source}: expected format {SYSTEM_FORMAT!r} version {SYSTEM_VERSION}, "
+            f"got {_describe(fmt)} version {_describe(ver)}"
         )
     has_contacts = "contacts" in data
     has_w = "wrench_matrix" in data
@@ -211,5 +223,6 @@ def system_to_dict(system: System) -> dict[str, Any]:
 
 
 def save_system(system: System, path: str | os.PathLike[str]) -> Path:
-    """Write a system file atomically."""
-    return atomic_write_json(path, system_to_dict(system))
+    """Write a system file atomically (with its ``format`` and ``version``)."""
+    return atomic_write_json(path, {"format": SYSTEM_FORMAT, "version": SYSTEM_VERSION,
+                                    **system_to_dict(system)})

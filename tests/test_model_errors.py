@@ -155,3 +155,22 @@ def test_jacobian_file_with_effort_joint():
     }
     s = system_from_dict(d)
     assert s.dof == 4 and list(s.effort_joints) == [1]
+
+
+def test_system_file_version_is_checked(tmp_path):
+    import json
+
+    from planner.errors import FileFormatError
+    from planner.io import load_system, save_system, system_from_dict
+
+    path = tmp_path / "s.json"
+    system = system_from_dict({"contacts": [{"point": [0, 0], "normal": [0, 1], "mu": 0.2}],
+                               "manipulator": {"contact_velocities": [[0.0, 1.0]]}})
+    save_system(system, path)
+    data = json.loads(path.read_text())
+    assert data["format"] == "qsplan-system" and data["version"] == 1
+    assert load_system(path).n_contacts == 1
+    data["version"] = 2
+    path.write_text(json.dumps(data))
+    with pytest.raises(FileFormatError, match="version 1, got .qsplan-system. version 2"):
+        load_system(path)
