@@ -120,13 +120,12 @@ def _deep(depth: int) -> Any:
 
 
 def mutate_tree(data: Any, rng: np.random.Generator, n_mutations: int | None = None,
-                deep: tuple[int, ...] = (3, 50),
+                deep: tuple[int, ...] = (3, 50, 5000),
                 values: tuple[Any, ...] = NASTY_VALUES) -> Any:
     """A copy of the JSON tree ``data`` with 1-3 random structural / value mutations.
 
     ``deep``: nesting depths used by the deep-nesting mutation (a parsed file never nests
-    deeper than ``json.loads`` allows; deeper trees only reach the dict APIs, where one error
-    message still crashes on them: :func:`test_deep_contact_entry`)."""
+    deeper than ``json.loads`` allows; deeper trees only reach the dict APIs)."""
     tree = copy.deepcopy(data)
     for _ in range(n_mutations or int(rng.integers(1, 4))):
         paths = _paths(tree)
@@ -453,10 +452,6 @@ def _jacobian_system() -> System:
     return random_system(np.random.default_rng(3), 3, 1, virtual=False)
 
 
-@pytest.mark.xfail(strict=True, raises=RecursionError, reason=(
-    "planner/io.py system_from_dict: the 'contact i: expected an object' message formats the "
-    "entry with {c!r} before truncating it; a contact entry nested deeper than the recursion "
-    "limit crashes the message (dict API only; files are refused by json.loads first)"))
 def test_deep_contact_entry(data_dir):
     d = {"contacts": [_deep(5000)], "external_wrench": [0, -1, 0],
          "manipulator": {"contact_velocities": [[0.0, 1.0]]}}
@@ -489,7 +484,8 @@ def test_valid_files_survive_json_round_trip(data_dir):
 
 # ---------------------------------------------------------------------------------------------
 # Regression tests for what benchmarks/robustness_table.py found (strict xfails until fixed in
-# 9140c51, 1009693, b84baee and caa1110; docs/robustness.md has the before/after table).
+# 9140c51, 1009693, b84baee, caa1110 and 19cb604; docs/robustness.md has the before/after
+# table).
 # ---------------------------------------------------------------------------------------------
 @pytest.mark.parametrize("speed", [1e-9, 1e-10])
 def test_rod_prediction_does_not_depend_on_the_speed_unit(speed):
