@@ -511,3 +511,15 @@ def test_search_modes_without_candidates():
         joints=[{"velocity": 1.0}, {"effort": 1.0}, {"effort": 2.0}])
     assert feasible_modes(s).status is Status.NO_CANDIDATES
     assert search_modes(s).prediction.status is Status.NO_CANDIDATES
+
+
+@pytest.mark.parametrize("fmt,ver", [("qsplan-system", 2), ("qsplan-plan", 1), ("qsplan-system", "1")])
+def test_system_file_version_is_checked(tmp_path, data_dir, fmt, ver):
+    from planner.io import save_system
+
+    saved = json.loads(save_system(load_system(data_dir / "example_4_1.json"),
+                                   tmp_path / "s.json").read_text())
+    assert (saved["format"], saved["version"]) == ("qsplan-system", 1)
+    saved["format"], saved["version"] = fmt, ver
+    with pytest.raises(QsplanError, match="expected format 'qsplan-system' version 1"):
+        system_from_dict(saved)
