@@ -29,9 +29,15 @@ import numpy as np
 
 from planner.closed_form import ClosedFormRegion, closed_form_region
 from planner.errors import InputError
-from planner.feasibility import DEFAULT_TOL, force_stage, kinematic_stage
+from planner.feasibility import (
+    DEFAULT_SINGULAR_TOL,
+    DEFAULT_TOL,
+    INDETERMINATE_AUTO_MAX_CONTACTS,
+    force_stage,
+    kinematic_stage,
+)
 from planner.model import System
-from planner.modes import Mode, enumerate_modes
+from planner.modes import SLIDE, Mode, enumerate_modes
 
 JAM = "jam"
 #: Friction vectors per batched force-stage call: keeps the ``(L, m, k, q)`` working set of
@@ -192,6 +198,7 @@ def mu_grid(
     n: int = 100,
     *,
     tol: float = DEFAULT_TOL,
+    indeterminate: bool | None = None,
 ) -> MuGrid:
     """Label an ``n^len(vary)`` grid of the coefficients ``vary`` (0-based) by the general test
     (eqs. 26-28; kinematic stage once, force stage batched over all grid points).
@@ -203,6 +210,8 @@ def mu_grid(
     base_mu : (n_c,) values of all coefficients; entries in ``vary`` are overwritten.
     mu_range : (min, max), ``0 <= min <= max``.
     n : grid points per axis (``n**3`` points for three varied coefficients).
+    indeterminate : include force-indeterminate modes (relaxed utility, Sec. 3.2) by linear
+        programs; default as :func:`planner.feasibility.feasible_modes` (``n_c <= 8``).
     """
     n_c = system.n_contacts
     vary = _check_vary(vary, n_c)
@@ -228,9 +237,66 @@ def mu_grid(
         feas = np.concatenate(parts)
     else:
         feas = np.zeros((mu.shape[0], 0), bool)
+    if indeterminate is None:
+        indeterminate = n_c <= INDETERMINATE_AUTO_MAX_CONTACTS
+    if indeterminate:
+        extra_labels, extra = _indeterminate_grid(system, grid, mu, tol)
+        labels = labels + extra_labels
+        feas = np.concatenate([feas, extra], axis=1)
     keep = np.any(feas, axis=0)
     return MuGrid(vary, axes, base, tuple(lab for lab, k in zip(labels, keep) if k),
                   feas[:, keep])
+
+
+def _indeterminate_grid(system: System, grid: MuGrid, mu: np.ndarray, tol: float
+                        ) -> tuple[tuple[str, ...], np.ndarray]:
+    """Force-indeterminate modes (relaxed utility, Sec. 3.2) on the grid, as in
+    :func:`planner.feasibility.feasible_modes`: one linear program per mode and point.
+
+    A mode without sliding contacts has ``Q_A`` independent of friction and rolling cones that
+    only grow with ``mu`` (``c_n >= 0`` is explicit), so its feasible set is an up-set of the
+    grid: along every grid line of the first varied coefficient a bisection finds the switch
+    (``O(log n)`` programs per line, exact on the grid).  Other modes are tested at every point
+    (with a progress bar when that is many programs).
+    """
+    from planner.indeterminate import _force_lp, indeterminate_kinematics
+
+    kins = indeterminate_kinematics(system, tol=tol)
+    if not kins:
+        return (), np.zeros((mu.shape[0], 0), bool)
+    shape = tuple(len(a) for a in grid.axes)
+    out = np.zeros((mu.shape[0], len(kins)), bool)
+
+    def ok(kin, m) -> bool:
+        res = _force_lp(system, kin.rows, kin.sliding, kin.contact, kin.codes, kin.xi, m,
+                        DEFAULT_SINGULAR_TOL)
+        return res is not None and min(kin.margin, res[2]) >= -tol
+
+    for j, kin in enumerate(kins):
+        col = np.zeros(shape, bool)
+        pts = mu.reshape(*shape, -1)
+        if not np.any(kin.codes == SLIDE) and np.all(np.diff(grid.axes[0]) >= 0):
+            # up-set along axis 0: bisect every line
+            lines = np.ndindex(*shape[1:]) if len(shape) > 1 else [()]
+            for rest in lines:
+                lo, hi = 0, shape[0]  # first feasible index in [lo, hi]
+                while lo < hi:
+                    mid = (lo + hi) // 2
+                    if ok(kin, pts[(mid, *rest)]):
+                        hi = mid
+                    else:
+                        lo = mid + 1
+                col[(slice(lo, None), *rest)] = True
+        else:
+            flat = pts.reshape(-1, pts.shape[-1])
+            it = range(flat.shape[0])
+            if flat.shape[0] > 2000:
+                from tqdm import tqdm
+
+                it = tqdm(it, desc=f"LPs for {kin.mode.label}", leave=False)
+            col = np.array([ok(kin, flat[i]) for i in it]).reshape(shape)
+        out[:, j] = col.reshape(-1)
+    return tuple(k.mode.label for k in kins), out
 
 
 def closed_form_regions(system: System, *, tol: float = DEFAULT_TOL

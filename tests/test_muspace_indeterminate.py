@@ -1,0 +1,62 @@
+"""Force-indeterminate modes (relaxed utility, Sec. 3.2) on friction-space maps: the map labels
+agree with feasible_modes at every grid point (they were 'jam' before)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from planner.feasibility import feasible_modes
+from planner.model import System
+from planner.muspace import mu_grid
+
+
+def _box(mu, pusher, load=(0.0, -1.0, 0.0)):
+    """A unit box on a table (contacts 1, 2 at its bottom corners) and a pusher on its left side
+    (contact 3), given as contact-point velocities."""
+    return System.from_contacts(
+        points=[[-0.5, 0.0], [0.5, 0.0], [-0.5, 0.5]], normals=[[0, 1], [0, 1], [1, 0]],
+        mu=mu, external_wrench=load, contact_velocities=[[0, 0], [0, 0], pusher])
+
+
+def _agree(make, base, n=11):
+    grid = mu_grid(make(base), (0, 1), base, (0.0, 1.0), n=n)
+    bad = 0
+    for i, a in enumerate(grid.axes[0]):
+        for j, b in enumerate(grid.axes[1]):
+            mu = np.array(base, float)
+            mu[0], mu[1] = a, b
+            want = sorted(feasible_modes(make(mu)).labels)
+            got = sorted(lab for lab, f in zip(grid.labels, grid.feasible[i * n + j]) if f)
+            bad += want != got
+    return grid, bad
+
+
+@pytest.mark.parametrize("case", ["pushed (S-1 S-2 R3, sliding: every point)",
+                                  "resting under a side load (R1 R2 B3, rolling: bisection)"])
+def test_indeterminate_modes_on_the_map_agree_with_feasible_modes(case):
+    if case.startswith("pushed"):
+        def make(mu):
+            return _box(mu, [0.01, 0.0])
+        expect = "S-1 S-2 R3"
+    else:
+        def make(mu):
+            return _box(mu, [-0.01, 0.0], load=(0.3, -1.0, 0.0))
+        expect = "R1 R2 B3"
+    grid, bad = _agree(make, [0.3, 0.3, 0.2])
+    assert bad == 0
+    assert expect in grid.labels
+    assert any(np.any(grid.feasible[:, k]) for k in range(len(grid.labels)))
+    if expect == "R1 R2 B3":  # needs friction: jam near the origin, the mode further out
+        sets = grid.mode_sets()
+        assert sets.flat[0] == "jam" and expect in sets.flat[-1]
+
+
+def test_without_indeterminate_modes_the_map_is_unchanged():
+    def make(mu):
+        return _box(mu, [0.01, 0.0])
+
+    off = mu_grid(make([0.3, 0.3, 0.2]), (0, 1), [0.3, 0.3, 0.2], n=9, indeterminate=False)
+    assert off.labels == ()  # the old behaviour: everything "jam"
+    on = mu_grid(make([0.3, 0.3, 0.2]), (0, 1), [0.3, 0.3, 0.2], n=9)
+    assert on.labels == ("S-1 S-2 R3",)
