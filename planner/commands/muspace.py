@@ -67,7 +67,13 @@ def run(args: argparse.Namespace) -> int:
 
     panels, titles = m.panels(args.panels)
     plot_slices(panels, titles, out / "muspace.png", closed_forms=m.closed_forms)
-    print(f"wrote {out / 'muspace.json'} and {out / 'muspace.png'}")
+    if not getattr(args, "quiet", False):
+        print(f"wrote {out / 'muspace.json'} and {out / 'muspace.png'}")
+        if getattr(args, "verbose", False):
+            for grid, title in zip(m.grids, m.titles):
+                print(f"  {title}:")
+                for name, frac in sorted(grid.region_fractions().items(), key=lambda x: -x[1]):
+                    print(f"    {frac:7.2%}  {name}")
     return 0
 
 
