@@ -120,7 +120,7 @@ def indeterminate_modes(
     """Feasible modes with ``2 n_R + n_S > 3 + |tau_I|`` (force-indeterminate)."""
     out: list[FeasibleMode] = []
     for kin in indeterminate_kinematics(system, tol=tol, singular_tol=singular_tol):
-        result = _force_lp(system, kin.rows, kin.sliding, kin.contact, kin.codes, kin.xi, mu,
+        result = force_lp(system, kin.rows, kin.sliding, kin.contact, kin.codes, kin.xi, mu,
                            singular_tol)
         if result is None:
             continue
@@ -144,7 +144,7 @@ def indeterminate_modes(
     return out
 
 
-def _force_lp(
+def force_lp(
     system: System, rows: np.ndarray, sliding: np.ndarray, contact: np.ndarray,
     codes: np.ndarray, xi: np.ndarray, mu: np.ndarray, singular_tol: float,
 ) -> tuple[np.ndarray, np.ndarray, float] | None:

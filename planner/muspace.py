@@ -259,7 +259,7 @@ def _indeterminate_grid(system: System, grid: MuGrid, mu: np.ndarray, tol: float
     (``O(log n)`` programs per line, exact on the grid).  Other modes are tested at every point
     (with a progress bar when that is many programs).
     """
-    from planner.indeterminate import _force_lp, indeterminate_kinematics
+    from planner.indeterminate import force_lp, indeterminate_kinematics
 
     kins = indeterminate_kinematics(system, tol=tol)
     if not kins:
@@ -268,7 +268,7 @@ def _indeterminate_grid(system: System, grid: MuGrid, mu: np.ndarray, tol: float
     out = np.zeros((mu.shape[0], len(kins)), bool)
 
     def ok(kin, m) -> bool:
-        res = _force_lp(system, kin.rows, kin.sliding, kin.contact, kin.codes, kin.xi, m,
+        res = force_lp(system, kin.rows, kin.sliding, kin.contact, kin.codes, kin.xi, m,
                         DEFAULT_SINGULAR_TOL)
         return res is not None and min(kin.margin, res[2]) >= -tol
 

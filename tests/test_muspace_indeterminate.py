@@ -60,3 +60,18 @@ def test_without_indeterminate_modes_the_map_is_unchanged():
     assert off.labels == ()  # the old behaviour: everything "jam"
     on = mu_grid(make([0.3, 0.3, 0.2]), (0, 1), [0.3, 0.3, 0.2], n=9)
     assert on.labels == ("S-1 S-2 R3",)
+
+
+def test_cli_muspace_quiet_and_verbose(tmp_path, capsys):
+    from pathlib import Path
+
+    from planner.cli import main
+
+    data = Path(__file__).resolve().parent.parent / "scenarios" / "data" / "example_4_1.json"
+    args = ["muspace", str(data), "--vary", "1,2", "--slice", "3=0", "--n", "20",
+            "--out", str(tmp_path)]
+    assert main([*args, "-q"]) == 0
+    assert capsys.readouterr().out == ""
+    assert main([*args, "-v"]) == 0
+    out = capsys.readouterr().out
+    assert "wrote" in out and "S+1 S-2 S-3" in out and "%" in out
