@@ -426,8 +426,9 @@ def load_hand(path: Any) -> tuple[Hand, np.ndarray, dict[str, Any]]:
     """Read a hand file: ``(hand, q0, data)`` where ``data`` is the parsed JSON (kept for the
     ``segment`` and ``mu`` sections and for embedding in plans).  JSON only: nothing in the
     file is executed; NaN/Infinity constants are rejected."""
-    import json
     from pathlib import Path
+
+    from planner.fileio import parse_json
 
     p = Path(path)
     try:
@@ -437,15 +438,7 @@ def load_hand(path: Any) -> tuple[Hand, np.ndarray, dict[str, Any]]:
     except (OSError, UnicodeDecodeError) as exc:
         raise FileFormatError(f"{p}: expected a UTF-8 JSON hand file ({exc})") from None
 
-    def bad_constant(name: str) -> Any:
-        raise FileFormatError(f"{p}: expected finite numbers, got the JSON constant {name}")
-
-    try:
-        data = json.loads(text, parse_constant=bad_constant)
-    except json.JSONDecodeError as exc:
-        raise FileFormatError(f"{p}: expected JSON, got a syntax error ({exc})") from None
-    except RecursionError:
-        raise FileFormatError(f"{p}: expected a hand file, got too deeply nested JSON") from None
+    data = parse_json(text, str(p), "a hand file")
     hand, q0 = hand_from_dict(data, source=str(p))
     return hand, q0, data
 

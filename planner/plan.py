@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 
 from planner.errors import FileFormatError, InputError
-from planner.fileio import atomic_write_text
+from planner.fileio import atomic_write_text, parse_json
 
 PLAN_FORMAT = "qsplan-plan"
 PLAN_VERSION = 1
@@ -195,15 +195,7 @@ def load_plan(path: str | os.PathLike[str]) -> Plan:
 
 
 def plan_from_json(text: str, source: str = "<string>") -> Plan:
-    def bad_constant(name: str) -> Any:
-        raise FileFormatError(f"{source}: expected finite numbers, got the JSON constant {name}")
-
-    try:
-        data = json.loads(text, parse_constant=bad_constant)
-    except json.JSONDecodeError as exc:
-        raise FileFormatError(f"{source}: expected JSON, got a syntax error ({exc})") from None
-    except RecursionError:
-        raise FileFormatError(f"{source}: expected a plan, got too deeply nested JSON") from None
+    data = parse_json(text, source, "a plan")
     try:
         return plan_from_dict(data)
     except FileFormatError as exc:

@@ -175,59 +175,61 @@ def integrate_segment(
         except DegenerateError:
             return None
 
-    def event_at(qq: np.ndarray) -> Event | None:
+    def event_at(qq: np.ndarray):
+        """``(event or None, rate at qq)``; the rate is reused when the state is accepted."""
         _, _, s = hand.contact_geometry(qq)
         off = np.flatnonzero((s < 0.0) | (s > 1.0))
         if off.size:
             i = int(off[0])
             return Event("lost contact", f"contact {i + 1} ran off its feature (s = {s[i]:.3f})",
-                         0.0)
+                         0.0), None
         cl = hand.clearances(qq)
         hit = [name for name, d in cl.items() if d <= 0.0]
         if hit:
-            return Event("new contact", f"{hit[0]} touches", 0.0)
-        if rate(qq) is None:
-            return Event("mode change", f"{label} is no longer kinematically admissible", 0.0)
-        return None
+            return Event("new contact", f"{hit[0]} touches", 0.0), None
+        r = rate(qq)
+        if r is None:
+            return Event("mode change", f"{label} is no longer kinematically admissible", 0.0), None
+        return None, r
 
-    first = event_at(q)
+    first, r0 = event_at(q)
     if first is not None:
         raise DegenerateError(f"segment cannot start: {first.detail}")
-    r0 = rate(q)
     ts, qs, qds, tds = [0.0], [q], [r0[1]], [r0[2]]
+
+    def record(t_new: float, q_new: np.ndarray, r: tuple) -> None:
+        ts.append(t_new)
+        qs.append(q_new)
+        qds.append(r[1])
+        tds.append(r[2])
+
     t = 0.0
     event = Event("time limit", f"reached max_time {max_time:g} s", max_time)
     while t < max_time - 1e-12 * max_time:
         dt = min(h, max_time - t)
         nxt = step(q, dt)
-        ev = event_at(nxt) if nxt is not None else Event("mode change", "step failed", 0.0)
+        ev, r = event_at(nxt) if nxt is not None else (Event("mode change", "step failed", 0.0),
+                                                       None)
         if ev is None:
             t += dt
             q = nxt
-            r = rate(q)
-            ts.append(t)
-            qs.append(q)
-            qds.append(r[1])
-            tds.append(r[2])
+            record(t, q, r)
             continue
         # Bisect on the step length for the first event.
         a, b = 0.0, dt
-        q_ok = q
+        q_ok, r_ok = q, None
         while b - a > 1e-9 * h:
             mid = 0.5 * (a + b)
             qm = step(q, mid)
-            if qm is not None and event_at(qm) is None:
-                a, q_ok = mid, qm
+            ev_m, r_m = event_at(qm) if qm is not None else (ev, None)
+            if ev_m is None:
+                a, q_ok, r_ok = mid, qm, r_m
             else:
                 b = mid
         if a > 0:
             t += a
             q = q_ok
-            r = rate(q)
-            ts.append(t)
-            qs.append(q)
-            qds.append(r[1])
-            tds.append(r[2])
+            record(t, q, r_ok)
         event = Event(ev.kind, ev.detail, t)
         break
     if len(ts) < 2:

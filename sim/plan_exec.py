@@ -37,6 +37,8 @@ from typing import Any
 import numpy as np
 
 from planner.errors import InputError
+from sim.render import COLOURS, ORDER, _plt
+from sim.render import _tokens as _render_tokens
 
 MODE_FRACTION_REQUIRED = 0.95
 POSE_TOLERANCE_OF_TRAVEL = 0.02
@@ -475,24 +477,10 @@ def observed_segments(labels: Sequence[str], times: Any) -> list[dict[str, Any]]
 
 
 # ---- drawing (matplotlib imported lazily, Agg) ----------------------------------------------
-TOKEN_ORDER = ("B", "R", "S-", "S+", "JAM")
-TOKEN_COLOURS = {"R": "tab:green", "S+": "tab:orange", "S-": "tab:red", "B": "0.6",
-                 "JAM": "black"}
-
-
-def _plt() -> Any:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
-
-
 def _tokens(label: str, n: int) -> list[str]:
-    if label == "JAM":
-        return ["JAM"] * n
-    toks = [tok.rstrip("0123456789") for tok in label.split()]
+    """Per-contact tokens of a label (:func:`sim.render._tokens`), all ``B`` when the label does
+    not have ``n`` contacts."""
+    toks = _render_tokens(label, n)
     return toks if len(toks) == n else ["B"] * n
 
 
@@ -513,15 +501,15 @@ def hand_timeline(rec: Any, observed: Sequence[str], schedule: Schedule, path: P
         for k in range(len(t) - 1):
             for label in pred[k]:
                 tok = _tokens(label, P)[j]
-                y = TOKEN_ORDER.index(tok)
-                ax.fill_between([t[k], t[k + 1]], y - 0.4, y + 0.4, color=TOKEN_COLOURS[tok],
+                y = ORDER.index(tok)
+                ax.fill_between([t[k], t[k + 1]], y - 0.4, y + 0.4, color=COLOURS[tok],
                                 alpha=0.25, lw=0, hatch="//" if tok != claim_tok[j] else None)
         if obs is not None:
-            y = [TOKEN_ORDER.index(tok) for tok in obs[:, j]]
+            y = [ORDER.index(tok) for tok in obs[:, j]]
             ax.scatter(rec.times[::step][: len(y)], y, s=3,
-                       c=[TOKEN_COLOURS[tok] for tok in obs[:, j]])
-        ax.set_yticks(range(len(TOKEN_ORDER)), TOKEN_ORDER)
-        ax.set_ylim(-0.6, len(TOKEN_ORDER) - 0.4)
+                       c=[COLOURS[tok] for tok in obs[:, j]])
+        ax.set_yticks(range(len(ORDER)), ORDER)
+        ax.set_ylim(-0.6, len(ORDER) - 0.4)
         ax.set_ylabel(f"contact {j + 1}")
     axes[-1, 0].set_xlabel("time [s]")
     axes[0, 0].set_title(f"{rec.engine}: predicted per waypoint (bands) vs observed (dots); "
@@ -583,7 +571,7 @@ def hand_animation(rec: Any, observed: Sequence[str], hand_data: Any, schedule: 
         for j in range(P):
             if rec.present[k, j]:
                 dots[j].set_data([rec.points[k, j, 0]], [rec.points[k, j, 1]])
-                dots[j].set_color(TOKEN_COLOURS[toks[j]])
+                dots[j].set_color(COLOURS[toks[j]])
             else:
                 dots[j].set_data([], [])
         title.set_text(f"{rec.engine} t={rec.times[k]:.2f} s  "
