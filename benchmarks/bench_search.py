@@ -77,6 +77,10 @@ def main(argv: list[str] | None = None) -> int:
                     help="also time search_modes with subtrees on this many local processes")
     ap.add_argument("--parallel-min", type=int, default=17,
                     help="smallest n_c timed with --search-workers")
+    ap.add_argument("--relaxation", default="auto", choices=["auto", "coupled", "forces"],
+                    help="pruning LP of search_modes (default auto)")
+    ap.add_argument("--compare-forces", action="store_true",
+                    help="also time the forces-only relaxation in the same run (A/B)")
     ap.add_argument("--out", default="benchmarks/results/bench_search.json")
     args = ap.parse_args(argv)
     load_start = os.getloadavg()  # other jobs on the machine inflate absolute times
@@ -94,14 +98,21 @@ def main(argv: list[str] | None = None) -> int:
             for seed in range(args.first_seed, args.first_seed + args.seeds):
                 system = random_system(seed, n_c)
                 t0 = time.perf_counter()
-                res = search_modes(system, indeterminate=False)
+                res = search_modes(system, indeterminate=False, relaxation=args.relaxation)
                 t_s = time.perf_counter() - t0
                 n_cand = res.stats.candidates
                 row = {"n_contacts": n_c, "seed": seed, "search_s": t_s,
                        "modes": res.prediction.labels, **res.stats.to_dict()}
+                if args.compare_forces:
+                    t0 = time.perf_counter()
+                    alt = search_modes(system, indeterminate=False, relaxation="forces")
+                    row["forces_only"] = {"search_s": time.perf_counter() - t0,
+                                          "same_modes": alt.prediction.labels
+                                          == res.prediction.labels, **alt.stats.to_dict()}
                 if args.search_workers > 1 and n_c >= args.parallel_min:
                     t0 = time.perf_counter()
-                    par = search_modes(system, indeterminate=False, executor=search_pool)
+                    par = search_modes(system, indeterminate=False, executor=search_pool,
+                                       relaxation=args.relaxation)
                     row["search_parallel_s"] = time.perf_counter() - t0
                     row["search_workers"] = args.search_workers
                     row["parallel_same_modes"] = par.prediction.labels == res.prediction.labels
@@ -146,7 +157,10 @@ def main(argv: list[str] | None = None) -> int:
                       f" {row['loop_over_search']:>9.0f} {len(res.prediction.labels):>5}"
                       f" {row.get('exact', '-')}"
                       + (f"  parallel {row['search_parallel_s']:.3f}s"
-                         if "search_parallel_s" in row else ""), flush=True)
+                         if "search_parallel_s" in row else "")
+                      + (f"  forces-only {row['forces_only']['search_s']:.3f}s"
+                         f" ({row['forces_only']['tested']} tested)"
+                         if "forces_only" in row else ""), flush=True)
     finally:
         executor.close()
         search_pool.close()
@@ -164,6 +178,8 @@ def main(argv: list[str] | None = None) -> int:
             "max_search_parallel_s": max(r["search_parallel_s"] for r in sel)
             if all("search_parallel_s" in r for r in sel) else None,
             "median_lp_solves": median(r["lp_solves"] for r in sel),
+            "max_forces_only_s": max(r["forces_only"]["search_s"] for r in sel)
+            if all("forces_only" in r for r in sel) else None,
             "median_exhaustive_over_search": median(r["exhaustive_over_search"] for r in sel),
             "median_loop_over_search": median(r["loop_over_search"] for r in sel),
             "exact": all(r.get("exact", True) for r in sel)
@@ -175,6 +191,7 @@ def main(argv: list[str] | None = None) -> int:
         "load_average_1_5_15": {"start": list(load_start), "end": list(os.getloadavg())},
         "machine": {"python": platform.python_version(), "processor": platform.processor(),
                     "cpus": os.cpu_count(), "numpy": np.__version__},
+        "relaxation": args.relaxation,
         "note": "'~' / *_measured = false: extrapolated from a timed sample of candidates",
         "summary": summary,
         "rows": rows,

@@ -52,6 +52,7 @@ Trinkle & Zeng (1994), eqs. (5), (9)-(11), (16)-(17), (21)-(26), (29), (49); Sec
 from __future__ import annotations
 
 import itertools
+import threading
 from collections import deque
 from dataclasses import dataclass
 from functools import lru_cache
@@ -66,6 +67,7 @@ from planner.feasibility import (
     DEFAULT_TOL,
     Prediction,
     _predict_candidates,
+    equilibrated_kinematics,
     force_rhs,
     kinematic_stage,
 )
@@ -79,8 +81,11 @@ DEFAULT_BATCH_SIZE = 128
 DEFAULT_LP_MIN_SIZE = 64
 #: Relative slack of the pruning LP's Coulomb rows (well above ``DEFAULT_TOL``).
 DEFAULT_PRUNE_EPS = 1e-7
+#: ``relaxation="auto"`` prunes with the coupled velocity-force LP from this many contacts
+#: on, with the forces-only LP below (docs/scaling.md: measured crossover).
+COUPLED_MIN_CONTACTS = 17
 #: Default number of open nodes handed to an executor by :func:`search_modes`.
-DEFAULT_SUBTREES = 64
+DEFAULT_SUBTREES = 512
 
 
 @dataclass(frozen=True)
@@ -167,72 +172,124 @@ def candidates_from_codes(codes: np.ndarray, n_rows: int) -> CandidateSet:
 
 
 class _Pruner:
-    """Force LP relaxation of a partial assignment (module docstring).
+    """LP relaxation of a partial assignment: velocities, forces and their power (module
+    docstring).
 
-    Variables ``c (2 n_c)``.  The constraint matrix is built once; a partial assignment only
-    changes row and column bounds, so HiGHS re-solves each node from the previous basis (dual
-    simplex warm start).  Rows are normalised so that HiGHS's absolute tolerances act as
-    relative ones.  Row blocks, each ``n_c`` long unless noted:
+    Variables ``x = (z', c)``: the scaled kinematic unknowns ``z' = col * z`` (``k``, see
+    :class:`planner.feasibility.EquilibratedKinematics`) and the contact forces ``c (2 n_c)``.
+    The constraint matrix is built once; a partial assignment only changes row and column
+    bounds, so HiGHS re-solves each node from the previous basis (dual simplex warm start).
+    Rows are normalised so that HiGHS's absolute tolerances act as relative ones.  Row blocks,
+    each ``n_c`` long unless noted (``s`` is the velocity slack ``eps_v * velocity_scale``, ``N
+    = sum_j c_jn``, ``eps_f`` the force slack):
 
+    ``vel`` (2 n_c rows) ``v = K z - b`` (eq. 5), row ``2i`` the normal, ``2i + 1`` the tangent
+        of contact ``i``: ``v_in >= -s`` (FREE, B: eqs. 11, 25), ``|v_in| <= s`` (CONTACT, R,
+        S: eq. 9-10), ``|v_it| <= s`` (R), ``xi v_it >= -s`` (S, eq. 16), else free
     ``eq``  (k rows) equilibrium ``W c = -g_obj``, ``J_E^T c = tau_E - g_man_E``  (eq. 26)
-    ``nn``  ``c_in + eps N >= 0`` for S (eq. 22, relaxed), with ``N = sum_j c_jn``, else free
-    ``cp, cm``  ``mu_i c_in -/+ c_it + eps N >= 0`` (free / R; friction cone, eqs. 21-22)
+    ``nn``  ``c_in + eps_f N >= 0`` for S (eq. 22, relaxed), else free
+    ``cp, cm``  ``mu_i c_in -/+ c_it + eps_f N >= 0`` (FREE / CONTACT / R; eqs. 21-22)
     ``sp, sm``  ``mu_i c_in +/- c_it = 0`` for S+ / S- (eq. 17), else free
+    ``pow`` (1 row) ``c^T v = [-g_obj; -(tau_E - g_man_E)] . z - b^T c <= eps_f s' N``
     B contacts have ``c_i = 0`` (column bounds).
 
-    Differences to the first version of this search: the kinematic half of the relaxation
-    (``v_in >= 0`` / ``= 0``, ``v_it = 0`` / ``xi v_it >= 0`` over ``z``) is not solved.  It
-    shares no variable with the force half, and measured on the benchmark systems it proved
-    fewer than 3 % of nodes infeasible while costing an LP per node; the kinematics are decided
-    exactly by the batched test at the leaves.
+    The ``pow`` row couples the two halves.  Its left side is the power of the contact forces
+    on the relative contact velocities, ``c^T v = c^T (K z - b) = (K^T c)^T z - b^T c``, with
+    ``K^T c = [W c; -J_E^T c]`` fixed by eq. (26).  In every feasible mode it is ``<= 0``:
+    ``c_i = 0`` at B, ``v_i = 0`` at R, and at S ``v_in = 0`` and ``c_it v_it = -mu_i xi_i
+    c_in v_it = -mu_i c_in |v_it|`` (eqs. 16-17, 22).  Neither half alone knows this: the
+    velocity half alone proved ~2 % of the nodes infeasible, the force half alone ~60 %, the
+    coupled LP prunes far more (docs/scaling.md).
     """
 
-    def __init__(self, system: System, eps: float, mu: np.ndarray) -> None:
+    def __init__(self, system: System, eps: float, mu: np.ndarray, coupled: bool = True) -> None:
         n_c = system.n_contacts
         E = system.effort_joints
         G = np.concatenate([system.W, system.J[:, E].T], axis=0)  # (k, 2 n_c)
         k = G.shape[0]
-        self.k, self.n_c = k, n_c
+        self.k, self.n_c, self.coupled = k, n_c, coupled
+        nz = k if coupled else 0  # z' columns (none in the forces-only relaxation)
+        nvr = 2 * n_c if coupled else 0  # velocity rows
+        self.nz = nz
         h = force_rhs(system)
         gn = np.linalg.norm(G, axis=1)
         gn[gn == 0] = 1.0
         mu = np.asarray(mu, dtype=float)
         self.mu = mu
         force_eps = eps * max(1.0, float(np.max(mu, initial=0.0))) * 10.0
+        kin = equilibrated_kinematics(system)
+        vs = kin.velocity_scale if kin.velocity_scale > 0 else 1.0
+        # Velocity slack per (scaled) row: the leaves keep candidates with margin >= -tol
+        # (kinematic boundary cases), and eps_v = 100 eps >> tol covers them and rounding.
+        self.slack = 100.0 * eps * vs / kin.row
+        self.Kn, self.bn = kin.Kn, kin.bn
         inf = np.inf
         self.inf = inf
         ii = np.arange(n_c)
-        A = np.zeros((k + 5 * n_c, 2 * n_c))
-        cn, ct = 2 * ii, 2 * ii + 1
-        A[:k] = G / gn[:, None]
-        o = k
+        nv = nz + 2 * n_c + 1  # (z', c, N)
+        nN = nv - 1
+        A = np.zeros((nvr + k + 5 * n_c + 2, nv))
+        cn, ct = nz + 2 * ii, nz + 2 * ii + 1  # columns of c_in, c_it
+        if coupled:
+            A[:nvr, :nz] = kin.Kn
+        self.o_eq = nvr
+        A[self.o_eq:self.o_eq + k, nz:nN] = G / gn[:, None]
+        o = self.o_eq + k
         for blk, (a_n, a_t, with_n) in enumerate(
             ((1.0, 0.0, True), (None, -1.0, True), (None, 1.0, True),
              (None, 1.0, False), (None, -1.0, False))
         ):
             r = o + blk * n_c + ii
             if with_n:
-                A[np.ix_(r, cn)] += force_eps
+                A[r, nN] = force_eps
             A[r, cn] += 1.0 if a_n is not None else mu
             A[r, ct] += a_t
         self.o = o
+        # N = sum_j c_jn as its own column keeps the matrix sparse (HiGHS's time per solve
+        # grows with the nonzeros).
+        A[-2, cn] = 1.0 / np.sqrt(n_c + 1.0)
+        A[-2, nN] = -1.0 / np.sqrt(n_c + 1.0)
+        # Power row: (K^T c) . z - b . c <= eps_f vs N, with K^T c = [h_obj; -h_E] (eq. 26).
+        power = np.zeros(nv)
+        if coupled:
+            power[:k] = np.concatenate([h[:3], -h[3:]]) / kin.col
+            power[k:nN] = -kin.rhs
+        power[nN] = -force_eps * vs
+        pn = float(np.max(np.abs(power)))
+        A[-1] = power / (pn if pn > 0 else 1.0)
         lower = np.full(A.shape[0], -inf)
         upper = np.full(A.shape[0], inf)
-        lower[:k] = h / gn
-        upper[:k] = h / gn
+        lower[self.o_eq:o] = h / gn
+        upper[self.o_eq:o] = h / gn
+        lower[-2] = upper[-2] = 0.0
+        upper[-1] = 0.0 if coupled else inf
         self.lp = _make_lp(A, lower, upper)
         self.cn, self.ct = cn, ct
         self.state = np.full(n_c, -99)  # bounds currently set per contact (none yet)
         self.solves = 0
 
-    @staticmethod
-    def key(state: int, xi: int) -> int:
-        """Which bounds a contact state sets (FREE, CONTACT and R share the cone)."""
-        return 0 if state in (FREE, CONTACT, ROLL) else 1 + state * 4 + xi
+    def keys(self, states: np.ndarray, xi: np.ndarray) -> np.ndarray:
+        """Which bounds each contact's state sets: one set per FREE, CONTACT, B, R, S+, S-
+        (coupled); FREE, CONTACT and R share the friction cone (forces only)."""
+        keys = 3 * states.astype(np.int64) + xi + 1
+        if not self.coupled:
+            keys[(states == FREE) | (states == CONTACT) | (states == ROLL)] = -1
+        return keys
 
     def _set(self, i: int, state: int, xi: int) -> None:
         """Bounds of contact ``i`` in ``state`` (FREE, CONTACT, BREAK, ROLL, SLIDE with ``xi``)."""
         h, inf, n_c, o = self.lp, self.inf, self.n_c, self.o
+        if self.coupled:
+            rn, rt = 2 * i, 2 * i + 1
+            sn, st = self.slack[rn], self.slack[rt]
+            bn, bt = self.bn[rn], self.bn[rt]
+            h.changeRowBounds(rn, bn - sn, inf if state in (FREE, BREAK) else bn + sn)
+            if state == ROLL:
+                h.changeRowBounds(rt, bt - st, bt + st)
+            elif state == SLIDE:
+                h.changeRowBounds(rt, bt - st if xi > 0 else -inf, inf if xi > 0 else bt + st)
+            else:
+                h.changeRowBounds(rt, -inf, inf)
         sp, sm = state == SLIDE and xi > 0, state == SLIDE and xi < 0
         h.changeRowBounds(o + i, 0.0 if state == SLIDE else -inf, inf)
         cone = 0.0 if state in (FREE, CONTACT, ROLL) else -inf
@@ -245,11 +302,9 @@ class _Pruner:
         h.changeColBounds(int(self.ct[i]), lo, hi)
 
     def solve(self, states: np.ndarray, xi: np.ndarray) -> np.ndarray | None:
-        """Solve the relaxation; None when HiGHS proves it infeasible, else forces
-        ``c (2 n_c,)`` (zeros when HiGHS gave no verdict: the node is kept)."""
-        keys = np.where(
-            (states == FREE) | (states == CONTACT) | (states == ROLL), 0, 1 + 4 * states + xi
-        )
+        """Solve the relaxation; None when HiGHS proves it infeasible, else ``x = (z', c)``
+        (zeros when HiGHS gave no verdict: the node is kept)."""
+        keys = self.keys(states, xi)
         for i in np.flatnonzero(keys != self.state):  # only contacts whose bounds change
             self._set(int(i), int(states[i]), int(xi[i]))
         self.state[:] = keys
@@ -258,8 +313,23 @@ class _Pruner:
         if x is _INFEASIBLE:
             return None
         if x is None:
-            return np.zeros(2 * self.n_c)
+            return np.zeros(self.nz + 2 * self.n_c + 1)
         return x
+
+    def satisfies(self, x: np.ndarray, i: int, state: int, xi: int) -> bool:
+        """Whether a child that puts contact ``i`` in ``state`` may take its parent's LP point
+        ``x`` instead of solving: only CONTACT and R children, when ``x`` meets their velocity
+        bounds (always, in the forces-only relaxation, where they keep the parent's bounds).
+        Skipping an LP never loses a mode (``x`` is a feasible point of the child's LP).  B and
+        S children are always solved even when ``x`` happens to be feasible for them: a fresh
+        vertex steers the branching (inheriting there made the forces-only tree explode, e.g.
+        ``n_c = 18`` seed 1: 212 s instead of 3.4 s)."""
+        if state not in (CONTACT, ROLL):
+            return False
+        if not self.coupled:
+            return True
+        r = 2 * i if state == CONTACT else 2 * i + 1
+        return bool(abs(self.Kn[r] @ x[:self.nz] - self.bn[r]) <= 1.001 * self.slack[r])
 
 
 _INFEASIBLE = object()
@@ -295,6 +365,7 @@ class _HighsLp:
         self._h.setOptionValue("presolve", "off")
         self._h.passModel(lp)
         self._inf = inf
+        self.retries = 0
 
     def _b(self, x: float) -> float:
         return self._inf if x == np.inf else -self._inf if x == -np.inf else x
@@ -305,10 +376,23 @@ class _HighsLp:
     def changeColBounds(self, j: int, lo: float, hi: float) -> None:  # noqa: N802
         self._h.changeColBounds(j, self._b(lo), self._b(hi))
 
+    def reset(self) -> None:
+        """Forget the basis (the next solve starts cold, as in a new model)."""
+        self._h.clearSolver()
+
     def solve(self) -> Any:
-        """Solution ``x``, ``_INFEASIBLE`` when proved infeasible, None on any other outcome."""
+        """Solution ``x``, ``_INFEASIBLE`` when proved infeasible, None on any other outcome.
+
+        A warm start occasionally ends without a verdict (``kUnknown``: seen on the coupled LP
+        after some bound changes); then the LP is solved once more from scratch."""
         self._h.run()
         status = self._h.getModelStatus()
+        if status not in (self._core.HighsModelStatus.kOptimal,
+                          self._core.HighsModelStatus.kInfeasible):
+            self.retries += 1
+            self._h.clearSolver()
+            self._h.run()
+            status = self._h.getModelStatus()
         if status == self._core.HighsModelStatus.kInfeasible:
             return _INFEASIBLE
         if status != self._core.HighsModelStatus.kOptimal:
@@ -324,6 +408,9 @@ class _LinprogLp:
         self.A, self.lower, self.upper = A, lower.copy(), upper.copy()
         self.col_lower = np.full(A.shape[1], -np.inf)
         self.col_upper = np.full(A.shape[1], np.inf)
+
+    def reset(self) -> None:
+        """Nothing to forget: every solve starts cold."""
 
     def changeRowBounds(self, i: int, lo: float, hi: float) -> None:  # noqa: N802
         self.lower[i], self.upper[i] = lo, hi
@@ -439,6 +526,10 @@ def _branch_contact(states: np.ndarray, point: np.ndarray | None, mu: np.ndarray
     return int(con[np.argmax(mu[con] * fn - np.abs(ft))])
 
 
+def _choose(states, point, mu, pruner):
+    return _branch_contact(states, None if point is None else point[pruner.nz:-1], mu)
+
+
 #: Relative size below which a relaxed normal force counts as zero in :func:`_branch_contact`
 #: (a heuristic: it orders the branching, never decides a mode).
 _ZERO_FORCE = 1e-9
@@ -515,6 +606,7 @@ def search_modes(
     lp_min_size: int = DEFAULT_LP_MIN_SIZE,
     executor: Any = None,
     subtrees: int = DEFAULT_SUBTREES,
+    relaxation: str = "auto",
 ) -> SearchResult:
     """Every feasible mode of ``system`` (same set as exhaustive eq. 49 enumeration), pruned.
 
@@ -559,8 +651,15 @@ def search_modes(
         raise InputError(f"prune_eps: expected a finite number > tol ({tol}), got {prune_eps}")
     n_c, k = system.n_contacts, system.dof
     n_cand = candidate_count(n_c, k)
-    params = _Params(k, tol, singular_tol, batch_size, prune_eps, lp_min_size)
-    pruner = _Pruner(system, prune_eps, mu_arr)
+    if relaxation not in ("auto", "coupled", "forces"):
+        raise InputError(
+            f"relaxation: expected 'auto', 'coupled' or 'forces', got {relaxation!r}"
+        )
+    coupled = relaxation == "coupled" or (
+        relaxation == "auto" and n_c >= COUPLED_MIN_CONTACTS
+    )
+    params = _Params(k, tol, singular_tol, batch_size, prune_eps, lp_min_size, coupled)
+    pruner = _Pruner(system, prune_eps, mu_arr, coupled=params.coupled)
     leaves = _LeafBatches(system, k, tol=tol, singular_tol=singular_tol)
     root: _Node = (np.full(n_c, FREE, dtype=np.int8), np.zeros(n_c, dtype=np.int8), None, True)
     open_nodes: deque[_Node] = deque([root])
@@ -602,6 +701,7 @@ class _Params:
     batch_size: int
     prune_eps: float
     lp_min_size: int
+    coupled: bool
 
 
 def _expand(
@@ -642,25 +742,59 @@ def _expand(
         if size <= params.batch_size or not undecided:
             leaves.add(_completions(states, k), states, xi)
             continue
-        i = _branch_contact(states, point, mu_arr)
+        i = _choose(states, point, mu_arr, pruner)
         if states[i] == FREE:
             children = ((BREAK, 0), (CONTACT, 0))
         else:
             children = ((SLIDE, 1), (SLIDE, -1), (ROLL, 0))
-        parent_key = _Pruner.key(int(states[i]), int(xi[i]))
         for code, x in children:
             child, child_xi = states.copy(), xi.copy()
             child[i], child_xi[i] = code, x
-            open_nodes.append((child, child_xi, point, _Pruner.key(code, x) != parent_key))
+            inherit = point is not None and pruner.satisfies(point, i, code, x)
+            open_nodes.append((child, child_xi, point, not inherit))
 
 
 def _search_subtree(job: tuple[System, np.ndarray, _Node, _Params]) -> tuple[np.ndarray, int, int]:
-    """Executor task: search one node's subtree; its kept codes, tested count and LP count."""
+    """Executor task: search one node's subtree; its kept codes, tested count and LP count.
+
+    A worker process keeps the last system's pruner (its HiGHS model) between tasks, so many
+    small subtrees cost little more than one big one.  The basis is cleared before each
+    subtree, so the LP answers, and with them the branching and the statistics, do not depend
+    on which worker searched which subtrees before (same counts locally and through Dask)."""
     system, mu_arr, node, params = job
-    pruner = _Pruner(system, params.prune_eps, mu_arr)
+    key = _pruner_key(system, mu_arr, params.prune_eps, params.coupled)
+    cache = _WORKER.__dict__.setdefault("pruners", {})
+    cached = cache.get(key)
+    if cached is None:
+        cache.clear()
+        cached = cache[key] = _Pruner(
+            system, params.prune_eps, mu_arr, coupled=params.coupled
+        )
+    pruner = cached
+    pruner.lp.reset()  # each subtree starts cold: the traversal does not depend on task order
+    before = pruner.solves
     leaves = _LeafBatches(system, params.n_rows, tol=params.tol, singular_tol=params.singular_tol)
     _expand(deque([node]), pruner, leaves, mu_arr, params)
-    return leaves.kept_codes(), leaves.tested, pruner.solves
+    return leaves.kept_codes(), leaves.tested, pruner.solves - before
+
+
+#: Per worker thread: the pruner of the last system it searched (see :func:`_search_subtree`).
+#: Thread-local because a HiGHS model must not be shared by threads (Dask threads workers).
+_WORKER = threading.local()
+
+
+def _pruner_key(system: System, mu: np.ndarray, eps: float, coupled: bool) -> bytes:
+    """Digest of everything a :class:`_Pruner` is built from."""
+    import hashlib
+
+    d = hashlib.sha256()
+    for a in (system.W, system.J, system.joint_inputs, system.g_obj, system.g_man, mu,
+              np.asarray(system.effort_joints), np.asarray(system.velocity_joints),
+              np.asarray([eps, float(coupled)])):
+        a = np.ascontiguousarray(a)
+        d.update(str(a.dtype).encode() + str(a.shape).encode())
+        d.update(a.tobytes())
+    return d.digest()
 
 
 def _canonical_order(codes: np.ndarray) -> np.ndarray:

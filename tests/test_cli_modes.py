@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
+
 from planner.cli import main
 
 
@@ -37,3 +39,29 @@ def test_modes_bad_input_exit_2(capsys, tmp_path, data_dir):
     assert "expected valid JSON" in capsys.readouterr().err
     assert main(["modes", str(data_dir / "example_4_1.json"), "--mu", "0.1,0.2"]) == 2
     assert "expected 3 friction coefficients" in capsys.readouterr().err
+
+
+def test_modes_search_gives_the_exhaustive_modes(capsys, tmp_path):
+    """``--search`` (pruned, optionally on 2 processes) prints the same modes and forces as
+    the exhaustive default, plus how many candidates it tested."""
+    from planner.io import save_system
+    from planner.random_systems import random_system
+
+    path = save_system(random_system(1, 9), tmp_path / "r9.json")
+    outs = []
+    for extra in ([], ["--search"], ["--search", "--workers", "2"]):
+        assert main(["modes", str(path), "--json", "--no-indeterminate", *extra]) == 0
+        outs.append(json.loads(capsys.readouterr().out))
+    for out in outs[1:]:
+        assert out.pop("search")["tested"] < out["candidates"]
+        assert out["status"] == outs[0]["status"]
+        assert [m["mode"] for m in out["modes"]] == [m["mode"] for m in outs[0]["modes"]]
+        for m, ref in zip(out["modes"], outs[0]["modes"]):  # same to rounding (batched BLAS)
+            for key in ("qdot", "contact_forces", "joint_efforts"):
+                assert np.allclose(m[key], ref[key], rtol=1e-12, atol=1e-12), key
+    assert main(["modes", str(path), "--search"]) == 0
+    assert "search: tested" in capsys.readouterr().out
+    assert main(["modes", str(path), "--workers", "2"]) == 2
+    assert "expected together with --search" in capsys.readouterr().err
+    assert main(["modes", str(path), "--search", "--workers", "0"]) == 2
+    assert "--workers: expected an integer >= 1" in capsys.readouterr().err

@@ -29,22 +29,27 @@ def assert_same(pred_a, pred_b):
     )
 
 
+RELAXATIONS = ["forces", "coupled"]
+
+
+@pytest.mark.parametrize("relaxation", RELAXATIONS)
 @pytest.mark.parametrize("n_c", [4, 6, 8, 10])
 @pytest.mark.parametrize("seed", range(6))
-def test_search_equals_exhaustive_planted(seed, n_c):
+def test_search_equals_exhaustive_planted(seed, n_c, relaxation):
     system = random_system(seed, n_c)
-    res = search_modes(system, indeterminate=False, batch_size=64)
+    res = search_modes(system, indeterminate=False, batch_size=64, relaxation=relaxation)
     assert_same(res.prediction, feasible_modes(system, indeterminate=False))
     assert res.stats.candidates == res.prediction.candidates
 
 
+@pytest.mark.parametrize("relaxation", RELAXATIONS)
 @pytest.mark.parametrize("seed", range(40))
-def test_search_equals_exhaustive_mixed_systems(seed):
+def test_search_equals_exhaustive_mixed_systems(seed, relaxation):
     """Virtual-joint and few-effort-joint systems (dof != n_c), small batches to force LPs."""
     rng = np.random.default_rng(1000 + seed)
     n_c = int(rng.integers(3, 7))
     system = random_system_mixed(rng, n_c, n_effort=int(rng.integers(0, 3)))
-    res = search_modes(system, batch_size=1, lp_min_size=0)
+    res = search_modes(system, batch_size=1, lp_min_size=0, relaxation=relaxation)
     assert_same(res.prediction, feasible_modes(system))
 
 
@@ -55,9 +60,10 @@ def test_search_reports_fewer_tests_than_candidates_when_jammed_at_root():
     assert res.stats.tested < res.stats.candidates
 
 
-def test_paper_examples(example_41, example_43):
+@pytest.mark.parametrize("relaxation", RELAXATIONS)
+def test_paper_examples(example_41, example_43, relaxation):
     for system, mu in ((example_41, [0.2, 0.2, 0.2]), (example_43, [0.5, 0.5, 0.5])):
-        res = search_modes(system, mu, batch_size=1, lp_min_size=0)
+        res = search_modes(system, mu, batch_size=1, lp_min_size=0, relaxation=relaxation)
         assert_same(res.prediction, feasible_modes(system, mu))
 
 
@@ -79,16 +85,19 @@ def test_bad_inputs():
         search_modes(system, batch_size=0)
     with pytest.raises(InputError, match="prune_eps: expected a finite number > tol"):
         search_modes(system, prune_eps=0.0)
+    with pytest.raises(InputError, match="relaxation: expected 'auto', 'coupled' or 'forces'"):
+        search_modes(system, relaxation="velocity")
     with pytest.raises(InputError, match="expected every mode to have 4 constraint rows"):
         candidates_from_codes(np.zeros((1, 4), dtype=np.int8), 4)
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("relaxation", RELAXATIONS)
 @pytest.mark.parametrize("n_c", [12, 13, 14])
-def test_search_equals_exhaustive_large(n_c):
+def test_search_equals_exhaustive_large(n_c, relaxation):
     for seed in range(2):
         system = random_system(seed, n_c)
-        res = search_modes(system, indeterminate=False)
+        res = search_modes(system, indeterminate=False, relaxation=relaxation)
         assert_same(res.prediction, feasible_modes(system, indeterminate=False))
 
 
@@ -96,9 +105,11 @@ def test_linprog_fallback_gives_the_same_modes(monkeypatch):
     import planner.search as search
 
     monkeypatch.setattr(search, "_make_lp", search._LinprogLp)
-    for seed in range(3):
+    for seed, relaxation in zip(range(4), RELAXATIONS * 2):
         system = random_system(seed, 7)
-        res = search_modes(system, indeterminate=False, batch_size=8, lp_min_size=0)
+        res = search_modes(
+            system, indeterminate=False, batch_size=8, lp_min_size=0, relaxation=relaxation
+        )
         assert res.stats.lp_solves > 1
         assert_same(res.prediction, feasible_modes(system, indeterminate=False))
 
@@ -161,3 +172,71 @@ def test_search_without_candidates_reports_no_candidates():
     assert res.stats.tested == res.stats.candidates == 0
     with pytest.raises(InputError, match="n_rows: expected at most 2 n_c = 4 constraint rows"):
         candidates_from_codes(np.zeros((1, 2), dtype=np.int8), 5)
+
+
+def test_power_of_contact_forces_is_a_linear_function_and_never_positive():
+    """The coupling row of the pruning LP: in every feasible mode ``c^T v = [-g_obj; -(tau_E -
+    g_man_E)] . [qdot; thetadot_E] - (J_V thetadot_V) . c`` (eqs. 5, 26) and ``c^T v = -sum_S
+    mu_i c_in |v_it| <= 0`` (eqs. 16-17), checked on the modes exhaustive enumeration finds."""
+    seen_sliding = 0
+    for seed in range(12):
+        system = random_system(seed, 7)
+        E, V = system.effort_joints, system.velocity_joints
+        for m in feasible_modes(system, indeterminate=False).modes:
+            c = np.asarray(m.contact_forces, dtype=float).reshape(-1)
+            v = np.asarray(m.contact_velocities, dtype=float).reshape(-1)
+            th = np.asarray(m.joint_velocities, dtype=float)
+            linear = (-system.g_obj @ m.qdot
+                      - (system.joint_inputs[E] - system.g_man[E]) @ th[E]
+                      - (system.J[:, V] @ system.joint_inputs[V]) @ c)
+            scale = np.abs(c).max() * np.abs(v).max() + 1e-300
+            assert c @ v == pytest.approx(linear, abs=1e-9 * scale)
+            assert c @ v <= 1e-9 * scale
+            seen_sliding += any(t.startswith("S") for t in m.mode.tokens)
+    assert seen_sliding > 0  # the inequality is strict somewhere, not only 0 = 0
+
+
+def _consistent(states, xi, mode):
+    """Whether the feasible ``mode`` lies in the subtree of the node ``states``/``xi``."""
+    from planner.modes import ROLL, SLIDE
+    from planner.search import CONTACT, FREE
+
+    for st, x, code, mx in zip(states, xi, mode.codes, mode.xi):
+        if st == FREE:
+            continue
+        if st == CONTACT:
+            if code not in (ROLL, SLIDE):
+                return False
+        elif st != code or (st == SLIDE and x != mx):
+            return False
+    return True
+
+
+@pytest.mark.parametrize("n_c", [5, 7])
+def test_coupled_relaxation_is_a_relaxation_and_prunes_more(n_c):
+    """On random partial assignments: a node whose coupled LP is infeasible contains no
+    feasible mode (what exactness needs); the coupled LP is infeasible wherever the
+    forces-only one is (it has all its rows); and it proves some nodes infeasible that the
+    forces-only LP cannot (the power row couples velocities and forces)."""
+    from planner.modes import BREAK, ROLL, SLIDE
+    from planner.search import CONTACT, FREE, _Pruner
+
+    rng = np.random.default_rng(7)
+    only_coupled = both = 0
+    for seed in range(8):
+        system = random_system(seed, n_c)
+        modes = [m.mode for m in feasible_modes(system, indeterminate=False).modes]
+        coupled = _Pruner(system, 1e-7, system.mu, coupled=True)
+        forces = _Pruner(system, 1e-7, system.mu, coupled=False)
+        for _ in range(60):
+            states = rng.choice([FREE, CONTACT, BREAK, ROLL, SLIDE], n_c).astype(np.int8)
+            xi = np.where(states == SLIDE, rng.choice([-1, 1], n_c), 0).astype(np.int8)
+            c_inf = coupled.solve(states, xi) is None
+            f_inf = forces.solve(states, xi) is None
+            if c_inf:
+                assert not any(_consistent(states, xi, m) for m in modes)
+            if f_inf:
+                assert c_inf
+            both += f_inf
+            only_coupled += c_inf and not f_inf
+    assert both > 0 and only_coupled > 0
