@@ -2,9 +2,9 @@
 
 The paper tests all eq. (49) candidates (Sec. 4.7: 20 min at ``n_c = 12``) and names as future
 work finding all solutions without enumerating the modes (Secs. 4.7, 6).  This module does that
-with a depth-first branch-and-bound over *partial* mode assignments, pruned by an LP relaxation
-of the force constraints, with the kinematics decided by batched tests at the leaves.  Full
-description, exactness argument and measurements: ``docs/scaling.md``.
+with a depth-first branch-and-bound over *partial* mode assignments, pruned by an LP relaxation,
+with the kinematics decided by batched tests at the leaves.  Full description, exactness
+argument and measurements: ``docs/scaling.md``.
 
 Algorithm
 ---------
@@ -15,34 +15,48 @@ A feasible mode has ``z`` and contact forces ``c (2 n_c)`` with ``W c = -g_obj``
 (eqs. 11, 25); S ``v_n = 0, xi v_t > 0, c_t = -mu xi c_n, c_n >= 0`` (eqs. 10, 16, 17, 22);
 R ``v_n = 0, v_t = 0, |c_t| <= mu c_n`` (eqs. 9, 21).  A node gives each contact a state:
 ``FREE`` (undecided), ``CONTACT`` (R or S, undecided), or B / R / S+ / S-.  Children
-``FREE -> B | CONTACT`` and ``CONTACT -> R | S+ | S-`` partition the parent's candidates.  The
-node's force relaxation (one warm-started HiGHS LP over ``c``: equilibrium; ``c = 0`` at B;
-``c`` in the friction cone at FREE / CONTACT / R; ``c_t = -mu xi c_n``, ``c_n >= 0`` at S, the
-inequalities relaxed by ``eps N``) is solved when the branching changed its bounds (``FREE ->
-CONTACT`` and ``CONTACT -> R`` do not); a node is discarded only when HiGHS proves it
-infeasible.  Velocities and forces share no variable, and the velocity half of the relaxation
-pruned almost nothing (docs/scaling.md), so it is left to the leaves: subtrees with at most
-``batch_size`` candidates are generated and queued, and tested in batches by the same code as
-the exhaustive path (:func:`planner.feasibility.kinematic_stage`, then
-:func:`planner.feasibility.force_stage` on the kinematically admissible ones).
+``FREE -> B | CONTACT`` and ``CONTACT -> R | S+ | S-`` partition the parent's candidates.
+
+A node is pruned when HiGHS proves its LP relaxation infeasible (one warm-started LP; only
+bounds change between nodes).  Two relaxations (``relaxation=``):
+
+* ``"forces"``: the contact forces only -- equilibrium; ``c = 0`` at B; ``c`` in the friction
+  cone at FREE / CONTACT / R; ``c_t = -mu xi c_n``, ``c_n >= 0`` at S (inequalities relaxed by
+  ``eps N``).  FREE -> CONTACT and CONTACT -> R leave it unchanged, so those children inherit
+  their parent's answer.
+* ``"coupled"``: the same plus the velocities ``z`` with each contact's velocity conditions
+  (``v_n >= 0`` at FREE / B, ``v_n = 0`` in contact, ``v_t = 0`` at R, ``xi v_t >= 0`` at S)
+  and one row that ties them to the forces: the power of the contact forces, ``c^T v =
+  (K^T c)^T z - b^T c`` with ``K^T c = [-g_obj; -(tau_E - g_man_E)]`` known from eq. (26), is
+  ``-sum_S mu_i c_in |v_it| <= 0`` in every feasible mode (eqs. 16-17), a *linear* inequality
+  in ``(z, c)``.  Velocities alone prune almost nothing; with the power row the LP prunes far
+  more (``n_c = 20`` seed 3: 1.5e6 instead of 7.1e6 candidates tested).
+* ``"auto"`` (default): coupled from :data:`COUPLED_MIN_CONTACTS` contacts on (measured
+  crossover; below it the forces-only LP's free inheritance wins).
+
+Subtrees with at most ``batch_size`` candidates are generated and queued, and tested in
+batches by the same code as the exhaustive path (:func:`planner.feasibility.kinematic_stage`,
+then :func:`planner.feasibility.force_stage` on the kinematically admissible ones).
 
 Why it is exact
 ---------------
-A mode that exhaustive enumeration reports feasible has forces ``c`` that satisfy the force
-relaxation of every ancestor node (equilibrium solved exactly; Coulomb holds to
-``tol max|c_A|``, bounded by ``eps_f sum c_n`` with ``eps_f >> tol``), so it is never pruned;
-the children partition the candidates; and each surviving candidate is decided by the same
-arithmetic as :func:`planner.feasibility.feasible_modes` (same row order and equilibration,
-one candidate's arithmetic independent of its batch).  Differences by design:
+A mode that exhaustive enumeration reports feasible has a velocity ``z`` and forces ``c`` that
+satisfy the relaxation of every ancestor node: equilibrium and the contact rows hold to
+rounding, Coulomb to ``tol max|c_A|`` (bounded by ``eps_f sum c_n`` with ``eps_f >> tol``),
+the velocity rows to ``tol * velocity_scale`` (kinematic boundary cases included; the LP allows
+``100 eps * velocity_scale``), and the power row holds with ``c^T v <= 0``; so it is never
+pruned.  The children partition the candidates, and each surviving candidate is decided by
+the same arithmetic as :func:`planner.feasibility.feasible_modes` (same row order and
+equilibration, one candidate's arithmetic independent of its batch).  Differences by design:
 ``degenerate`` counts singular candidates among those tested, and ``boundary_modes`` lists only
-kinematic boundary cases whose subtree was not proved force-infeasible (a subset).
+kinematic boundary cases whose subtree was not proved infeasible (a subset).
 
 Cost
 ----
-One LP (``2 n_c`` unknowns, ``5 n_c + k`` rows) per node whose force bounds changed, plus the
-batched kinematic test of the queued leaves; the number of nodes grows with the partial
-assignments whose force relaxation is feasible, not with eq. (49).  Exponential in the worst
-case (the problem contains an LCP).
+One LP (forces: ``2 n_c + 1`` unknowns, ``5 n_c + k + 2`` rows; coupled: ``k`` more unknowns,
+``2 n_c`` more rows) per node that cannot inherit, plus the batched kinematic test of the
+queued leaves; the number of nodes grows with the partial assignments whose relaxation is
+feasible, not with eq. (49).  Exponential in the worst case (the problem contains an LCP).
 
 References
 ----------
@@ -173,15 +187,18 @@ def candidates_from_codes(codes: np.ndarray, n_rows: int) -> CandidateSet:
 
 class _Pruner:
     """LP relaxation of a partial assignment: velocities, forces and their power (module
-    docstring).
+    docstring); ``coupled=False`` keeps only the forces (no ``z'``, no ``vel`` rows, the
+    ``pow`` row free).
 
-    Variables ``x = (z', c)``: the scaled kinematic unknowns ``z' = col * z`` (``k``, see
-    :class:`planner.feasibility.EquilibratedKinematics`) and the contact forces ``c (2 n_c)``.
+    Variables ``x = (z', c, N)``: the scaled kinematic unknowns ``z' = col * z`` (``k``, see
+    :class:`planner.feasibility.EquilibratedKinematics`), the contact forces ``c (2 n_c)`` and
+    ``N = sum_j c_jn`` (its own column and row keep the matrix sparse: HiGHS's time per solve
+    grows with the nonzeros).
     The constraint matrix is built once; a partial assignment only changes row and column
     bounds, so HiGHS re-solves each node from the previous basis (dual simplex warm start).
     Rows are normalised so that HiGHS's absolute tolerances act as relative ones.  Row blocks,
-    each ``n_c`` long unless noted (``s`` is the velocity slack ``eps_v * velocity_scale``, ``N
-    = sum_j c_jn``, ``eps_f`` the force slack):
+    each ``n_c`` long unless noted (``s`` is the velocity slack ``100 eps * velocity_scale`` per
+    scaled row, ``eps_f`` the force slack):
 
     ``vel`` (2 n_c rows) ``v = K z - b`` (eq. 5), row ``2i`` the normal, ``2i + 1`` the tangent
         of contact ``i``: ``v_in >= -s`` (FREE, B: eqs. 11, 25), ``|v_in| <= s`` (CONTACT, R,
@@ -190,16 +207,17 @@ class _Pruner:
     ``nn``  ``c_in + eps_f N >= 0`` for S (eq. 22, relaxed), else free
     ``cp, cm``  ``mu_i c_in -/+ c_it + eps_f N >= 0`` (FREE / CONTACT / R; eqs. 21-22)
     ``sp, sm``  ``mu_i c_in +/- c_it = 0`` for S+ / S- (eq. 17), else free
-    ``pow`` (1 row) ``c^T v = [-g_obj; -(tau_E - g_man_E)] . z - b^T c <= eps_f s' N``
+    ``pow`` (1 row) ``c^T v = [-g_obj; -(tau_E - g_man_E)] . z - b^T c <= eps_f v_s N``
+        (``v_s`` the velocity scale)
     B contacts have ``c_i = 0`` (column bounds).
 
     The ``pow`` row couples the two halves.  Its left side is the power of the contact forces
     on the relative contact velocities, ``c^T v = c^T (K z - b) = (K^T c)^T z - b^T c``, with
     ``K^T c = [W c; -J_E^T c]`` fixed by eq. (26).  In every feasible mode it is ``<= 0``:
     ``c_i = 0`` at B, ``v_i = 0`` at R, and at S ``v_in = 0`` and ``c_it v_it = -mu_i xi_i
-    c_in v_it = -mu_i c_in |v_it|`` (eqs. 16-17, 22).  Neither half alone knows this: the
-    velocity half alone proved ~2 % of the nodes infeasible, the force half alone ~60 %, the
-    coupled LP prunes far more (docs/scaling.md).
+    c_in v_it = -mu_i c_in |v_it|`` (eqs. 16-17, 22).  Neither half knows this alone: the
+    velocity rows without it prune almost nothing, with it the LP prunes far more than the
+    forces alone (docs/scaling.md).
     """
 
     def __init__(self, system: System, eps: float, mu: np.ndarray, coupled: bool = True) -> None:
@@ -607,6 +625,7 @@ def search_modes(
     executor: Any = None,
     subtrees: int = DEFAULT_SUBTREES,
     relaxation: str = "auto",
+    progress: bool = False,
 ) -> SearchResult:
     """Every feasible mode of ``system`` (same set as exhaustive eq. 49 enumeration), pruned.
 
@@ -631,6 +650,12 @@ def search_modes(
         same as without it; ``stats`` sums the workers' counts.
     subtrees : int
         Open nodes handed to the executor.
+    relaxation : {"auto", "coupled", "forces"}
+        Pruning LP: the contact forces only, or coupled with the velocities through the power
+        row (module docstring); ``"auto"`` couples from :data:`COUPLED_MIN_CONTACTS` contacts
+        on.  The modes are the same; only the work differs.
+    progress : bool
+        With an executor: a progress bar (tqdm, on stderr) over the subtrees.
 
     Returns
     -------
@@ -669,7 +694,9 @@ def search_modes(
     else:
         _expand(open_nodes, pruner, leaves, mu_arr, params, breadth_until=subtrees)
         jobs = [(system, mu_arr, node, params) for node in open_nodes]
-        for kept, tested, solves in executor.map(_search_subtree, jobs):
+        for kept, tested, solves in executor.map(
+            _search_subtree, jobs, progress=progress, desc="subtrees"
+        ):
             leaves.kept.append(kept)
             leaves.tested += tested
             lp_solves += solves

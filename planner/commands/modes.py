@@ -82,7 +82,10 @@ def run(args: argparse.Namespace) -> int:
         if args.dask is not None or args.workers > 1:
             executor = make_executor(args.dask, args.workers)
         try:
-            res = search_modes(system, mu, indeterminate=indeterminate, executor=executor)
+            res = search_modes(
+                system, mu, indeterminate=indeterminate, executor=executor,
+                progress=executor is not None and not getattr(args, "quiet", False),
+            )
         finally:
             if executor is not None:
                 executor.close()
