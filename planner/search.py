@@ -283,6 +283,9 @@ class _Pruner:
         upper[-1] = 0.0 if coupled else inf
         self.lp = _make_lp(A, lower, upper)
         self.cn, self.ct = cn, ct
+        self._bounds_cache: dict[tuple[int, int, int], tuple[tuple, tuple[float, float]]] = {}
+        self._row_bounds = [(float(lo), float(hi)) for lo, hi in zip(lower, upper)]
+        self._col_bounds = [(-inf, inf)] * n_c
         self.state = np.full(n_c, -99)  # bounds currently set per contact (none yet)
         self.solves = 0
 
@@ -294,30 +297,49 @@ class _Pruner:
             keys[(states == FREE) | (states == CONTACT) | (states == ROLL)] = -1
         return keys
 
-    def _set(self, i: int, state: int, xi: int) -> None:
-        """Bounds of contact ``i`` in ``state`` (FREE, CONTACT, BREAK, ROLL, SLIDE with ``xi``)."""
-        h, inf, n_c, o = self.lp, self.inf, self.n_c, self.o
+    def _contact_bounds(self, i: int, state: int, xi: int) -> tuple[tuple, tuple[float, float]]:
+        """Row bounds ``((row, lower, upper), ...)`` and the column bounds of ``c_i`` that contact
+        ``i`` sets in ``state`` (FREE, CONTACT, BREAK, ROLL, SLIDE with ``xi``); cached."""
+        key = (i, state, xi)
+        hit = self._bounds_cache.get(key)
+        if hit is not None:
+            return hit
+        inf, n_c, o = self.inf, self.n_c, self.o
+        rows = []
         if self.coupled:
             rn, rt = 2 * i, 2 * i + 1
-            sn, st = self.slack[rn], self.slack[rt]
-            bn, bt = self.bn[rn], self.bn[rt]
-            h.changeRowBounds(rn, bn - sn, inf if state in (FREE, BREAK) else bn + sn)
+            sn, st = float(self.slack[rn]), float(self.slack[rt])
+            bn, bt = float(self.bn[rn]), float(self.bn[rt])
+            rows.append((rn, bn - sn, inf if state in (FREE, BREAK) else bn + sn))
             if state == ROLL:
-                h.changeRowBounds(rt, bt - st, bt + st)
+                rows.append((rt, bt - st, bt + st))
             elif state == SLIDE:
-                h.changeRowBounds(rt, bt - st if xi > 0 else -inf, inf if xi > 0 else bt + st)
+                rows.append((rt, bt - st if xi > 0 else -inf, inf if xi > 0 else bt + st))
             else:
-                h.changeRowBounds(rt, -inf, inf)
+                rows.append((rt, -inf, inf))
         sp, sm = state == SLIDE and xi > 0, state == SLIDE and xi < 0
-        h.changeRowBounds(o + i, 0.0 if state == SLIDE else -inf, inf)
+        rows.append((o + i, 0.0 if state == SLIDE else -inf, inf))
         cone = 0.0 if state in (FREE, CONTACT, ROLL) else -inf
-        h.changeRowBounds(o + n_c + i, cone, inf)
-        h.changeRowBounds(o + 2 * n_c + i, cone, inf)
-        h.changeRowBounds(o + 3 * n_c + i, 0.0 if sp else -inf, 0.0 if sp else inf)
-        h.changeRowBounds(o + 4 * n_c + i, 0.0 if sm else -inf, 0.0 if sm else inf)
-        lo, hi = (0.0, 0.0) if state == BREAK else (-inf, inf)
-        h.changeColBounds(int(self.cn[i]), lo, hi)
-        h.changeColBounds(int(self.ct[i]), lo, hi)
+        rows.append((o + n_c + i, cone, inf))
+        rows.append((o + 2 * n_c + i, cone, inf))
+        rows.append((o + 3 * n_c + i, 0.0 if sp else -inf, 0.0 if sp else inf))
+        rows.append((o + 4 * n_c + i, 0.0 if sm else -inf, 0.0 if sm else inf))
+        cols = (0.0, 0.0) if state == BREAK else (-inf, inf)
+        hit = self._bounds_cache[key] = (tuple(rows), cols)
+        return hit
+
+    def _set(self, i: int, state: int, xi: int) -> None:
+        """Give contact ``i`` the bounds of ``state``, passing HiGHS only those that change."""
+        rows, cols = self._contact_bounds(i, state, xi)
+        cur, change = self._row_bounds, self.lp.changeRowBounds
+        for r, lo, hi in rows:
+            if cur[r] != (lo, hi):
+                change(r, lo, hi)
+                cur[r] = (lo, hi)
+        if self._col_bounds[i] != cols:
+            self.lp.changeColBounds(int(self.cn[i]), *cols)
+            self.lp.changeColBounds(int(self.ct[i]), *cols)
+            self._col_bounds[i] = cols
 
     def solve(self, states: np.ndarray, xi: np.ndarray) -> np.ndarray | None:
         """Solve the relaxation; None when HiGHS proves it infeasible, else ``x = (z', c)``
@@ -353,6 +375,10 @@ class _Pruner:
 _INFEASIBLE = object()
 
 
+#: HiGHS options of the pruning LPs (docs/scaling.md, "Cost").
+_HIGHS_OPTIONS: dict[str, Any] = {"simplex_update_limit": 50}
+
+
 class _HighsLp:
     """One LP ``row_lower <= A x <= row_upper``, ``col bounds``, zero objective, kept in HiGHS
     (SciPy's bundled binding) so that bound changes re-solve from the previous basis."""
@@ -381,9 +407,14 @@ class _HighsLp:
         self._h = _core._Highs()
         self._h.setOptionValue("output_flag", False)
         self._h.setOptionValue("presolve", "off")
+        for name, value in _HIGHS_OPTIONS.items():
+            self._h.setOptionValue(name, value)
         self._h.passModel(lp)
         self._inf = inf
         self.retries = 0
+        if inf == np.inf:  # HiGHS's infinity is IEEE inf: call the binding directly
+            self.changeRowBounds = self._h.changeRowBounds  # type: ignore[method-assign]
+            self.changeColBounds = self._h.changeColBounds  # type: ignore[method-assign]
 
     def _b(self, x: float) -> float:
         return self._inf if x == np.inf else -self._inf if x == -np.inf else x
