@@ -412,6 +412,7 @@ class _HighsLp:
         self._h.passModel(lp)
         self._inf = inf
         self.retries = 0
+        self.verdict = True  # whether the last solve ended optimal or infeasible
         if inf == np.inf:  # HiGHS's infinity is IEEE inf: call the binding directly
             self.changeRowBounds = self._h.changeRowBounds  # type: ignore[method-assign]
             self.changeColBounds = self._h.changeColBounds  # type: ignore[method-assign]
@@ -442,6 +443,8 @@ class _HighsLp:
             self._h.clearSolver()
             self._h.run()
             status = self._h.getModelStatus()
+        self.verdict = status in (self._core.HighsModelStatus.kOptimal,
+                                  self._core.HighsModelStatus.kInfeasible)
         if status == self._core.HighsModelStatus.kInfeasible:
             return _INFEASIBLE
         if status != self._core.HighsModelStatus.kOptimal:
@@ -457,6 +460,7 @@ class _LinprogLp:
         self.A, self.lower, self.upper = A, lower.copy(), upper.copy()
         self.col_lower = np.full(A.shape[1], -np.inf)
         self.col_upper = np.full(A.shape[1], np.inf)
+        self.verdict = True
 
     def reset(self) -> None:
         """Nothing to forget: every solve starts cold."""
@@ -482,6 +486,7 @@ class _LinprogLp:
                     for a, b in zip(self.col_lower, self.col_upper)],
             method="highs",
         )
+        self.verdict = res.status in (0, 2)
         if res.status == 2:
             return _INFEASIBLE
         return res.x if res.status == 0 else None

@@ -216,7 +216,8 @@ def _consistent(states, xi, mode):
 def test_coupled_relaxation_is_a_relaxation_and_prunes_more(n_c):
     """On random partial assignments: a node whose coupled LP is infeasible contains no
     feasible mode (what exactness needs); the coupled LP is infeasible wherever the
-    forces-only one is (it has all its rows); and it proves some nodes infeasible that the
+    forces-only one is (it has all its rows; unless HiGHS ends without a verdict, which keeps
+    the node); and it proves some nodes infeasible that the
     forces-only LP cannot (the power row couples velocities and forces)."""
     from planner.modes import BREAK, ROLL, SLIDE
     from planner.search import CONTACT, FREE, _Pruner
@@ -235,7 +236,7 @@ def test_coupled_relaxation_is_a_relaxation_and_prunes_more(n_c):
             f_inf = forces.solve(states, xi) is None
             if c_inf:
                 assert not any(_consistent(states, xi, m) for m in modes)
-            if f_inf:
+            if f_inf and coupled.lp.verdict:  # HiGHS may end without a verdict (kept)
                 assert c_inf
             both += f_inf
             only_coupled += c_inf and not f_inf
