@@ -30,7 +30,7 @@ bounds change between nodes).  Two relaxations (``relaxation=``):
   (K^T c)^T z - b^T c`` with ``K^T c = [-g_obj; -(tau_E - g_man_E)]`` known from eq. (26), is
   ``-sum_S mu_i c_in |v_it| <= 0`` in every feasible mode (eqs. 16-17), a *linear* inequality
   in ``(z, c)``.  Velocities alone prune almost nothing; with the power row the LP prunes far
-  more (``n_c = 20`` seed 3: 1.5e6 instead of 7.1e6 candidates tested).
+  more (``n_c = 20`` seed 3: 1.1e6 instead of 7.1e6 candidates tested).
 * ``"auto"`` (default): coupled from :data:`COUPLED_MIN_CONTACTS` contacts on (measured
   crossover; below it the forces-only LP's free inheritance wins).
 
