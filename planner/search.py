@@ -580,10 +580,6 @@ def _branch_contact(states: np.ndarray, point: np.ndarray | None, mu: np.ndarray
     return int(con[np.argmax(mu[con] * fn - np.abs(ft))])
 
 
-def _choose(states, point, mu, pruner):
-    return _branch_contact(states, None if point is None else point[pruner.nz:-1], mu)
-
-
 #: Relative size below which a relaxed normal force counts as zero in :func:`_branch_contact`
 #: (a heuristic: it orders the branching, never decides a mode).
 _ZERO_FORCE = 1e-9
@@ -751,8 +747,8 @@ def search_modes(
     return SearchResult(prediction, stats)
 
 
-#: A search node: state per contact, xi per contact, the parent's LP solution (or None) and
-#: whether the node's branching changed the force bounds.
+#: A search node: state per contact, xi per contact, the parent's LP point (or None) and
+#: whether the node must solve its LP (False: the parent's point is feasible for it).
 _Node = tuple[np.ndarray, np.ndarray, "np.ndarray | None", bool]
 
 
@@ -781,8 +777,8 @@ def _expand(
     Depth-first until no node is open; with ``breadth_until``, breadth-first and only until
     that many nodes are open (they are left in ``open_nodes``).  FREE -> BREAK | CONTACT,
     CONTACT -> ROLL | SLIDE xi=+1 | SLIDE xi=-1: the children partition the parent's codes.  A
-    child inherits its parent's LP solution when its branching left the force bounds
-    unchanged (FREE -> CONTACT, CONTACT -> R): the parent's answer stands.
+    CONTACT or R child inherits its parent's LP point when the point meets its bounds
+    (:meth:`_Pruner.satisfies`): the parent's answer stands.
     """
     k = params.n_rows
     while open_nodes:
@@ -805,7 +801,7 @@ def _expand(
         if size <= params.batch_size or not undecided:
             leaves.add(_completions(states, k), states, xi)
             continue
-        i = _choose(states, point, mu_arr, pruner)
+        i = _branch_contact(states, None if point is None else point[pruner.nz:-1], mu_arr)
         if states[i] == FREE:
             children = ((BREAK, 0), (CONTACT, 0))
         else:
