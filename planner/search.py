@@ -286,16 +286,8 @@ class _Pruner:
         self._bounds_cache: dict[tuple[int, int, int], tuple[tuple, tuple[float, float]]] = {}
         self._row_bounds = [(float(lo), float(hi)) for lo, hi in zip(lower, upper)]
         self._col_bounds = [(-inf, inf)] * n_c
-        self.state = np.full(n_c, -99)  # bounds currently set per contact (none yet)
+        self.state = np.full(n_c, -99)  # state key last set per contact (none yet)
         self.solves = 0
-
-    def keys(self, states: np.ndarray, xi: np.ndarray) -> np.ndarray:
-        """Which bounds each contact's state sets: one set per FREE, CONTACT, B, R, S+, S-
-        (coupled); FREE, CONTACT and R share the friction cone (forces only)."""
-        keys = 3 * states.astype(np.int64) + xi + 1
-        if not self.coupled:
-            keys[(states == FREE) | (states == CONTACT) | (states == ROLL)] = -1
-        return keys
 
     def _contact_bounds(self, i: int, state: int, xi: int) -> tuple[tuple, tuple[float, float]]:
         """Row bounds ``((row, lower, upper), ...)`` and the column bounds of ``c_i`` that contact
@@ -344,8 +336,9 @@ class _Pruner:
     def solve(self, states: np.ndarray, xi: np.ndarray) -> np.ndarray | None:
         """Solve the relaxation; None when HiGHS proves it infeasible, else ``x = (z', c)``
         (zeros when HiGHS gave no verdict: the node is kept)."""
-        keys = self.keys(states, xi)
-        for i in np.flatnonzero(keys != self.state):  # only contacts whose bounds change
+        keys = 3 * states.astype(np.int64) + xi + 1  # one per FREE, CONTACT, B, R, S+, S-
+        # Contacts whose state changed; _set passes HiGHS only the bounds that differ.
+        for i in np.flatnonzero(keys != self.state):
             self._set(int(i), int(states[i]), int(xi[i]))
         self.state[:] = keys
         self.solves += 1

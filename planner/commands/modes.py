@@ -76,7 +76,7 @@ def run(args: argparse.Namespace) -> int:
         from planner.executor import make_executor
         from planner.search import search_modes
 
-        if isinstance(args.workers, bool) or args.workers < 1:
+        if args.workers < 1:
             raise InputError(f"--workers: expected an integer >= 1, got {args.workers}")
         executor = None
         if args.dask is not None or args.workers > 1:
