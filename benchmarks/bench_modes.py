@@ -1,8 +1,8 @@
 """Issue 2 benchmark: all feasible modes by exhaustive batched enumeration vs a per-mode loop.
 
-On seeded random systems (``planner.random_systems``: contacts on a random convex workpiece,
+On seeded random systems (``planner.sweeps.random_systems``: contacts on a random convex workpiece,
 random manipulator Jacobian, ``|tau_I| = n_c - 3``) with ``n_c = 3..12``, time
-``planner.feasibility.feasible_modes`` (all eq. 49 candidates, batched eqs. 23-28) and a
+``planner.predict.feasibility.feasible_modes`` (all eq. 49 candidates, batched eqs. 23-28) and a
 straightforward per-mode Python loop (one ``numpy.linalg.solve`` per candidate and stage),
 both in the same run, and report time per configuration and their ratio.
 
@@ -25,10 +25,11 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from planner.feasibility import DEFAULT_TOL, feasible_modes  # noqa: E402
-from planner.fileio import atomic_write_json  # noqa: E402
-from planner.modes import BREAK, ROLL, SLIDE, Mode, enumerate_modes  # noqa: E402
-from planner.random_systems import random_system  # noqa: E402
+from planner.files.atomic import atomic_write_json  # noqa: E402
+from planner.model.modes import BREAK, ROLL, SLIDE, Mode, enumerate_modes  # noqa: E402
+from planner.predict.feasibility import feasible_modes
+from planner.predict.stages import DEFAULT_TOL  # noqa: E402
+from planner.sweeps.random_systems import random_system  # noqa: E402
 
 
 def per_mode_loop(system, mu=None, codes=None, tol: float = DEFAULT_TOL) -> list[str]:

@@ -1,10 +1,10 @@
 """Issue 6 benchmark: exact pruned search vs exhaustive batched enumeration vs a per-mode loop.
 
-On seeded random systems (``planner.random_systems``, ``|tau_I| = n_c - 3``, planted loads)
-with ``n_c = 3..20``: time per configuration of :func:`planner.search.search_modes`, the eq.
+On seeded random systems (``planner.sweeps.random_systems``, ``|tau_I| = n_c - 3``, planted loads)
+with ``n_c = 3..20``: time per configuration of :func:`planner.predict.search.search_modes`, the eq.
 (49) candidate count vs the candidates actually tested, and ratios against
 
-(a) exhaustive batched enumeration (``planner.feasibility.feasible_modes``; for
+(a) exhaustive batched enumeration (``planner.predict.feasibility.feasible_modes``; for
     ``n_c > --exhaustive-max`` the time is *extrapolated* from a timed chunk of
     ``--sample`` candidates run through the same batched stages), and
 (b) a per-mode loop (``bench_modes.per_mode_loop``; timed on ``--sample`` random candidates and
@@ -34,12 +34,13 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from bench_modes import per_mode_loop  # noqa: E402
 
-from planner.executor import enumerate_modes_slice, exhaustive_modes, make_executor  # noqa: E402
-from planner.feasibility import feasible_modes, force_stage, kinematic_stage  # noqa: E402
-from planner.fileio import atomic_write_json  # noqa: E402
-from planner.modes import candidate_count, enumerate_modes  # noqa: E402
-from planner.random_systems import random_system  # noqa: E402
-from planner.search import _canonical_order, candidates_from_codes, search_modes  # noqa: E402
+from planner.files.atomic import atomic_write_json  # noqa: E402
+from planner.model.modes import candidate_count, enumerate_modes  # noqa: E402
+from planner.predict.feasibility import feasible_modes
+from planner.predict.search import candidates_from_codes, canonical_order, search_modes  # noqa: E402
+from planner.predict.stages import force_stage, kinematic_stage  # noqa: E402
+from planner.sweeps.executor import enumerate_modes_slice, exhaustive_modes, make_executor  # noqa: E402
+from planner.sweeps.random_systems import random_system  # noqa: E402
 
 
 def sample_codes(n_c: int, size: int, rng: np.random.Generator) -> np.ndarray:
@@ -52,7 +53,7 @@ def sample_codes(n_c: int, size: int, rng: np.random.Generator) -> np.ndarray:
 
 
 def batched_time_per_candidate(system, codes: np.ndarray) -> float:
-    cand = candidates_from_codes(_canonical_order(codes), system.dof)
+    cand = candidates_from_codes(canonical_order(codes), system.dof)
     t0 = time.perf_counter()
     kin = kinematic_stage(system, cand)
     idx = np.flatnonzero(kin.ok)

@@ -1,7 +1,7 @@
 """Benchmark: 400 x 400 mu-space map (three contacts) by the general test and by the closed
 forms; writes ``benchmarks/results/muspace_bench.json``.
 
-Reports, for Examples 4.1 and 4.3, the best of 3 wall times of :func:`planner.muspace.mu_grid`
+Reports, for Examples 4.1 and 4.3, the best of 3 wall times of :func:`planner.friction.muspace.mu_grid`
 (kinematic stage once + one batched force stage over 160 000 friction vectors; target <= 1 s),
 of evaluating every closed-form region (eqs. 35-36, 40-41) on the same points, their ratio
 measured in the same run, and the number of grid points where the two disagree away from a
@@ -17,9 +17,9 @@ from pathlib import Path
 
 import numpy as np
 
-from planner.fileio import atomic_write_json
-from planner.io import load_system
-from planner.muspace import closed_form_regions, mu_grid
+from planner.files.atomic import atomic_write_json
+from planner.files.system_file import load_system
+from planner.friction.muspace import closed_form_regions, mu_grid
 
 ROOT = Path(__file__).resolve().parents[1]
 N = 400

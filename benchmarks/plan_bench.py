@@ -18,11 +18,12 @@ from pathlib import Path
 
 import numpy as np
 
-from planner.bounds import guarantee, intervals, mode_rows
-from planner.fileio import atomic_write_json
-from planner.hand import load_hand
-from planner.hand_planner import DATA_DIR, plan_hand
-from planner.trajectory import integrate_segment
+from planner.files.atomic import atomic_write_json
+from planner.model.hand import load_hand
+from planner.plan.bounds import guarantee, intervals, mode_rows
+from planner.plan.segment_planner import plan_hand
+from planner.plan.trajectory import integrate_segment
+from scenarios.registry import DATA_DIR
 
 
 def main() -> None:
@@ -32,7 +33,7 @@ def main() -> None:
     times = []
     for _ in range(args.repeats):
         t0 = time.perf_counter()
-        plan = plan_hand("two_finger_hand", mu=(0.0, 0.2))
+        plan = plan_hand(DATA_DIR / "two_finger_hand.json", mu=(0.0, 0.2))
         times.append(time.perf_counter() - t0)
     hand, q0, data = load_hand(DATA_DIR / "two_finger_hand.json")
     seg_spec = data["segment"]

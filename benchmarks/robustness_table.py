@@ -14,7 +14,7 @@ Campaigns (each ``--n`` inputs unless stated):
 ``system loader: hypothesis JSON``
     hypothesis' arbitrary JSON trees and "plausible" system dicts (``tests/test_fuzz.py``).
 ``plan loader: mutated files``
-    if ``planner.plan`` exists: a valid plan file mutated at tree and byte level and read by
+    if ``planner.plan.plan_file`` exists: a valid plan file mutated at tree and byte level and read by
     ``load_plan``; a mutation that changes a value but keeps the stale digest must be rejected
     (else: wrong answer).
 ``feasible_modes: random systems`` / ``feasible_modes: degenerate systems``
@@ -25,7 +25,7 @@ Campaigns (each ``--n`` inputs unless stated):
     a *wrong answer* when it fails: every certificate re-checked by ``tests/certify.py``; the
     mode labels unchanged under a relative ``1e-12`` perturbation of every input number unless
     one of the two predictions flags a boundary; every ``--search-every``-th system also through
-    ``planner.search.search_modes``, which must list the same modes.
+    ``planner.predict.search.search_modes``, which must list the same modes.
 ``public API: argument fuzz``
     garbage arguments to ``System.from_contacts``, ``System.from_wrench_matrix`` and
     ``feasible_modes(system, mu, tol=...)``.
@@ -86,9 +86,9 @@ from test_fuzz import (  # noqa: E402
 )
 
 from planner import QsplanError, System, feasible_modes  # noqa: E402
-from planner.fileio import atomic_write_json  # noqa: E402
-from planner.io import load_system, system_from_dict, system_to_dict  # noqa: E402
-from planner.model import JointControl  # noqa: E402
+from planner.files.atomic import atomic_write_json  # noqa: E402
+from planner.files.system_file import load_system, system_from_dict, system_to_dict  # noqa: E402
+from planner.model.system import JointControl  # noqa: E402
 
 
 # ---------------------------------------------------------------------------------------------
@@ -404,7 +404,7 @@ def _flagged(pred: Any) -> bool:
 
 def feasibility_campaign(name: str, make: Callable[[np.random.Generator], tuple[str, System]],
                          n: int, seed: int, search_every: int) -> Campaign:
-    from planner.search import search_modes
+    from planner.predict.search import search_modes
 
     c = Campaign(name)
     rng = np.random.default_rng(seed)
@@ -509,10 +509,11 @@ def fault_campaign(workdir: Path) -> Campaign:
 
     import test_sim_faults as tsf
 
+    from sim.backends import make_backend
     from sim.classify import Outcome
-    from sim.paper_scene import FingertipSpec
     from sim.run import FaultKind, run_scene
-    from sim.scene import Load, make_backend
+    from sim.scene import Load
+    from sim.scenes.paper import FingertipSpec
 
     c = Campaign("simulator fault suite")
     cases: list[tuple[str, str, Callable[[], Any], FaultKind | None]] = []
@@ -575,8 +576,8 @@ def watch_overhead_campaign(workdir: Path, repeat: int = 3) -> Campaign:
     unless asked for with ``--only overhead``)."""
     import test_sim_faults as tsf
 
+    from sim.backends import make_backend
     from sim.run import EngineWatch, run_scene
-    from sim.scene import make_backend
 
     c = Campaign("EngineWatch overhead")
     cwd = os.getcwd()
@@ -611,7 +612,7 @@ def _small_arena_run() -> Any:
     import mujoco
     import test_sim_faults as tsf
 
-    import sim.mujoco_backend as mb
+    import sim.backends.mujoco_engine as mb
     from sim.run import run_scene
 
     real = mujoco.MjSpec

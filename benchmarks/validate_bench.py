@@ -1,9 +1,9 @@
 """Benchmark (issue 5): plan the two-finger hand segment with uncertain-mu torque bounds, then
 validate the plan in pymunk and MuJoCo; writes ``benchmarks/results/validate_bench.json``.
 
-Reports the best of 3 wall times of :func:`planner.hand_planner.plan_hand` (mu in [0, 0.2],
+Reports the best of 3 wall times of :func:`planner.plan.segment_planner.plan_hand` (mu in [0, 0.2],
 exact bounds; target <= 5 s), and per engine and per ``mu.validate`` value the wall time of
-:func:`sim.plan_exec.run_plan` on the full segment without drawing (target: one plan validated
+:func:`sim.hand_run.run_plan` on the full segment without drawing (target: one plan validated
 in both engines <= 60 s), with the simulated-seconds-per-wall-second ratio and the outcome
 (claimed-mode fraction, final position error / travel), all measured in the same run.
 
@@ -17,8 +17,9 @@ import platform
 import time
 from pathlib import Path
 
-from planner.fileio import atomic_write_json
-from planner.hand_planner import plan_hand
+from planner.files.atomic import atomic_write_json
+from planner.plan.segment_planner import plan_hand
+from scenarios.registry import shipped_file
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -30,13 +31,13 @@ def main() -> None:
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" /
                                          "validate_bench.json"))
     args = ap.parse_args()
-    from sim.plan_exec import run_plan
+    from sim.hand_run import run_plan
 
     times = []
     plan = None
     for _ in range(3):
         t = time.perf_counter()
-        plan = plan_hand("two_finger_hand", mu=(0.0, 0.2), policy="midband")
+        plan = plan_hand(shipped_file("two_finger_hand"), mu=(0.0, 0.2), policy="midband")
         times.append(time.perf_counter() - t)
     mus = ([float(x) for x in args.mu.split(",")] if args.mu else list(plan.validate_mu))
     runs = []

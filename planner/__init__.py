@@ -4,9 +4,10 @@ NumPy/SciPy only; imports no simulator and no plotting library.
 """
 
 from planner.errors import DegenerateError, FileFormatError, InputError, QsplanError
-from planner.feasibility import FeasibleMode, Prediction, Status, feasible_modes
-from planner.model import Contact, JointControl, System, wrench_matrix
-from planner.modes import Mode, candidate_count, enumerate_modes
+from planner.model.modes import Mode, candidate_count, enumerate_modes
+from planner.model.system import Contact, JointControl, System, wrench_matrix
+from planner.predict.feasibility import Prediction, Status, feasible_modes
+from planner.predict.stages import FeasibleMode
 
 __all__ = [
     "Contact",

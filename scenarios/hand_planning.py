@@ -5,16 +5,16 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from scenarios.registry import Scenario, register
+from scenarios.registry import Scenario, register, shipped_file
 
 
 def _plan(out_dir: Path, policy: str, **options: Any) -> dict[str, Any]:
-    from planner.fileio import atomic_write_json
-    from planner.hand_planner import plan_hand
-    from planner.plan import save_plan
-    from planner.plot_bounds import margin_summary, plot_bounds
+    from planner.files.atomic import atomic_write_json
+    from planner.plan.plan_file import save_plan
+    from planner.plan.segment_planner import plan_hand
+    from planner.plots.bounds import margin_summary, plot_bounds
 
-    plan = plan_hand("two_finger_hand", mu=tuple(options.get("mu", (0.0, 0.2))), policy=policy,
+    plan = plan_hand(shipped_file("two_finger_hand"), mu=tuple(options.get("mu", (0.0, 0.2))), policy=policy,
                      waypoints=options.get("waypoints"))
     out_dir = Path(out_dir)
     path = save_plan(plan, out_dir / "plan.json")

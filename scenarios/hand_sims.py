@@ -18,8 +18,8 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
-from planner.fileio import atomic_write_json
-from scenarios.registry import Scenario, register
+from planner.files.atomic import atomic_write_json
+from scenarios.registry import Scenario, register, shipped_file
 
 ENGINES = ("pymunk", "mujoco")
 HAND = "two_finger_hand"
@@ -27,15 +27,15 @@ HAND = "two_finger_hand"
 
 @lru_cache(maxsize=4)
 def _plan(policy: str) -> Any:
-    from planner.hand_planner import plan_hand
+    from planner.plan.segment_planner import plan_hand
 
-    return plan_hand(HAND, mu=(0.0, 0.2), policy=policy)
+    return plan_hand(shipped_file(HAND), mu=(0.0, 0.2), policy=policy)
 
 
 def run_hand(out_dir: Path, *, name: str, expect: str, policy: str, mu: float,
              engine: str = "pymunk", waypoints: int | None = 6, render: bool = True,
              **_: Any) -> dict[str, Any]:
-    from sim.plan_exec import run_plan
+    from sim.hand_run import run_plan
 
     plan = _plan(policy)
     res = run_plan(plan, engine, mu, out_dir, waypoints=waypoints, render=render, name=name,

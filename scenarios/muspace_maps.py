@@ -1,6 +1,6 @@
 """Friction-space maps: Examples 4.1 and 4.3 (Figs. 3, 6) and the rod of Sec. 5.1 (Fig. 8).
 
-Each scenario writes ``<name>_muspace.json`` (a :class:`planner.muspace.MuSpaceMap`: labelled
+Each scenario writes ``<name>_muspace.json`` (a :class:`planner.friction.muspace.MuSpaceMap`: labelled
 grids plus closed-form inequalities), ``<name>_muspace.png`` (slice maps with closed-form
 boundaries) and ``summary.json`` (Examples 4.1 and 4.3 also ``<name>_muspace3d.json``, the
 3-D decomposition of the unit cube), and checks what the paper says about its figure
@@ -15,10 +15,10 @@ from typing import Any
 
 import numpy as np
 
-from planner.fileio import atomic_write_json
-from planner.io import load_system
-from planner.model import System
-from planner.muspace import JAM, MuSpaceMap, muspace_map
+from planner.files.atomic import atomic_write_json
+from planner.files.system_file import load_system
+from planner.friction.muspace import JAM, MuSpaceMap, muspace_map
+from planner.model.system import System
 from scenarios.registry import Scenario, register
 
 DATA = Path(__file__).resolve().parent / "data"
@@ -49,7 +49,7 @@ def _cube_summary(system: System, out_dir: Path, name: str, n: int) -> dict[str,
 
 def _write(m: MuSpaceMap, out_dir: Path, name: str, checks: dict[str, bool],
            extra: dict[str, Any] | None = None, decorate: Any = None) -> dict[str, Any]:
-    from planner.plot_muspace import plot_slices
+    from planner.plots.muspace import plot_slices
 
     out_dir.mkdir(parents=True, exist_ok=True)
     json_path = atomic_write_json(out_dir / f"{name}_muspace.json", m.to_dict())

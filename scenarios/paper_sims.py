@@ -1,7 +1,7 @@
 """Simulator scenarios of the paper's examples (Sec. 4.1 eq. 37, Sec. 4.3 eq. 42) and the ruler
 (Sec. 5.1), each on pymunk and MuJoCo, plus negative controls.
 
-Predictions come from :func:`planner.feasibility.feasible_modes` on the *scaled* system at the
+Predictions come from :func:`planner.predict.feasibility.feasible_modes` on the *scaled* system at the
 scenario's mu (and are checked equal to the unscaled prediction); observations only from the
 simulator's contact data (:mod:`sim.classify`).
 """
@@ -13,8 +13,8 @@ from typing import Any
 
 import numpy as np
 
-from planner.fileio import atomic_write_json
-from planner.io import load_system
+from planner.files.atomic import atomic_write_json
+from planner.files.system_file import load_system
 from scenarios.registry import Scenario, register
 
 DATA = Path(__file__).parent / "data"
@@ -46,11 +46,11 @@ def run_example(out_dir: Path, *, name: str, expect: str, data: str, scale: floa
                 engine: str = "pymunk", render: bool = True, **_: Any) -> dict[str, Any]:
     """Simulate Example 4.1 / 4.3 at ``mu``; predict at ``predict_mu`` (default ``mu``; a
     different value makes a negative control)."""
-    from planner.feasibility import feasible_modes
+    from planner.predict.feasibility import feasible_modes
+    from sim.backends import make_backend
     from sim.classify import JAM, Thresholds, compare, observed_modes
-    from sim.paper_scene import example_scene, scaled_system
     from sim.run import RunSettings, run_scene
-    from sim.scene import make_backend
+    from sim.scenes.paper import example_scene, scaled_system
 
     es = ENGINE_SETTINGS[engine]
     speed, duration = es["speed"], es["duration"]
@@ -113,10 +113,10 @@ def run_ruler(out_dir: Path, *, name: str, expect: str, mu_s: float, mu_k: float
               speed: float | None = None, length: float = 0.1, required: int = 5,
               tolerance: float = 0.02, render: bool = True, **_: Any) -> dict[str, Any]:
     """Ruler on two approaching fingers (Sec. 5.1); compares switch positions."""
+    from sim.backends import make_backend
     from sim.classify import Thresholds, debounce, raw_tokens
-    from sim.ruler import THICKNESS_RATIO, observed_switches, predicted_switches, ruler_scene
     from sim.run import RunSettings, run_scene
-    from sim.scene import make_backend
+    from sim.scenes.ruler import THICKNESS_RATIO, observed_switches, predicted_switches, ruler_scene
 
     speed = RULER_SPEED[engine] if speed is None else speed
     weight, mass, radius = 1.0, 0.1, 0.03 * length

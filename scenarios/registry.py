@@ -8,12 +8,31 @@ so adding a scenario never needs an edit of a shared file.
 from __future__ import annotations
 
 import importlib
+import os
 import pkgutil
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 from planner.errors import InputError
+
+#: The shipped system and hand files (``example_4_1``, ``two_finger_hand``, ...).
+DATA_DIR = Path(__file__).resolve().parent / "data"
+
+
+def shipped_file(name: str | os.PathLike[str], what: str = "hand") -> Path:
+    """A path to an existing file, or the name of a shipped ``what`` file in ``scenarios/data``
+    (``what``: ``"hand"`` or ``"system"``)."""
+    p = Path(name)
+    if p.is_file():
+        return p
+    cand = DATA_DIR / f"{name}.json"
+    if cand.is_file():
+        return cand
+    known = sorted(f.stem for f in DATA_DIR.glob("*.json")
+                   if ('"qsplan-hand"' in f.read_text()) == (what == "hand"))
+    raise InputError(f"{what}: expected a {what} file path or one of {known}, got {str(name)!r}")
 
 
 @dataclass(frozen=True)

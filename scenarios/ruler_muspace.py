@@ -25,9 +25,9 @@ from typing import Any
 
 import numpy as np
 
-from planner.feasibility import feasible_modes
-from planner.fileio import atomic_write_json
-from planner.muspace import muspace_map
+from planner.files.atomic import atomic_write_json
+from planner.friction.muspace import muspace_map
+from planner.predict.feasibility import feasible_modes
 from scenarios.muspace_maps import rod
 from scenarios.registry import Scenario, register
 
@@ -77,7 +77,7 @@ def _general_test_confirms(state: dict[str, Any], mu_r, mu_s, eps: float = 1e-6)
 
 
 def run(out_dir: Path, n: int = 120, switches: int = 4, **_: Any) -> dict[str, Any]:
-    from planner.plot_muspace import plot_slices
+    from planner.plots.muspace import plot_slices
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)

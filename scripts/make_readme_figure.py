@@ -38,7 +38,7 @@ def tutorial_system_text() -> str:
 
 
 def draw_geometry(ax, system) -> None:
-    from sim.paper_scene import workpiece_polygon
+    from sim.scenes.paper import workpiece_polygon
 
     pts, nrm = np.asarray(system.points), np.asarray(system.normals)
     poly = workpiece_polygon(pts, nrm, 1.25 * float(np.max(np.linalg.norm(pts, axis=1))))
@@ -65,7 +65,7 @@ def draw_geometry(ax, system) -> None:
 def draw_muspace(ax, system, n: int = 120) -> None:
     from matplotlib.colors import ListedColormap
 
-    from planner.muspace import mu_grid
+    from planner.friction.muspace import mu_grid
 
     grid = mu_grid(system, (0, 1), [0.2, 0.3, 0.1], (0.0, 1.0), n=n)
     sets = grid.mode_sets()
@@ -86,7 +86,7 @@ def draw_muspace(ax, system, n: int = 120) -> None:
 
 def draw_plan(ax) -> bool:
     """Torque band of the two-finger plan; False (and a note) when ``qsplan plan`` is missing."""
-    from planner.cli import main
+    from qsplan.cli import main
 
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "plan.json"
@@ -119,8 +119,8 @@ def make_readme_figure(out: Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from planner.fileio import save_figure
-    from planner.io import load_system
+    from planner.files.atomic import save_figure
+    from planner.files.system_file import load_system
 
     system = load_system(ROOT / "scenarios" / "data" / "example_4_1.json")
     fig, axes = plt.subplots(1, 3, figsize=(13, 4.2))
@@ -134,8 +134,8 @@ def make_readme_figure(out: Path) -> Path:
 
 
 def make_tutorial_figure(out: Path) -> Path:
-    from planner.cli import main
-    from planner.fileio import atomic_write_bytes
+    from planner.files.atomic import atomic_write_bytes
+    from qsplan.cli import main
 
     with tempfile.TemporaryDirectory() as tmp:
         system = Path(tmp) / "disc.json"

@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from planner.fileio import atomic_write_bytes, save_figure
+from planner.files.atomic import atomic_write_bytes, save_figure
 from sim.run import Recording
 
 COLOURS = {"R": "tab:green", "S+": "tab:orange", "S-": "tab:red", "B": "0.6", "JAM": "black"}

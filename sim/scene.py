@@ -6,7 +6,7 @@ velocity- or effort-controlled with a per-step command callback), bodies driven 
 planar twist (fingertips of the paper's Section 4 examples), named contact pairs with static and
 kinetic friction, and constant external loads (the paper's ``g_obj``, eq. 2).
 
-Backends (:mod:`sim.pymunk_backend`, :mod:`sim.mujoco_backend`) implement :class:`Backend`:
+Backends (:mod:`sim.backends.pymunk_engine`, :mod:`sim.backends.mujoco_engine`) implement :class:`Backend`:
 
 ``build(scene)``
     create the engine model;
@@ -295,19 +295,3 @@ def point_velocity(state: BodyState, point: np.ndarray) -> np.ndarray:
     x, y, _ = state.pose
     vx, vy, w = state.twist
     return np.array([vx - w * (point[1] - y), vy + w * (point[0] - x)])
-
-
-def make_backend(engine: str) -> Backend:
-    """``"pymunk"`` or ``"mujoco"`` backend (imported lazily)."""
-    if engine == "pymunk":
-        from sim.pymunk_backend import PymunkBackend
-
-        return PymunkBackend()
-    if engine == "mujoco":
-        from sim.mujoco_backend import MujocoBackend
-
-        return MujocoBackend()
-    raise InputError(f"engine: expected 'pymunk' or 'mujoco', got {engine!r}")
-
-
-ENGINES = ("pymunk", "mujoco")

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from planner.model import JointControl
+from planner.model.system import JointControl
 
 ROLL, SLIDE, BREAK = 2, 1, 0
 

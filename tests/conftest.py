@@ -21,13 +21,13 @@ def data_dir() -> Path:
 
 @pytest.fixture(scope="session")
 def example_41():
-    from planner.io import load_system
+    from planner.files.system_file import load_system
 
     return load_system(DATA / "example_4_1.json")
 
 
 @pytest.fixture(scope="session")
 def example_43():
-    from planner.io import load_system
+    from planner.files.system_file import load_system
 
     return load_system(DATA / "example_4_3.json")

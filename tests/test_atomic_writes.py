@@ -1,13 +1,13 @@
 """Output safety (issue 7): files are replaced atomically, never left half-written, and loaders
 never execute content.
 
-* every writer (``planner.fileio`` and the savers built on it: ``save_plan``, ``save_system``,
+* every writer (``planner.files.atomic`` and the savers built on it: ``save_plan``, ``save_system``,
   ``save_figure``) leaves the previous file intact when serialising, writing, syncing or the
   final rename fails, and leaves no temporary file behind;
 * a writer killed with SIGKILL at random moments leaves the target either the old or the new
   complete content (a reader in another process never sees a partial file);
 * no module of ``planner/``, ``sim/`` or ``scenarios/`` writes files except through
-  ``planner.fileio``, and none uses ``pickle``/``eval``/``exec``/``yaml`` on loaded content.
+  ``planner.files.atomic``, and none uses ``pickle``/``eval``/``exec``/``yaml`` on loaded content.
 """
 
 from __future__ import annotations
@@ -25,9 +25,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import planner.fileio as fileio
-from planner.fileio import atomic_write_bytes, atomic_write_json, atomic_write_text, save_figure
-from planner.io import load_system, save_system
+import planner.files.atomic as fileio
+from planner.files.atomic import (
+    atomic_write_bytes,
+    atomic_write_json,
+    atomic_write_text,
+    save_figure,
+)
+from planner.files.system_file import load_system, save_system
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -126,7 +131,7 @@ def test_json_writer_encodes_non_finite_numbers(tmp_path):
 def test_failed_plan_save_keeps_the_old_plan(tmp_path, monkeypatch):
     from test_fuzz_plan import _base_plan
 
-    from planner.plan import load_plan, plans_equal, save_plan
+    from planner.plan.plan_file import load_plan, plans_equal, save_plan
 
     plan = _base_plan()
     path = save_plan(plan, tmp_path / "plan.json")
@@ -144,7 +149,7 @@ def test_failed_plan_save_keeps_the_old_plan(tmp_path, monkeypatch):
 
 _WRITER_SCRIPT = textwrap.dedent("""
     import sys
-    from planner.fileio import atomic_write_text
+    from planner.files.atomic import atomic_write_text
     target, a, b = sys.argv[1], sys.argv[2], sys.argv[3]
     texts = [open(a).read(), open(b).read()]
     print("ready", flush=True)
@@ -199,7 +204,7 @@ def _is_std_stream(node: ast.AST) -> bool:
 
 
 def direct_writes(source: str) -> list[int]:
-    """Lines that write a file without ``planner.fileio`` (AST scan)."""
+    """Lines that write a file without ``planner.files.atomic`` (AST scan)."""
     lines = []
     for node in ast.walk(ast.parse(source)):
         if not isinstance(node, ast.Call):
@@ -248,7 +253,7 @@ def unsafe_loads(source: str) -> list[int]:
 def test_library_writes_only_through_fileio():
     offenders = [f"{p.relative_to(ROOT)}:{no}" for p in LIBRARY if p.name != "fileio.py"
                  for no in direct_writes(p.read_text())]
-    assert offenders == [], "write through planner.fileio (atomic): " + ", ".join(offenders)
+    assert offenders == [], "write through planner.files.atomic (atomic): " + ", ".join(offenders)
 
 
 @pytest.mark.parametrize("code,found", [

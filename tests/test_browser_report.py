@@ -12,8 +12,8 @@ from pathlib import Path
 
 import pytest
 
-from planner.cli import main
-from planner.report import write_report
+from qsplan.cli import main
+from qsplan.report import write_report
 
 PNG_1x1 = bytes.fromhex(
     "89504e470d0a1a0a0000000d4948445200000001000000010806000000"
@@ -78,7 +78,7 @@ def test_probe_detects_a_broken_image(tmp_path):
 @pytest.mark.slow
 def test_demo_report_images_load(tmp_path):
     """The real thing: every figure and GIF of `qsplan demo --quick` renders in Chromium."""
-    from planner.cli import build_parser
+    from qsplan.cli import build_parser
 
     sub = next(a for a in build_parser()._actions if a.__class__.__name__ == "_SubParsersAction")
     if "demo" not in sub.choices:

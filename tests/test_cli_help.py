@@ -4,7 +4,7 @@ from pathlib import Path
 
 import pytest
 
-from planner.cli import build_parser, main
+from qsplan.cli import build_parser, main
 
 
 def _commands():
@@ -20,7 +20,7 @@ MISSING_DESCRIPTION: set[str] = set()
 def _params():
     out = []
     for name, parser in _commands():
-        marks = [pytest.mark.xfail(strict=True, reason=f"planner/commands/{name}.py sets no "
+        marks = [pytest.mark.xfail(strict=True, reason=f"qsplan/commands/{name}.py sets no "
                                    "add_parser(description=...)")] if name in MISSING_DESCRIPTION else []
         out.append(pytest.param(name, parser, id=name, marks=marks))
     return out
@@ -57,7 +57,7 @@ BAD_INPUT = [
     ("modes", ["modes", EX41, "--mu", "a,b"], "--mu: expected comma-separated numbers"),
     ("modes", ["modes", EX41, "--mu", "0.3,0.2"], "expected 3 friction coefficients"),
     ("muspace", ["muspace", EX41, "--vary", "1", "--out", "{tmp}/m"], "--vary: expected"),
-    ("plan", ["plan", "no_such_hand", "--out", "{tmp}/p.json"], "scenario: expected"),
+    ("plan", ["plan", "no_such_hand", "--out", "{tmp}/p.json"], "hand: expected a hand file path or one of ['two_finger_hand']"),
     ("validate", ["validate", EX41, "--engine", "bullet"], "--engine: expected one of"),
     ("sweep", ["sweep", "mu", EX41, "--mu-range", "1,0", "--out", "{tmp}/s.json"],
      "expected 0 <= lo <= hi"),

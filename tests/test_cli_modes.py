@@ -6,7 +6,7 @@ import json
 
 import numpy as np
 
-from planner.cli import main
+from qsplan.cli import main
 
 
 def test_modes_json(capsys, data_dir):
@@ -44,8 +44,8 @@ def test_modes_bad_input_exit_2(capsys, tmp_path, data_dir):
 def test_modes_search_gives_the_exhaustive_modes(capsys, tmp_path):
     """``--search`` (pruned, optionally on 2 processes) prints the same modes and forces as
     the exhaustive default, plus how many candidates it tested."""
-    from planner.io import save_system
-    from planner.random_systems import random_system
+    from planner.files.system_file import save_system
+    from planner.sweeps.random_systems import random_system
 
     path = save_system(random_system(1, 9), tmp_path / "r9.json")
     outs = []

@@ -5,11 +5,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from planner.closed_form import closed_form_region
 from planner.errors import InputError
-from planner.feasibility import force_stage, kinematic_stage
-from planner.io import load_system
-from planner.modes import enumerate_modes
+from planner.files.system_file import load_system
+from planner.friction.closed_form import closed_form_region
+from planner.model.modes import enumerate_modes
+from planner.predict.stages import force_stage, kinematic_stage
 
 DATA = Path(__file__).resolve().parents[1] / "scenarios" / "data"
 
@@ -53,7 +53,7 @@ def test_rejects_non_3s_rs_mode():
 
 def test_coefficients_match_appendix_a_and_b():
     """Spot-check the exported coefficients against App. A (eqs. 50, 52, 57) and B (58-60)."""
-    from planner.modes import Mode
+    from planner.model.modes import Mode
 
     s = load_system(DATA / "example_4_1.json")
     W, g = s.W, s.g_obj
@@ -84,8 +84,8 @@ def test_coefficients_match_appendix_a_and_b():
 
 
 def test_region_dict_round_trip_and_inequalities():
-    from planner.closed_form import ClosedFormRegion
-    from planner.modes import Mode
+    from planner.friction.closed_form import ClosedFormRegion
+    from planner.model.modes import Mode
 
     s = load_system(DATA / "example_4_3.json")
     mu = np.random.default_rng(4).uniform(0, 1, (500, 3))
@@ -111,7 +111,7 @@ def test_closed_form_agrees_on_random_noncompliant_systems():
     sys.path.insert(0, str(Path(__file__).parent))
     from randsys import random_system
 
-    from planner.muspace import closed_form_regions
+    from planner.friction.muspace import closed_form_regions
 
     rng = np.random.default_rng(21)
     bad = checked = 0

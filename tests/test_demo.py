@@ -7,7 +7,10 @@ import json
 
 import pytest
 
-from planner.cli import main
+from qsplan.cli import main
+from scenarios.registry import DATA_DIR
+
+HAND_FILE = DATA_DIR / "two_finger_hand.json"
 
 CLAIM = "S+1 S+2 S-3 S-4"
 R2S = "R1 B2 S-3 S-4"
@@ -15,9 +18,9 @@ R2S = "R1 B2 S-3 S-4"
 
 @pytest.fixture(scope="module")
 def small_plans():
-    from planner.hand_planner import plan_hand
+    from planner.plan.segment_planner import plan_hand
 
-    return {p: plan_hand("two_finger_hand", mu=(0.0, 0.2), policy=p, waypoints=5)
+    return {p: plan_hand(HAND_FILE, mu=(0.0, 0.2), policy=p, waypoints=5)
             for p in ("midband", "rival:R2S")}
 
 
@@ -43,8 +46,8 @@ def _stub(negative_passes: bool):
 @pytest.mark.parametrize("negative_passes, code", [(False, 0), (True, 1)])
 def test_demo_expectations(small_plans, monkeypatch, tmp_path, capsys, negative_passes, code):
     """All expectations held -> 0; a negative control that passes validation -> 1."""
-    import planner.commands.demo as demo
-    import planner.hand_planner as hp
+    import planner.plan.segment_planner as hp
+    import qsplan.commands.demo as demo
 
     monkeypatch.setattr(hp, "plan_hand", lambda s, mu, policy: small_plans[policy])
     monkeypatch.setattr(demo, "_validate_job", _stub(negative_passes))

@@ -6,7 +6,9 @@ import numpy as np
 import pytest
 
 from planner.errors import InputError
-from planner.executor import (
+from planner.model.modes import enumerate_modes
+from planner.predict.feasibility import feasible_modes
+from planner.sweeps.executor import (
     LocalExecutor,
     enumerate_modes_slice,
     exhaustive_modes,
@@ -14,9 +16,7 @@ from planner.executor import (
     mu_sweep,
     scene_sweep,
 )
-from planner.feasibility import feasible_modes
-from planner.modes import enumerate_modes
-from planner.random_systems import random_system
+from planner.sweeps.random_systems import random_system
 
 
 @pytest.fixture(scope="module")
@@ -81,13 +81,13 @@ def test_bad_inputs(example_41):
     with pytest.raises(InputError, match="chunk: expected >= 1, got 0"):
         exhaustive_modes(example_41, LocalExecutor(1), chunk=0)
     with pytest.raises(InputError, match="dask: expected a scheduler address or a client"):
-        from planner.executor import DaskExecutor
+        from planner.sweeps.executor import DaskExecutor
 
         DaskExecutor()
 
 
 def test_sweep_cli_same_file_locally_and_through_dask_address(dask_client, data_dir, tmp_path):
-    from planner.cli import main
+    from qsplan.cli import main
 
     system = str(data_dir / "example_4_1.json")
     local, dask = tmp_path / "local.json", tmp_path / "dask.json"
@@ -102,7 +102,7 @@ def test_sweep_cli_same_file_locally_and_through_dask_address(dask_client, data_
 
 
 def test_sweep_cli_bad_input_exit_2(tmp_path, capsys):
-    from planner.cli import main
+    from qsplan.cli import main
 
     assert main(["sweep", "mu", "--out", str(tmp_path / "x.json")]) == 2
     assert "expected a SYSTEM.json argument" in capsys.readouterr().err
@@ -111,7 +111,7 @@ def test_sweep_cli_bad_input_exit_2(tmp_path, capsys):
 def test_search_subtrees_in_parallel_same_modes_locally_and_through_dask(dask_client):
     """search_modes(executor=...) hands open subtrees to the executor: same modes as the
     serial search and as exhaustive enumeration, in processes and through Dask."""
-    from planner.search import search_modes
+    from planner.predict.search import search_modes
 
     system = random_system(1, 10)
     serial = search_modes(system, indeterminate=False)

@@ -17,8 +17,8 @@ from randsys import random_system
 from scipy.optimize import linprog
 
 from planner import System, feasible_modes
-from planner.model import JointControl
-from planner.modes import BREAK, ROLL, SLIDE, enumerate_modes
+from planner.model.modes import BREAK, ROLL, SLIDE, enumerate_modes
+from planner.model.system import JointControl
 
 SETTINGS = settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 

@@ -25,7 +25,12 @@ from hypothesis import strategies as st
 from randsys import random_system
 
 from planner import QsplanError, System, feasible_modes
-from planner.io import load_system, system_from_dict, system_from_json, system_to_dict
+from planner.files.system_file import (
+    load_system,
+    system_from_dict,
+    system_from_json,
+    system_to_dict,
+)
 
 FAST = settings(max_examples=150, deadline=None, suppress_health_check=list(HealthCheck))
 LONG = settings(max_examples=10_000, deadline=None, suppress_health_check=list(HealthCheck))
@@ -503,7 +508,7 @@ def test_rod_prediction_does_not_depend_on_the_speed_unit(speed):
 
 def test_search_modes_without_candidates():
     from planner import Status
-    from planner.search import search_modes
+    from planner.predict.search import search_modes
 
     s = System.from_contacts(
         points=[[-1, 0], [1, 0]], normals=[[0, 1], [0, 1]], mu=0.3, external_wrench=[0, -1, 0],
@@ -515,7 +520,7 @@ def test_search_modes_without_candidates():
 
 @pytest.mark.parametrize("fmt,ver", [("qsplan-system", 2), ("qsplan-plan", 1), ("qsplan-system", "1")])
 def test_system_file_version_is_checked(tmp_path, data_dir, fmt, ver):
-    from planner.io import save_system
+    from planner.files.system_file import save_system
 
     saved = json.loads(save_system(load_system(data_dir / "example_4_1.json"),
                                    tmp_path / "s.json").read_text())

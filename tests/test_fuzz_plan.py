@@ -1,4 +1,4 @@
-"""Fuzzing the plan-file loader (``planner.plan.load_plan``): only documented errors may escape,
+"""Fuzzing the plan-file loader (``planner.plan.plan_file.load_plan``): only documented errors may escape,
 and a tampered plan is never accepted.
 
 A valid plan (the two-finger hand of ``scenarios/data/two_finger_hand.json``, Sec. 5.2, planned
@@ -32,7 +32,10 @@ from test_fuzz import NASTY_VALUES, _deep, mutate_text, mutate_tree
 
 from planner import QsplanError
 from planner.errors import FileFormatError
-from planner.plan import Plan, digest, load_plan, plan_from_dict, plans_equal, save_plan
+from planner.plan.plan_file import Plan, digest, load_plan, plan_from_dict, plans_equal, save_plan
+from scenarios.registry import DATA_DIR
+
+HAND_FILE = DATA_DIR / "two_finger_hand.json"
 
 FAST = settings(max_examples=60, deadline=None, suppress_health_check=list(HealthCheck))
 LONG = settings(max_examples=10_000, deadline=None, suppress_health_check=list(HealthCheck))
@@ -40,9 +43,9 @@ LONG = settings(max_examples=10_000, deadline=None, suppress_health_check=list(H
 
 @functools.lru_cache(maxsize=1)
 def _base_plan() -> Plan:
-    from planner.hand_planner import plan_hand
+    from planner.plan.segment_planner import plan_hand
 
-    return plan_hand("two_finger_hand", waypoints=5)
+    return plan_hand(HAND_FILE, waypoints=5)
 
 
 def valid_plan_file(folder: Path) -> Path:

@@ -3,11 +3,11 @@
 import numpy as np
 import pytest
 
-from planner.closed_form import closed_form_region
 from planner.errors import InputError
-from planner.graphical import GraphicalVerdict, corollary1_3s
-from planner.model import wrench_matrix
-from planner.modes import SLIDE
+from planner.friction.closed_form import closed_form_region
+from planner.friction.graphical import GraphicalVerdict, corollary1_3s
+from planner.model.modes import SLIDE
+from planner.model.system import wrench_matrix
 
 
 def test_graphical_matches_algebraic_on_random_configurations():
@@ -41,7 +41,7 @@ def test_bad_shape():
 
 
 def _random_mode_case(rng, kind):
-    from planner.modes import BREAK, ROLL
+    from planner.model.modes import BREAK, ROLL
 
     pts = rng.uniform(-1, 1, (3, 2))
     ang = rng.uniform(0, 2 * np.pi, 3)
@@ -57,7 +57,7 @@ def _random_mode_case(rng, kind):
 @pytest.mark.parametrize("kind", ["RS", "3S"])
 def test_brost_mason_matches_algebraic_on_random_configurations(kind):
     """Moment labelling (Sec. 4.1-4.2) == eqs. (35)-(36) / (40)-(41) away from boundaries."""
-    from planner.graphical import brost_mason_mode
+    from planner.friction.graphical import brost_mason_mode
 
     rng = np.random.default_rng(11 if kind == "RS" else 12)
     compared = feasible = 0
@@ -78,7 +78,7 @@ def test_brost_mason_matches_algebraic_on_random_configurations(kind):
 
 
 def test_brost_mason_agrees_with_corollary1_for_3s():
-    from planner.graphical import brost_mason_mode
+    from planner.friction.graphical import brost_mason_mode
 
     rng = np.random.default_rng(13)
     compared = 0
@@ -100,9 +100,9 @@ def test_brost_mason_example_4_1_rs_golden():
     (Fig. 3: the RS region lies below the positive-slope curve)."""
     from pathlib import Path
 
-    from planner.graphical import brost_mason_mode
-    from planner.io import load_system
-    from planner.modes import Mode
+    from planner.files.system_file import load_system
+    from planner.friction.graphical import brost_mason_mode
+    from planner.model.modes import Mode
 
     s = load_system(Path(__file__).resolve().parents[1] / "scenarios/data/example_4_1.json")
     m = Mode.parse("R1 S-2 B3")
@@ -114,8 +114,8 @@ def test_brost_mason_example_4_1_rs_golden():
 
 
 def test_brost_mason_degenerate_and_bad_input():
-    from planner.graphical import brost_mason_mode
-    from planner.modes import BREAK, ROLL
+    from planner.friction.graphical import brost_mason_mode
+    from planner.model.modes import BREAK, ROLL
 
     pts = np.array([[0.0, 0.0], [1.0, 0.0], [0.5, 1.0]])
     nrm = np.array([[0.0, 1.0], [0.0, 1.0], [0.0, -1.0]])
@@ -131,7 +131,7 @@ def test_brost_mason_degenerate_and_bad_input():
 
 def test_brost_mason_concurrent_lines_are_degenerate():
     """Three sliding forces whose lines meet in one point: W_Amu singular -> DEGENERATE."""
-    from planner.graphical import brost_mason_mode
+    from planner.friction.graphical import brost_mason_mode
 
     ang = np.array([0.3, 2.2, 4.1])
     nrm = np.column_stack([np.cos(ang), np.sin(ang)])

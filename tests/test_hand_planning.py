@@ -8,12 +8,12 @@ import json
 import numpy as np
 import pytest
 
-from planner.bounds import guarantee, intervals, mode_bands, mode_rows, parse_mu_interval
 from planner.errors import DegenerateError, FileFormatError, InputError
-from planner.feasibility import Status, feasible_modes
-from planner.hand import hand_from_dict, load_hand
-from planner.hand_planner import DATA_DIR, resolve_hand_path
-from planner.trajectory import integrate_segment
+from planner.model.hand import hand_from_dict, load_hand
+from planner.plan.bounds import guarantee, intervals, mode_bands, mode_rows, parse_mu_interval
+from planner.plan.trajectory import integrate_segment
+from planner.predict.feasibility import Status, feasible_modes
+from scenarios.registry import DATA_DIR, shipped_file
 
 HAND_FILE = DATA_DIR / "two_finger_hand.json"
 CLAIM = "S+1 S+2 S-3 S-4"
@@ -99,7 +99,7 @@ def test_hand_file_errors(tmp_path):
     with pytest.raises(InputError, match="existing file"):
         load_hand(tmp_path / "missing.json")
     with pytest.raises(InputError, match="two_finger_hand"):
-        resolve_hand_path("no_such_hand")
+        shipped_file("no_such_hand")
 
 
 # ---- trajectory -------------------------------------------------------------------------
@@ -181,7 +181,7 @@ def test_exact_bounds_catch_extrema_between_samples():
     """On random systems the exact guaranteed band equals dense sampling (2001 points) and is
     never looser; in some cases the binding friction lies strictly inside the interval, where
     evaluating only the ends would be too loose -- the critical points find it."""
-    from planner.model import System
+    from planner.model.system import System
 
     rng = np.random.default_rng(3)
     checked = interior = unions = union_close = 0

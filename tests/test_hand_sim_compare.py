@@ -1,4 +1,4 @@
-"""sim.plan_exec: comparison, shortened plan runs in both engines, the negative control, and
+"""sim.hand_run: comparison, shortened plan runs in both engines, the negative control, and
 `qsplan validate` exit codes (issue 5)."""
 
 from __future__ import annotations
@@ -9,8 +9,11 @@ import json
 import numpy as np
 import pytest
 
-from planner.cli import main
 from planner.errors import InputError
+from qsplan.cli import main
+from scenarios.registry import DATA_DIR
+
+HAND_FILE = DATA_DIR / "two_finger_hand.json"
 
 CLAIM = "S+1 S+2 S-3 S-4"
 R2S = "R1 B2 S-3 S-4"
@@ -23,7 +26,7 @@ def _poses(n, dx=-0.001):
 
 # ---- pure comparison ----------------------------------------------------------------------------
 def test_agreeing_run_passes():
-    from sim.plan_exec import ExecStatus, compare
+    from sim.hand_run import ExecStatus, compare
 
     obs = [CLAIM] * 39 + ["R1 S+2 S-3 S-4"]
     c = compare(CLAIM, obs, [(CLAIM,)] * 40, _poses(10), _poses(10))
@@ -32,7 +35,7 @@ def test_agreeing_run_passes():
 
 
 def test_rival_mode_fails_but_matches_its_prediction():
-    from sim.plan_exec import ExecStatus, compare
+    from sim.hand_run import ExecStatus, compare
 
     obs = [R2S] * 20 + [CLAIM] * 20
     pred = [(R2S,)] * 20 + [(CLAIM,)] * 20
@@ -43,7 +46,7 @@ def test_rival_mode_fails_but_matches_its_prediction():
 
 
 def test_pose_drift_fails():
-    from sim.plan_exec import ExecStatus, compare
+    from sim.hand_run import ExecStatus, compare
 
     sim = _poses(40)
     sim[-1, 0] += 0.05 * 0.039  # 5 % of the 39 mm travel
@@ -53,7 +56,7 @@ def test_pose_drift_fails():
 
 
 def test_bad_shapes_rejected():
-    from sim.plan_exec import compare
+    from sim.hand_run import compare
 
     with pytest.raises(InputError, match=r"expected shape \(3, 3\).*got \(3, 2\)"):
         compare(CLAIM, [CLAIM], [(CLAIM,)], np.zeros((3, 3)), np.zeros((3, 2)))
@@ -66,9 +69,9 @@ def test_bad_shapes_rejected():
 # ---- plans ---------------------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def plans():
-    from planner.hand_planner import plan_hand
+    from planner.plan.segment_planner import plan_hand
 
-    return {p: plan_hand("two_finger_hand", mu=(0.0, 0.2), policy=p)
+    return {p: plan_hand(HAND_FILE, mu=(0.0, 0.2), policy=p)
             for p in ("midband", "rival:R2S")}
 
 
@@ -78,7 +81,7 @@ def _short(plan, n=SHORT):
 
 @pytest.mark.parametrize("engine", ["pymunk", "mujoco"])
 def test_short_midband_plan_passes(plans, engine, tmp_path):
-    from sim.plan_exec import ExecStatus, run_plan
+    from sim.hand_run import ExecStatus, run_plan
 
     render = engine == "pymunk"  # drawing is engine-independent; once is enough
     res = run_plan(plans["midband"], engine, 0.1, tmp_path, waypoints=SHORT, render=render)
@@ -96,7 +99,7 @@ def test_short_midband_plan_passes(plans, engine, tmp_path):
 def test_negative_control_fails_and_shows_r2s(plans, engine):
     """Torque in the R2S band while claiming 4S (mu = 0.2): the validator must disagree, and what
     it sees at the start is the rival the planner predicted there."""
-    from sim.plan_exec import ExecStatus, run_plan
+    from sim.hand_run import ExecStatus, run_plan
 
     plan = plans["rival:R2S"]
     assert plan.claim == CLAIM and R2S in plan.waypoints[0].predicted
@@ -108,7 +111,7 @@ def test_negative_control_fails_and_shows_r2s(plans, engine):
 
 
 def test_run_plan_input_errors(plans):
-    from sim.plan_exec import run_plan
+    from sim.hand_run import run_plan
 
     with pytest.raises(InputError, match=r"engine: expected one of \['mujoco', 'pymunk'\], got 'bullet'"):
         run_plan(plans["midband"], "bullet", 0.1, waypoints=2, render=False)
@@ -121,7 +124,7 @@ def test_run_plan_input_errors(plans):
 # ---- qsplan validate -----------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def plan_files(plans, tmp_path_factory):
-    from planner.plan import save_plan
+    from planner.plan.plan_file import save_plan
 
     d = tmp_path_factory.mktemp("plans")
     return {"good": save_plan(_short(plans["midband"], 3), d / "good.json"),
@@ -159,7 +162,7 @@ def test_validate_bad_input(plan_files, tmp_path, capsys):
 
 def test_validate_fault_exit_code(plan_files, monkeypatch):
     """A simulator fault is exit 3, never a pass (run_plan replaced by a faulting stub)."""
-    import sim.plan_exec as pe
+    import sim.hand_run as pe
 
     def faulty(plan, engine, mu, out=None, **kw):
         comp = pe.Comparison(pe.ExecStatus.FAULT, plan.claim, 0.0, 0.0, 0, np.nan, np.nan,
@@ -175,7 +178,7 @@ def test_validate_fault_exit_code(plan_files, monkeypatch):
 def test_acceptance_full_segment(plans, engine):
     """Issue 5 acceptance: the full 13.3 s segment with the midband torque passes at mu = 0,
     0.1, 0.2 (4S >= 95 %, final position within 2 % of travel); the negative control fails."""
-    from sim.plan_exec import ExecStatus, run_plan
+    from sim.hand_run import ExecStatus, run_plan
 
     for mu in (0.0, 0.1, 0.2):
         c = run_plan(plans["midband"], engine, mu, render=False).comparison

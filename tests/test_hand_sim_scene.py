@@ -1,4 +1,4 @@
-"""sim.hand_scene: the two-finger hand file as a scene in both engines (issue 5)."""
+"""sim.scenes.hand: the two-finger hand file as a scene in both engines (issue 5)."""
 
 from __future__ import annotations
 
@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from planner.errors import InputError
-from planner.hand import load_hand
-from sim.hand_scene import hand_scene, pair_names, polygon_inertia
-from sim.plan_exec import ENGINE_SETTINGS, hand_backend, scaled_hand
+from planner.model.hand import load_hand
+from sim.hand_run import ENGINE_SETTINGS, hand_backend, scaled_hand
 from sim.run import RunSettings, run_scene
+from sim.scenes.hand import hand_scene, pair_names, polygon_inertia
 
 
 @pytest.fixture(scope="module")
@@ -48,7 +48,7 @@ def test_polygon_inertia_of_a_square():
 
 @pytest.mark.parametrize("engine", ["pymunk", "mujoco"])
 def test_contacts_and_normals_match_the_model(hand_file, engine):
-    """With the hand settings (sim.plan_exec.ENGINE_SETTINGS): all four contacts touch, along the model's inward normals, and the
+    """With the hand settings (sim.hand_run.ENGINE_SETTINGS): all four contacts touch, along the model's inward normals, and the
     driven finger pushes the workpiece to the left (the 4S direction)."""
     hand, q0, data = hand_file
     es = ENGINE_SETTINGS[engine]

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from planner import InputError
-from planner.kinematics import Chain, JointSpec, chain_from_dict
+from planner.model.kinematics import Chain, JointSpec, chain_from_dict
 
 
 def branching_chain():
@@ -66,7 +66,7 @@ def test_chain_errors():
 
 def test_chain_system_file_two_finger():
     """A two-finger hand given as a chain in a system file: Jacobian from geometry."""
-    from planner.io import system_from_dict
+    from planner.files.system_file import system_from_dict
 
     d = {
         "contacts": [{"point": [-0.05, 0.1], "normal": [1, 0], "mu": 0.2},

@@ -9,8 +9,13 @@ import pytest
 
 from planner import InputError, System, feasible_modes
 from planner.errors import FileFormatError
-from planner.io import load_system, system_from_dict, system_from_json, system_to_dict
-from planner.modes import Mode
+from planner.files.system_file import (
+    load_system,
+    system_from_dict,
+    system_from_json,
+    system_to_dict,
+)
+from planner.model.modes import Mode
 
 W41 = [[0.804, -0.595, -0.707, -0.707, -0.973, 0.232],
        [0.595, 0.804, 0.707, -0.707, -0.232, -0.973],
@@ -97,7 +102,7 @@ def test_mode_parse_errors():
 
 # -- system files ---------------------------------------------------------------------------
 def test_paper_files_load_and_round_trip(tmp_path, example_41, example_43):
-    from planner.io import save_system
+    from planner.files.system_file import save_system
 
     for s in (example_41, example_43):
         path = save_system(s, tmp_path / "s.json")
@@ -161,7 +166,7 @@ def test_system_file_version_is_checked(tmp_path):
     import json
 
     from planner.errors import FileFormatError
-    from planner.io import load_system, save_system, system_from_dict
+    from planner.files.system_file import load_system, save_system, system_from_dict
 
     path = tmp_path / "s.json"
     system = system_from_dict({"contacts": [{"point": [0, 0], "normal": [0, 1], "mu": 0.2}],

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from planner.errors import InputError
-from planner.feasibility import feasible_modes
-from planner.io import load_system
-from planner.muspace import MuGrid, mu_grid
+from planner.files.system_file import load_system
+from planner.friction.muspace import MuGrid, mu_grid
+from planner.predict.feasibility import feasible_modes
 
 DATA = Path(__file__).resolve().parents[1] / "scenarios" / "data"
 
@@ -57,7 +57,7 @@ def test_bad_input(ex41, kwargs, msg):
 
 
 def test_cli_writes_map_and_json(tmp_path):
-    from planner.cli import main
+    from qsplan.cli import main
 
     rc = main(["muspace", str(DATA / "example_4_1.json"), "--vary", "1,2", "--slice", "3=0,0.6",
                "--n", "20", "--out", str(tmp_path)])
@@ -70,7 +70,7 @@ def test_cli_writes_map_and_json(tmp_path):
 
 
 def test_cli_rejects_sliced_and_varied(tmp_path, capsys):
-    from planner.cli import main
+    from qsplan.cli import main
 
     rc = main(["muspace", str(DATA / "example_4_1.json"), "--vary", "1,2", "--slice", "2=0.1",
                "--out", str(tmp_path)])
@@ -80,7 +80,7 @@ def test_cli_rejects_sliced_and_varied(tmp_path, capsys):
 
 def test_rod_line_section_5_1():
     """Sec. 5.1: rod on two approaching supports; contact 1 sticks iff l1 mu2 < l2 mu1."""
-    from planner.model import System
+    from planner.model.system import System
 
     l1, l2 = 0.3, 0.7
     rod = System.from_contacts(points=[[-l1, 0], [l2, 0]], normals=[[0, 1], [0, 1]],
@@ -109,8 +109,8 @@ def test_json_closed_forms_reproduce_labels(name, tmp_path):
     """Export -> file -> re-load: the per-mode inequalities alone re-label every grid point."""
     import json
 
-    from planner.fileio import atomic_write_json
-    from planner.muspace import MuSpaceMap, muspace_map
+    from planner.files.atomic import atomic_write_json
+    from planner.friction.muspace import MuSpaceMap, muspace_map
 
     s = load_system(DATA / f"{name}.json")
     m = muspace_map(s, (0, 1), [0.2, 0.3, 0.1], n=41, sliced=2, slice_values=(0.0, 0.4))
@@ -133,7 +133,7 @@ def test_json_closed_forms_reproduce_labels(name, tmp_path):
 
 def test_three_coefficients_grid_and_slices(ex41):
     """3-D box decomposition: its slices equal 2-D grids computed directly."""
-    from planner.muspace import MuSpaceMap, muspace_map
+    from planner.friction.muspace import MuSpaceMap, muspace_map
 
     m = muspace_map(ex41, (0, 1, 2), [0.2, 0.3, 0.1], n=9)
     g3 = m.grids[0]
@@ -150,7 +150,7 @@ def test_three_coefficients_grid_and_slices(ex41):
 
 
 def test_muspace_map_bad_input(ex41):
-    from planner.muspace import MuSpaceMap, muspace_map
+    from planner.friction.muspace import MuSpaceMap, muspace_map
 
     with pytest.raises(InputError, match="expected a contact not in vary, got 2"):
         muspace_map(ex41, (0, 1), sliced=1, slice_values=(0.1,))
@@ -165,7 +165,7 @@ def test_muspace_map_bad_input(ex41):
 def test_cli_three_varied(tmp_path, capsys):
     import json
 
-    from planner.cli import main
+    from qsplan.cli import main
 
     assert main(["muspace", str(DATA / "example_4_3.json"), "--vary", "1,2,3", "--n", "8",
                  "--panels", "2", "--out", str(tmp_path)]) == 0

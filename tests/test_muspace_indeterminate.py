@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from planner.feasibility import feasible_modes
-from planner.model import System
-from planner.muspace import mu_grid
+from planner.friction.muspace import mu_grid
+from planner.model.system import System
+from planner.predict.feasibility import feasible_modes
 
 
 def _box(mu, pusher, load=(0.0, -1.0, 0.0)):
@@ -65,7 +65,7 @@ def test_without_indeterminate_modes_the_map_is_unchanged():
 def test_cli_muspace_quiet_and_verbose(tmp_path, capsys):
     from pathlib import Path
 
-    from planner.cli import main
+    from qsplan.cli import main
 
     data = Path(__file__).resolve().parent.parent / "scenarios" / "data" / "example_4_1.json"
     args = ["muspace", str(data), "--vary", "1,2", "--slice", "3=0", "--n", "20",

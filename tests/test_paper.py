@@ -9,7 +9,7 @@ import pytest
 from certify import check_certificate
 
 from planner import System, candidate_count, enumerate_modes, feasible_modes
-from planner.modes import Mode
+from planner.model.modes import Mode
 
 TABLE_1 = {
     -1: [6, 16, 45, 126, 357, 1016],

@@ -8,17 +8,27 @@ import json
 import numpy as np
 import pytest
 
-from planner.cli import main
 from planner.errors import FileFormatError, InputError
-from planner.hand_planner import plan_hand
-from planner.plan import PLAN_VERSION, digest, load_plan, plan_from_dict, plans_equal, save_plan
+from planner.plan.plan_file import (
+    PLAN_VERSION,
+    digest,
+    load_plan,
+    plan_from_dict,
+    plans_equal,
+    save_plan,
+)
+from planner.plan.segment_planner import plan_hand
+from qsplan.cli import main
+from scenarios.registry import DATA_DIR
+
+HAND_FILE = DATA_DIR / "two_finger_hand.json"
 
 CLAIM = "S+1 S+2 S-3 S-4"
 
 
 @pytest.fixture(scope="module")
 def plan():
-    return plan_hand("two_finger_hand", mu=(0.0, 0.2), waypoints=11)
+    return plan_hand(HAND_FILE, mu=(0.0, 0.2), waypoints=11)
 
 
 @pytest.fixture()
@@ -156,7 +166,7 @@ def test_cli_plan_bad_input(tmp_path, capsys, args, match):
 
 
 def test_negative_control_plan_predicts_r2s_in_the_first_half():
-    neg = plan_hand("two_finger_hand", mu=(0.0, 0.2), waypoints=11, policy="rival:R2S")
+    neg = plan_hand(HAND_FILE, mu=(0.0, 0.2), waypoints=11, policy="rival:R2S")
     assert neg.claim == CLAIM  # it still claims 4S ...
     first = [w.predicted for w in neg.waypoints[:4]]
     assert all(p == ("R1 B2 S-3 S-4",) for p in first)  # ... but predicts R2S early on

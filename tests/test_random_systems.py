@@ -1,4 +1,4 @@
-"""Seeded random systems (planner.random_systems)."""
+"""Seeded random systems (planner.sweeps.random_systems)."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from planner.errors import InputError
-from planner.random_systems import random_system
+from planner.sweeps.random_systems import random_system
 
 
 @pytest.mark.parametrize("n_c", [3, 7, 20])

@@ -4,7 +4,7 @@ from pathlib import Path
 import pytest
 
 from planner.errors import InputError
-from planner.report import build_html, scan_run, write_report
+from qsplan.report import build_html, scan_run, write_report
 
 PNG_1x1 = bytes.fromhex(
     "89504e470d0a1a0a0000000d4948445200000001000000010806000000"

@@ -71,7 +71,7 @@ def test_cli_list_and_bad_engine(capsys, tmp_path):
 
 
 def test_qsplan_scenarios_run(tmp_path, capsys):
-    from planner.cli import main
+    from qsplan.cli import main
 
     code = main(["scenarios", "run", "neg_ex41_wrong_region", "--engine", "pymunk",
                  "--out", str(tmp_path), "--no-render"])

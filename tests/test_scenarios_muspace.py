@@ -12,7 +12,7 @@ import json
 import numpy as np
 import pytest
 
-from planner.muspace import MuSpaceMap
+from planner.friction.muspace import MuSpaceMap
 from scenarios.registry import all_scenarios
 
 MAPS = {"muspace_ex41": "example_4_1", "muspace_ex43": "example_4_3", "muspace_rod": "rod"}

@@ -1,4 +1,4 @@
-"""Exactness of the pruned search (planner.search) against exhaustive enumeration (eq. 49)."""
+"""Exactness of the pruned search (planner.predict.search) against exhaustive enumeration (eq. 49)."""
 
 from __future__ import annotations
 
@@ -7,10 +7,10 @@ import pytest
 from randsys import random_system as random_system_mixed
 
 from planner.errors import InputError
-from planner.feasibility import feasible_modes
-from planner.modes import enumerate_modes
-from planner.random_systems import random_system
-from planner.search import _canonical_order, candidates_from_codes, search_modes
+from planner.model.modes import enumerate_modes
+from planner.predict.feasibility import feasible_modes
+from planner.predict.search import candidates_from_codes, canonical_order, search_modes
+from planner.sweeps.random_systems import random_system
 
 
 def assert_same(pred_a, pred_b):
@@ -70,7 +70,7 @@ def test_paper_examples(example_41, example_43, relaxation):
 def test_candidates_from_codes_matches_enumeration():
     cand = enumerate_modes(6, 6)
     perm = np.random.default_rng(0).permutation(len(cand))
-    codes = _canonical_order(cand.codes[perm])
+    codes = canonical_order(cand.codes[perm])
     rebuilt = candidates_from_codes(codes, 6)
     np.testing.assert_array_equal(rebuilt.codes, cand.codes)
     np.testing.assert_array_equal(rebuilt.rows, cand.rows)
@@ -102,9 +102,9 @@ def test_search_equals_exhaustive_large(n_c, relaxation):
 
 
 def test_linprog_fallback_gives_the_same_modes(monkeypatch):
-    import planner.search as search
+    import planner.predict.search as search
 
-    monkeypatch.setattr(search, "_make_lp", search._LinprogLp)
+    monkeypatch.setattr(search, "_make_lp", search.LinprogLp)
     for seed, relaxation in zip(range(4), RELAXATIONS * 2):
         system = random_system(seed, 7)
         res = search_modes(
@@ -118,7 +118,7 @@ def test_linprog_fallback_gives_the_same_modes(monkeypatch):
 def test_one_lu_gives_numpy_det_and_solve(k):
     """The batched LU shared by the rank test (30)-(32) and the solves (24), (26) agrees with
     numpy.linalg.det / solve, including matrices that need row exchanges and singular ones."""
-    from planner.feasibility import _lu_det_solve
+    from planner.predict.stages import lu_det_solve
 
     rng = np.random.default_rng(k)
     A = rng.normal(size=(500, k, k))
@@ -130,7 +130,7 @@ def test_one_lu_gives_numpy_det_and_solve(k):
     X = np.empty((k + 1, k, 500))
     X[:k] = A.transpose(2, 1, 0)  # X[c, a, m] = A[m, a, c]
     X[k] = b.T
-    det, z = _lu_det_solve(X)
+    det, z = lu_det_solve(X)
     ref = np.linalg.det(A)
     np.testing.assert_allclose(det, ref, rtol=1e-9, atol=1e-12 * np.abs(ref).max())
     singular = (np.arange(500) % 5 == 1) | (np.arange(500) % 5 == 2)
@@ -144,7 +144,7 @@ def test_one_lu_gives_numpy_det_and_solve(k):
 def test_kinematic_decision_does_not_depend_on_the_batch():
     """Leaves are queued and tested together: a candidate's kinematic decision, xi and
     velocities must not depend on which other candidates share its batch."""
-    from planner.feasibility import kinematic_stage
+    from planner.predict.stages import kinematic_stage
 
     system = random_system(3, 9)
     cand = enumerate_modes(9, 9)
@@ -159,8 +159,8 @@ def test_kinematic_decision_does_not_depend_on_the_batch():
 
 def test_search_without_candidates_reports_no_candidates():
     """n_c = 2 contacts cannot supply 3 + |tau_I| = 5 rows (eq. 49 count 0)."""
-    from planner.feasibility import Status
-    from planner.model import System
+    from planner.model.system import System
+    from planner.predict.feasibility import Status
 
     s = System.from_contacts(
         points=[[-1, 0], [1, 0]], normals=[[0, 1], [0, 1]], mu=0.3, external_wrench=[0, -1, 0],
@@ -198,8 +198,8 @@ def test_power_of_contact_forces_is_a_linear_function_and_never_positive():
 
 def _consistent(states, xi, mode):
     """Whether the feasible ``mode`` lies in the subtree of the node ``states``/``xi``."""
-    from planner.modes import ROLL, SLIDE
-    from planner.search import CONTACT, FREE
+    from planner.model.modes import ROLL, SLIDE
+    from planner.predict.search import CONTACT, FREE
 
     for st, x, code, mx in zip(states, xi, mode.codes, mode.xi):
         if st == FREE:
@@ -219,16 +219,16 @@ def test_coupled_relaxation_is_a_relaxation_and_prunes_more(n_c):
     forces-only one is (it has all its rows; unless HiGHS ends without a verdict, which keeps
     the node); and it proves some nodes infeasible that the
     forces-only LP cannot (the power row couples velocities and forces)."""
-    from planner.modes import BREAK, ROLL, SLIDE
-    from planner.search import CONTACT, FREE, _Pruner
+    from planner.model.modes import BREAK, ROLL, SLIDE
+    from planner.predict.search import CONTACT, FREE, Pruner
 
     rng = np.random.default_rng(7)
     only_coupled = both = 0
     for seed in range(8):
         system = random_system(seed, n_c)
         modes = [m.mode for m in feasible_modes(system, indeterminate=False).modes]
-        coupled = _Pruner(system, 1e-7, system.mu, coupled=True)
-        forces = _Pruner(system, 1e-7, system.mu, coupled=False)
+        coupled = Pruner(system, 1e-7, system.mu, coupled=True)
+        forces = Pruner(system, 1e-7, system.mu, coupled=False)
         for _ in range(60):
             states = rng.choice([FREE, CONTACT, BREAK, ROLL, SLIDE], n_c).astype(np.int8)
             xi = np.where(states == SLIDE, rng.choice([-1, 1], n_c), 0).astype(np.int8)

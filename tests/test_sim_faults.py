@@ -14,14 +14,15 @@ import dataclasses
 import numpy as np
 import pytest
 
-import sim.mujoco_backend as mujoco_backend
-from planner.io import load_system
+import sim.backends.mujoco_engine as mujoco_backend
+from planner.files.system_file import load_system
 from scenarios.paper_sims import DATA, _status
+from sim.backends import make_backend
+from sim.backends.pymunk_engine import PymunkBackend
 from sim.classify import Outcome, Thresholds, compare, observed_modes
-from sim.paper_scene import FingertipSpec, example_scene, scaled_system
-from sim.pymunk_backend import PymunkBackend
 from sim.run import EngineWatch, FaultKind, RunSettings, run_scene
-from sim.scene import Load, make_backend
+from sim.scene import Load
+from sim.scenes.paper import FingertipSpec, example_scene, scaled_system
 
 ENGINES = ("pymunk", "mujoco")
 SPEED = 1e-3

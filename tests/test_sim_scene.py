@@ -6,12 +6,11 @@ import numpy as np
 import pytest
 
 from planner.errors import InputError
-from planner.feasibility import feasible_modes
-from planner.io import load_system
-from planner.model import cross2, rot90
+from planner.files.system_file import load_system
+from planner.model.system import cross2, rot90
+from planner.predict.feasibility import feasible_modes
 from scenarios.paper_sims import DATA
-from sim.paper_scene import scaled_system, workpiece_polygon
-from sim.ruler import predicted_switches
+from sim.backends import make_backend
 from sim.run import RunSettings, run_scene
 from sim.scene import (
     Body,
@@ -25,8 +24,9 @@ from sim.scene import (
     Polygon,
     Scene,
     Segment,
-    make_backend,
 )
+from sim.scenes.paper import scaled_system, workpiece_polygon
+from sim.scenes.ruler import predicted_switches
 
 ENGINES = ("pymunk", "mujoco")
 
@@ -43,7 +43,7 @@ def test_input_errors():
     body = Body("b", (Circle((0, 0), 0.1),))
     with pytest.raises(InputError, match="unknown body 'x'"):
         Scene(bodies=(body,), pairs=(ContactPair("c", "b", "x", 0.5),))
-    with pytest.raises(InputError, match="expected 'pymunk' or 'mujoco', got 'ode'"):
+    with pytest.raises(InputError, match="expected one of pymunk, mujoco, got 'ode'"):
         make_backend("ode")
 
 

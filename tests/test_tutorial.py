@@ -31,7 +31,7 @@ from pathlib import Path
 
 import pytest
 
-from planner.cli import build_parser
+from qsplan.cli import build_parser
 
 ROOT = Path(__file__).resolve().parent.parent
 DOCS = ("docs/tutorial.md", "docs/file-formats.md", "README.md")
@@ -109,7 +109,7 @@ def _with_skips(blocks: list[Block], registered: set[str]) -> list[Block]:
                              - registered)
             if missing:
                 b.skip = (f"qsplan {missing[0]} is not registered yet "
-                          f"(planner/commands/{missing[0]}.py missing)")
+                          f"(qsplan/commands/{missing[0]}.py missing)")
         for f in b.opts.get("needs", "").split(","):
             if f and f in skipped_files and not b.skip:
                 b.skip = f"needs {f}, whose block was skipped: {skipped_files[f]}"
@@ -140,7 +140,7 @@ RAN: set[str] = set()  # ids of the blocks run in this session (file blocks incl
 def workdirs(tmp_path_factory):
     shim = tmp_path_factory.mktemp("bin")
     exe = shim / "qsplan"
-    exe.write_text(f"#!/bin/sh\nexec {shlex.quote(sys.executable)} -m planner.cli \"$@\"\n")
+    exe.write_text(f"#!/bin/sh\nexec {shlex.quote(sys.executable)} -m qsplan.cli \"$@\"\n")
     exe.chmod(0o755)
     env = dict(os.environ)
     env["PATH"] = f"{shim}{os.pathsep}{Path(sys.executable).parent}{os.pathsep}{env['PATH']}"
@@ -243,9 +243,11 @@ def test_relative_links_resolve(doc):
     assert not broken, f"{doc}: links to missing files {broken}"
 
 
-NOTATION_MODULES = ("model", "modes", "feasibility", "kinematics", "muspace", "closed_form",
-                    "graphical", "search", "executor", "indeterminate", "hand", "trajectory",
-                    "bounds", "hand_planner", "plan", "io")
+NOTATION_MODULES = ("model.system", "model.modes", "predict.stages", "predict.feasibility",
+                    "model.kinematics", "friction.muspace", "friction.closed_form",
+                    "friction.graphical", "predict.search", "sweeps.executor",
+                    "predict.indeterminate", "model.hand", "plan.trajectory", "plan.bounds",
+                    "plan.segment_planner", "plan.plan_file", "files.system_file")
 
 
 def _member(obj, name):
@@ -262,9 +264,9 @@ def test_notation_code_names_exist():
     """Every code name in the first column of docs/notation.md resolves in planner/."""
     ns: dict[str, object] = {}
     for m in NOTATION_MODULES:
-        ns[m] = importlib.import_module(f"planner.{m}")
+        ns[m.split(".")[-1]] = importlib.import_module(f"planner.{m}")
     for m in NOTATION_MODULES:
-        for k, v in vars(ns[m]).items():
+        for k, v in vars(ns[m.split(".")[-1]]).items():
             if not k.startswith("__"):
                 ns.setdefault(k, v)
     missing, seen = [], 0

@@ -1,0 +1,2 @@
+"""The file layer: one JSON reader, atomic writes, and the system / hand / plan formats.
+"""

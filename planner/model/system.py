@@ -1,0 +1,459 @@
+"""The quasistatic system of Trinkle & Zeng (1994), Section 3: workpiece, contacts, manipulator.
+
+Conventions (see ``docs/conventions.md``): world frame x right, y up, angles counter-clockwise;
+contact normal ``n_i`` points INTO the workpiece; tangent ``t_i = rot90(n_i) = (-n_y, n_x)``
+so that ``n_i x t_i = +1`` (out of the plane); ``qdot = (v_x, v_y, omega)`` is the velocity of
+the workpiece point at the world origin; contact force ``c_i = (c_in, c_it)`` is the force the
+manipulator applies to the workpiece, in the contact frame; relative velocity
+``v_i = W_i^T qdot - J_i thetadot`` (eq. 5).
+
+References
+----------
+J. C. Trinkle and D. C. Zeng, *Prediction of the Quasistatic Planar Motion of a Contacted Rigid
+Body*, 1994. Equations (1)-(5).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from enum import Enum
+from typing import Any
+
+import numpy as np
+
+from planner.errors import InputError
+from planner.model.validation import (
+    WRENCH_COLUMN_TOL,
+    as_array,
+    as_friction,
+    describe_value,
+    unit_normal,
+)
+
+
+def cross2(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The paper's planar cross product ``a (x) b = a_1 b_2 - a_2 b_1`` (eq. 1), broadcasting."""
+    a = np.asarray(a, dtype=float)
+    b = np.asarray(b, dtype=float)
+    return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+
+
+def rot90(n: np.ndarray) -> np.ndarray:
+    """Rotate 2-vectors by +90 degrees: ``(x, y) -> (-y, x)``; gives ``t`` from ``n``."""
+    n = np.asarray(n, dtype=float)
+    return np.stack([-n[..., 1], n[..., 0]], axis=-1)
+
+
+class JointControl(str, Enum):
+    """Control mode of one manipulator joint (Section 3.2)."""
+
+    VELOCITY = "velocity"
+    EFFORT = "effort"
+
+
+@dataclass(frozen=True)
+class Contact:
+    """One point contact given geometrically.
+
+    Parameters
+    ----------
+    point : (2,) [m]
+        Contact point ``r_i`` in the world frame.
+    normal : (2,)
+        Unit contact normal ``n_i`` pointing into the workpiece, world frame.
+    mu : float
+        Coulomb friction coefficient ``mu_i >= 0``.
+    """
+
+    point: tuple[float, float]
+    normal: tuple[float, float]
+    mu: float
+
+    def __post_init__(self) -> None:
+        p = as_array(self.point, (2,), "contact point")
+        n = unit_normal(self.normal, "contact normal")
+        mu = as_friction(self.mu, 1, "contact mu")[0]
+        object.__setattr__(self, "point", (float(p[0]), float(p[1])))
+        object.__setattr__(self, "normal", (float(n[0]), float(n[1])))
+        object.__setattr__(self, "mu", float(mu))
+
+    @property
+    def tangent(self) -> tuple[float, float]:
+        """``t_i = rot90(n_i)``, so that ``n_i x t_i = +1`` (eq. 1)."""
+        return (-self.normal[1], self.normal[0])
+
+
+def wrench_matrix(points: Any, normals: Any) -> np.ndarray:
+    """Global wrench matrix ``W = [w_1n w_1t ... w_nn w_nt]`` of eq. (1)-(2).
+
+    Parameters
+    ----------
+    points : (n_c, 2) [m]
+        Contact points ``r_i``, world frame.
+    normals : (n_c, 2)
+        Unit inward normals ``n_i``, world frame.
+
+    Returns
+    -------
+    W : (3, 2 n_c)
+        Column ``2i`` is ``[n_i; r_i (x) n_i]``, column ``2i+1`` is ``[t_i; r_i (x) t_i]``.
+    """
+    r = as_array(points, (None, 2), "points")
+    n = as_array(normals, (r.shape[0], 2), "normals")
+    t = rot90(n)
+    W = np.empty((3, 2 * r.shape[0]))
+    W[0:2, 0::2] = n.T
+    W[0:2, 1::2] = t.T
+    W[2, 0::2] = cross2(r, n)
+    W[2, 1::2] = cross2(r, t)
+    return W
+
+
+def check_wrench_matrix(W: Any, tol: float = WRENCH_COLUMN_TOL) -> np.ndarray:
+    """Validate a wrench matrix given as data (eq. 1); returns it as a float array.
+
+    Each column pair must be a unit normal ``n`` and the tangent ``t = rot90(n)`` to ``tol``
+    (default 2e-3, because the paper prints eqs. 37 and 42 rounded to three digits).  The matrix
+    is used exactly as given; it is not re-normalised.
+    """
+    arr = np.asarray(W, dtype=float) if _is_numeric(W) else None
+    if arr is None or arr.ndim != 2 or arr.shape[0] != 3 or arr.shape[1] % 2 or arr.shape[1] == 0:
+        shape = None if arr is None else arr.shape
+        raise InputError(
+            f"wrench_matrix: expected shape (3, 2*n_c) with columns [w_1n w_1t ...], got {shape}"
+        )
+    W = as_array(arr, (3, None), "wrench_matrix")
+    for i in range(W.shape[1] // 2):
+        n = W[0:2, 2 * i]
+        t = W[0:2, 2 * i + 1]
+        norm = float(np.hypot(*n))
+        if abs(norm - 1.0) > tol:
+            raise InputError(
+                f"wrench_matrix: contact {i + 1}: expected a unit normal in column {2 * i + 1} "
+                f"(|n| = 1 within {tol:g}), got |n| = {norm:.6g}"
+            )
+        if float(np.max(np.abs(t - rot90(n)))) > tol:
+            raise InputError(
+                f"wrench_matrix: contact {i + 1}: expected tangent t = n rotated by +90 deg "
+                f"= {rot90(n).round(4).tolist()} in column {2 * i + 2}, got {t.round(4).tolist()}"
+            )
+    return W
+
+
+def _is_numeric(value: Any) -> bool:
+    try:
+        np.asarray(value, dtype=float)
+    except (TypeError, ValueError, OverflowError, RecursionError):
+        return False
+    return True
+
+
+def contact_points_from_wrench(W: np.ndarray) -> np.ndarray:
+    """Contact points implied by a wrench matrix: ``r_i = m_it n_i - m_in t_i``.
+
+    With ``t = rot90(n)``: ``r x n = m_in`` and ``r x t = r . n = m_it``, hence the formula.
+
+    Returns
+    -------
+    points : (n_c, 2) [m], world frame.
+    """
+    n = W[0:2, 0::2].T
+    t = W[0:2, 1::2].T
+    m_n = W[2, 0::2]
+    m_t = W[2, 1::2]
+    return m_t[:, None] * n - m_n[:, None] * t
+
+
+@dataclass(frozen=True, eq=False)
+class System:
+    """A planar workpiece in contact with a manipulator (Section 3).
+
+    Attributes
+    ----------
+    W : (3, 2 n_c)
+        Global wrench matrix, columns ``[w_1n w_1t ... ]`` (eqs. 1-2).
+    mu : (n_c,)
+        Friction coefficients (diagonal of ``U``, eq. 8).
+    g_obj : (3,) [N, N, N m]
+        External wrench on the workpiece about the world origin (eq. 2).
+    J : (2 n_c, n_theta)
+        Contact Jacobians stacked per contact, rows ``[j_1n; j_1t; j_2n; ...]``, each
+        expressed in its contact frame (eqs. 3, 5).
+    control : tuple of JointControl, length n_theta
+        Which joints are velocity- and which effort-controlled (Section 3.2).
+    joint_inputs : (n_theta,)
+        For velocity-controlled joints the commanded ``thetadot_j`` [rad/s or m/s]; for
+        effort-controlled joints the commanded effort ``tau_j`` [N m or N].
+    g_man : (n_theta,)
+        Joint efforts induced by external loads on the links (eq. 3).
+    points, normals : (n_c, 2) or None
+        Contact geometry when known (always derivable from ``W``).
+    virtual_joints : bool
+        True when the manipulator was given as contact-point velocities ``J_i thetadot``;
+        then ``J`` is the identity and each contact point is a velocity-driven 2-DOF "joint".
+    """
+
+    W: np.ndarray
+    mu: np.ndarray
+    g_obj: np.ndarray
+    J: np.ndarray
+    control: tuple[JointControl, ...]
+    joint_inputs: np.ndarray
+    g_man: np.ndarray
+    points: np.ndarray = field(repr=False)
+    normals: np.ndarray = field(repr=False)
+    virtual_joints: bool = False
+
+    def __post_init__(self) -> None:
+        for name in ("W", "mu", "g_obj", "J", "joint_inputs", "g_man", "points", "normals"):
+            arr = np.array(getattr(self, name), dtype=float)
+            arr.setflags(write=False)
+            object.__setattr__(self, name, arr)
+        n_c = self.n_contacts
+        if self.mu.shape != (n_c,):
+            raise InputError(f"mu: expected {n_c} coefficients, got shape {self.mu.shape}")
+        if self.J.ndim != 2 or self.J.shape[0] != 2 * n_c:
+            raise InputError(
+                f"jacobian: expected {2 * n_c} rows (normal and tangent row per contact), "
+                f"got shape {self.J.shape}"
+            )
+        n_t = self.J.shape[1]
+        if len(self.control) != n_t or self.joint_inputs.shape != (n_t,):
+            raise InputError(
+                f"joints: expected one joint per Jacobian column ({n_t}), "
+                f"got {len(self.control)} joints"
+            )
+        if self.g_man.shape != (n_t,):
+            raise InputError(f"joint_loads: expected {n_t} values, got shape {self.g_man.shape}")
+
+    # -- sizes and partitions ------------------------------------------------------------
+    @property
+    def n_contacts(self) -> int:
+        """Number of contacts ``n_c``."""
+        return self.W.shape[1] // 2
+
+    @property
+    def n_joints(self) -> int:
+        """Number of manipulator joints ``n_theta``."""
+        return self.J.shape[1]
+
+    @property
+    def effort_joints(self) -> np.ndarray:
+        """Indices of effort-controlled joints (``tau_I`` is input, Section 3.2)."""
+        return np.array(
+            [j for j, c in enumerate(self.control) if c is JointControl.EFFORT], dtype=int
+        )
+
+    @property
+    def velocity_joints(self) -> np.ndarray:
+        """Indices of velocity-controlled joints (``zdot_II`` is input, eq. 24)."""
+        return np.array(
+            [j for j, c in enumerate(self.control) if c is JointControl.VELOCITY], dtype=int
+        )
+
+    @property
+    def dof(self) -> int:
+        """``3 + |tau_I|``: kinematic constraints every candidate mode must supply (Sec. 4.7)."""
+        return 3 + len(self.effort_joints)
+
+    @property
+    def tangents(self) -> np.ndarray:
+        """``(n_c, 2)`` contact tangents ``t_i = rot90(n_i)``."""
+        return rot90(self.normals)
+
+    def with_mu(self, mu: Any) -> System:
+        """A copy with other friction coefficients (scalar or ``(n_c,)``)."""
+        return _replace(self, mu=as_friction(mu, self.n_contacts))
+
+    def with_joint_inputs(self, joint_inputs: Any) -> System:
+        """A copy with other joint commands (velocities / efforts per :attr:`control`)."""
+        arr = as_array(joint_inputs, (self.n_joints,), "joint_inputs")
+        return _replace(self, joint_inputs=arr)
+
+    # -- constructors --------------------------------------------------------------------
+    @classmethod
+    def from_contacts(
+        cls,
+        contacts: Sequence[Contact] | None = None,
+        *,
+        points: Any = None,
+        normals: Any = None,
+        mu: Any = None,
+        external_wrench: Any = (0.0, 0.0, 0.0),
+        contact_velocities: Any = None,
+        jacobian: Any = None,
+        joints: Sequence[Any] | None = None,
+        joint_loads: Any = None,
+    ) -> System:
+        """Build a system from geometric contacts (point, inward unit normal, mu).
+
+        Give either ``contacts`` or ``points``/``normals``/``mu``; and the manipulator either
+        as ``contact_velocities`` ((n_c, 2): ``J_i thetadot`` in each contact frame, all
+        velocity-controlled) or as ``jacobian`` ((n_c, 2, n_theta)) with ``joints`` (one
+        ``{"velocity": v}`` or ``{"effort": tau}`` per column; or a :class:`JointControl`,
+        value pair) and optional ``joint_loads`` ``g_man``.
+        """
+        if contacts is not None:
+            if points is not None or normals is not None:
+                raise InputError("give either contacts or points/normals, not both")
+            contacts = list(contacts)
+            if not contacts:
+                raise InputError("contacts: expected at least one contact, got none")
+            pts = np.array([c.point for c in contacts], dtype=float)
+            nrm = np.array([c.normal for c in contacts], dtype=float)
+            mu_arr = np.array([c.mu for c in contacts], dtype=float)
+        else:
+            if points is None or normals is None:
+                raise InputError("expected contacts, or points and normals")
+            pts = as_array(points, (None, 2), "points")
+            if pts.shape[0] == 0:
+                raise InputError("points: expected at least one contact, got none")
+            raw_n = as_array(normals, (pts.shape[0], 2), "normals")
+            nrm = np.array(
+                [unit_normal(v, f"normal of contact {i + 1}") for i, v in enumerate(raw_n)]
+            )
+            mu_arr = as_friction(0.0 if mu is None else mu, pts.shape[0])
+        W = wrench_matrix(pts, nrm)
+        return cls._assemble(
+            W, mu_arr, external_wrench, contact_velocities, jacobian, joints, joint_loads,
+            pts, nrm,
+        )
+
+    @classmethod
+    def from_wrench_matrix(
+        cls,
+        W: Any,
+        mu: Any,
+        *,
+        external_wrench: Any = (0.0, 0.0, 0.0),
+        contact_velocities: Any = None,
+        jacobian: Any = None,
+        joints: Sequence[Any] | None = None,
+        joint_loads: Any = None,
+    ) -> System:
+        """Build a system from the paper's wrench matrix ``W`` (eq. 1, as in eqs. 37 and 42).
+
+        ``W`` is checked with :func:`check_wrench_matrix` and used as given. The contact
+        points follow from it (:func:`contact_points_from_wrench`).
+        """
+        Wm = check_wrench_matrix(W)
+        n_c = Wm.shape[1] // 2
+        mu_arr = as_friction(mu, n_c)
+        nrm = Wm[0:2, 0::2].T.copy()
+        pts = contact_points_from_wrench(Wm)
+        return cls._assemble(
+            Wm, mu_arr, external_wrench, contact_velocities, jacobian, joints, joint_loads,
+            pts, nrm,
+        )
+
+    @classmethod
+    def _assemble(
+        cls,
+        W: np.ndarray,
+        mu: np.ndarray,
+        external_wrench: Any,
+        contact_velocities: Any,
+        jacobian: Any,
+        joints: Sequence[Any] | None,
+        joint_loads: Any,
+        points: np.ndarray,
+        normals: np.ndarray,
+    ) -> System:
+        n_c = W.shape[1] // 2
+        g_obj = as_array(external_wrench, (3,), "external_wrench")
+        if (contact_velocities is None) == (jacobian is None):
+            raise InputError(
+                "manipulator: expected exactly one of contact_velocities or jacobian"
+            )
+        if contact_velocities is not None:
+            if joints is not None:
+                raise InputError(
+                    "manipulator: joints are given with a jacobian, not with contact_velocities"
+                )
+            u = as_array(contact_velocities, (n_c, 2), "contact_velocities")
+            J = np.eye(2 * n_c)
+            control = (JointControl.VELOCITY,) * (2 * n_c)
+            inputs = u.reshape(-1)
+            g_man = (
+                np.zeros(2 * n_c)
+                if joint_loads is None
+                else as_array(joint_loads, (2 * n_c,), "joint_loads")
+            )
+            virtual = True
+        else:
+            Jarr = np.asarray(jacobian, dtype=float) if _is_numeric(jacobian) else None
+            if Jarr is None or Jarr.ndim != 3 or Jarr.shape[:2] != (n_c, 2):
+                got = None if Jarr is None else Jarr.shape
+                raise InputError(
+                    f"jacobian: expected shape ({n_c}, 2, n_theta) (per contact a normal row "
+                    f"and a tangent row), got {got}"
+                )
+            Jarr = as_array(Jarr, (n_c, 2, None), "jacobian")
+            n_t = Jarr.shape[2]
+            J = Jarr.reshape(2 * n_c, n_t)
+            if joints is None or len(joints) != n_t:
+                raise InputError(
+                    f"joints: expected {n_t} joints (one per Jacobian column), "
+                    f"got {0 if joints is None else len(joints)}"
+                )
+            control_list, input_list = [], []
+            for j, spec in enumerate(joints):
+                c, v = parse_joint(spec, j)
+                control_list.append(c)
+                input_list.append(v)
+            control = tuple(control_list)
+            inputs = np.array(input_list, dtype=float)
+            g_man = (
+                np.zeros(n_t)
+                if joint_loads is None
+                else as_array(joint_loads, (n_t,), "joint_loads")
+            )
+            virtual = False
+        return cls(
+            W=W, mu=mu, g_obj=g_obj, J=J, control=control, joint_inputs=inputs, g_man=g_man,
+            points=points, normals=normals, virtual_joints=virtual,
+        )
+
+
+def parse_joint(spec: Any, index: int) -> tuple[JointControl, float]:
+    """Parse one joint command: ``{"velocity": v}`` or ``{"effort": tau}`` (exactly one)."""
+    if isinstance(spec, tuple) and len(spec) == 2 and isinstance(spec[0], JointControl):
+        value = as_array(spec[1], (), f"joint {index + 1}")
+        return spec[0], float(value)
+    if not isinstance(spec, dict):
+        raise InputError(
+            f"joint {index + 1}: expected {{\"velocity\": v}} or {{\"effort\": tau}}, "
+            f"got {describe_value(spec)}"
+        )
+    has_v = "velocity" in spec
+    has_e = "effort" in spec
+    if has_v == has_e:
+        raise InputError(
+            f"joint {index + 1}: expected exactly one of 'velocity' or 'effort', "
+            f"got {sorted(k for k in spec if k in ('velocity', 'effort')) or 'neither'}"
+        )
+    key = "velocity" if has_v else "effort"
+    value = spec[key]
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise InputError(
+            f"joint {index + 1}: expected a number for '{key}', got {describe_value(value)}"
+        )
+    try:
+        val = float(value)
+    except OverflowError:
+        val = float("inf")
+    if not np.isfinite(val):
+        raise InputError(f"joint {index + 1}: expected a finite '{key}', got {str(value)[:40]}")
+    return (JointControl.VELOCITY if has_v else JointControl.EFFORT), val
+
+
+def _replace(system: System, **changes: Any) -> System:
+    fields = {
+        "W": system.W, "mu": system.mu, "g_obj": system.g_obj, "J": system.J,
+        "control": system.control, "joint_inputs": system.joint_inputs, "g_man": system.g_man,
+        "points": system.points, "normals": system.normals,
+        "virtual_joints": system.virtual_joints,
+    }
+    fields.update(changes)
+    return System(**fields)

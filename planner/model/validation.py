@@ -1,0 +1,90 @@
+"""Input checks shared by every public entry point ("validate at the boundary").
+
+Each helper returns a float ndarray of the expected shape or raises
+:class:`planner.errors.InputError` with a message naming what was expected and what came.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from planner.errors import InputError
+
+#: Tolerance for unit normals and rotated tangents given in a wrench matrix.  The paper prints
+#: W (eqs. 37 and 42) rounded to three digits, so a column pair is accepted when ``|n| = 1`` and
+#: ``t = rot90(n)`` hold to this tolerance.
+WRENCH_COLUMN_TOL = 2e-3
+
+#: Tolerance for unit normals given geometrically (after which they are normalised exactly).
+NORMAL_TOL = 1e-6
+
+
+def describe_value(value: Any) -> str:
+    if isinstance(value, np.ndarray):
+        return f"array of shape {value.shape}"
+    try:
+        text = repr(value)
+    except RecursionError:  # absurdly deep nesting: describe it instead of crashing
+        return f"a {type(value).__name__} nested too deeply to print"
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def as_array(value: Any, shape: Sequence[int | None], name: str) -> np.ndarray:
+    """Convert ``value`` to a finite float array of ``shape`` (``None`` = any length)."""
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise InputError(
+            f"{name}: expected numbers of shape {_shape_text(shape)}, got {describe_value(value)}"
+        ) from exc
+    if arr.ndim != len(shape) or any(
+        want is not None and got != want for got, want in zip(arr.shape, shape)
+    ):
+        raise InputError(
+            f"{name}: expected shape {_shape_text(shape)}, got shape {arr.shape}"
+        )
+    if not np.all(np.isfinite(arr)):
+        raise InputError(f"{name}: expected finite numbers, got NaN or inf in {arr.tolist()}")
+    return arr
+
+
+def _shape_text(shape: Sequence[int | None]) -> str:
+    inner = ", ".join("n" if s is None else str(s) for s in shape)
+    return "(" + inner + ("," if len(shape) == 1 else "") + ")"
+
+
+def as_friction(value: Any, n_c: int, name: str = "mu") -> np.ndarray:
+    """Friction coefficients: a scalar (broadcast) or ``(n_c,)``, each finite and ``>= 0``."""
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise InputError(
+            f"{name}: expected {n_c} friction coefficients, got {describe_value(value)}"
+        ) from exc
+    if arr.ndim == 0:
+        arr = np.full(n_c, float(arr))
+    if arr.shape != (n_c,):
+        raise InputError(
+            f"{name}: expected {n_c} friction coefficients (one per contact), got shape {arr.shape}"
+        )
+    if not np.all(np.isfinite(arr)):
+        raise InputError(f"{name}: expected finite friction coefficients, got {arr.tolist()}")
+    if np.any(arr < 0):
+        raise InputError(
+            f"{name}: expected friction coefficients >= 0, got {arr.tolist()}"
+        )
+    return arr
+
+
+def unit_normal(value: Any, name: str) -> np.ndarray:
+    """A 2-vector of unit length (to :data:`NORMAL_TOL`), returned exactly normalised."""
+    n = as_array(value, (2,), name)
+    norm = float(np.hypot(n[0], n[1]))
+    if norm == 0.0:
+        raise InputError(f"{name}: expected a unit normal, got the zero vector")
+    if abs(norm - 1.0) > NORMAL_TOL:
+        raise InputError(f"{name}: expected a unit normal (|n| = 1), got |n| = {norm:.6g}")
+    return n / norm

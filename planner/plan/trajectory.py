@@ -1,0 +1,238 @@
+"""Quasistatic trajectory of a hand segment: integrate the predicted velocities (Section 5.2).
+
+A segment keeps one contact mode (e.g. ``4S``, all four contacts sliding) while one joint is
+driven at a constant rate.  At every step the kinematic stage (eqs. 13-16, 23-25; independent
+of friction and of the effort inputs) gives the mode's workpiece twist ``qdot`` and the
+velocities of the effort-controlled joints; the state ``q = (x, y, phi, theta_1..theta_F)``
+advances by fourth-order Runge-Kutta and is then projected back onto the contact manifold
+(:meth:`planner.model.hand.Hand.close` with the driven joint held), so the contacts never drift.
+Contact points move along their features as the state moves (vertex-edge contacts).
+
+The segment ends at the first event:
+
+* ``new contact`` -- a feature pair not in the mode touches (e.g. the left finger meets a
+  workpiece edge edge-to-edge: the edge's other vertex reaches the finger);
+* ``lost contact`` -- a contact point runs off the end of its edge or finger;
+* ``mode change`` -- the mode stops being kinematically admissible (a sliding direction would
+  reverse, a breaking contact would close, or the rank conditions 30-31 fail);
+* ``time limit``.
+
+Events are located by bisection on the driven joint's angle to ``1e-9`` of a step.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from planner.errors import DegenerateError, InputError
+from planner.model.hand import Hand
+from planner.model.modes import Mode, enumerate_modes
+from planner.predict.stages import DEFAULT_TOL, kinematic_stage
+
+
+@dataclass(frozen=True)
+class Event:
+    """Why a segment ended: ``kind`` (``new contact``, ``lost contact``, ``mode change``,
+    ``time limit``), a human-readable ``detail`` and the time ``t`` (s)."""
+
+    kind: str
+    detail: str
+    t: float
+
+
+@dataclass(frozen=True, eq=False)
+class Segment:
+    """A quasistatic segment sampled at ``n`` states.
+
+    ``t (n,)`` s; ``q (n, 3 + F)`` configurations; ``qdot (n, 3)`` workpiece twist about the
+    world origin; ``thetadot (n, F)`` joint rates; ``mode`` the label kept (with its sliding
+    directions); ``drive`` index of the driven joint and its ``speed`` (rad/s); ``event``.
+    """
+
+    t: np.ndarray
+    q: np.ndarray
+    qdot: np.ndarray
+    thetadot: np.ndarray
+    mode: str
+    drive: int
+    speed: float
+    event: Event
+
+    @property
+    def duration(self) -> float:
+        return float(self.t[-1])
+
+    def travel(self) -> float:
+        """Path length of the workpiece origin (m)."""
+        return float(np.sum(np.linalg.norm(np.diff(self.q[:, :2], axis=0), axis=1)))
+
+    def resample(self, hand: Hand, n: int) -> Segment:
+        """``n`` states evenly spaced in time, each re-closed on the contact manifold."""
+        if n < 2:
+            raise InputError(f"resample: expected n >= 2, got {n}")
+        ts = np.linspace(0.0, self.duration, n)
+        qs, qd, td = [], [], []
+        for t in ts:
+            k = int(np.clip(np.searchsorted(self.t, t, side="right") - 1, 0, len(self.t) - 2))
+            a = (t - self.t[k]) / (self.t[k + 1] - self.t[k])
+            q = (1 - a) * self.q[k] + a * self.q[k + 1]
+            q[3 + self.drive] = self.q[0, 3 + self.drive] + self.speed * t
+            q = hand.close(q, fixed=[3 + self.drive])
+            vel = mode_velocity(hand, q, self.drive, self.speed, self.mode)
+            if vel is None:  # the event state itself may sit on the boundary: keep last rates
+                vel = (qd[-1], td[-1]) if qd else (self.qdot[k], self.thetadot[k])
+            qs.append(q)
+            qd.append(vel[0])
+            td.append(vel[1])
+        return Segment(ts, np.array(qs), np.array(qd), np.array(td), self.mode, self.drive,
+                       self.speed, self.event)
+
+
+def _drive_joints(hand: Hand, drive: int, speed: float) -> list[dict[str, float]]:
+    return [{"velocity": speed} if k == drive else {"effort": 0.0}
+            for k in range(hand.n_fingers)]
+
+
+def mode_velocity(
+    hand: Hand, q: np.ndarray, drive: int, speed: float, mode: str, *, tol: float = DEFAULT_TOL,
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """``(qdot, thetadot)`` of ``mode`` (a label, or a family such as ``"4S"``) at ``q`` with
+    joint ``drive`` at ``speed`` and the others effort-controlled; None if not admissible."""
+    system = hand.system(q, 0.0, _drive_joints(hand, drive, speed))
+    cand = enumerate_modes(system.n_contacts, system.dof)
+    ks = kinematic_stage(system, cand, tol=tol)
+    for i in np.flatnonzero(ks.ok):
+        m = Mode(tuple(int(c) for c in cand.codes[i]), tuple(int(x) for x in ks.xi[i]))
+        if m.label == mode or (m.family == mode and " " not in mode):
+            return ks.qdot[i].copy(), ks.joint_velocities[i].copy()
+    return None
+
+
+def _mode_label(hand: Hand, q: np.ndarray, drive: int, speed: float, family: str) -> str:
+    system = hand.system(q, 0.0, _drive_joints(hand, drive, speed))
+    cand = enumerate_modes(system.n_contacts, system.dof)
+    ks = kinematic_stage(system, cand)
+    hits = []
+    for i in np.flatnonzero(ks.ok):
+        m = Mode(tuple(int(c) for c in cand.codes[i]), tuple(int(x) for x in ks.xi[i]))
+        if m.label == family or m.family == family:
+            hits.append(m.label)
+    if len(hits) != 1:
+        raise DegenerateError(
+            f"mode {family!r}: expected exactly one kinematically admissible mode at the start "
+            f"of the segment, got {hits or 'none'}"
+        )
+    return hits[0]
+
+
+def integrate_segment(
+    hand: Hand,
+    q0: Any,
+    *,
+    drive: int,
+    speed: float,
+    mode: str = "4S",
+    max_time: float,
+    steps: int = 400,
+) -> Segment:
+    """Integrate the quasistatic motion of ``mode`` from ``q0`` with joint ``drive`` at
+    ``speed`` (rad/s) until an event or ``max_time`` (s); ``steps`` RK4 steps over ``max_time``.
+    """
+    if not 0 <= drive < hand.n_fingers:
+        raise InputError(f"drive: expected a joint index in [0, {hand.n_fingers - 1}], got {drive}")
+    if not np.isfinite(speed) or speed == 0:
+        raise InputError(f"speed: expected a non-zero finite joint rate, got {speed!r}")
+    if not (np.isfinite(max_time) and max_time > 0):
+        raise InputError(f"max_time: expected a positive duration, got {max_time!r}")
+    q = hand.close(hand.check_q(q0), fixed=[3 + drive])
+    label = _mode_label(hand, q, drive, speed, mode)
+    h = max_time / steps
+    fixed = [3 + drive]
+
+    def rate(qq: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        vel = mode_velocity(hand, qq, drive, speed, label)
+        if vel is None:
+            return None
+        qd, td = vel
+        return np.concatenate([hand.pose_rates_from_twist(qq, qd), td]), qd, td
+
+    def step(qq: np.ndarray, dt: float) -> np.ndarray | None:
+        k1 = rate(qq)
+        if k1 is None:
+            return None
+        k2 = rate(qq + 0.5 * dt * k1[0])
+        k3 = rate(qq + 0.5 * dt * k2[0]) if k2 is not None else None
+        k4 = rate(qq + dt * k3[0]) if k3 is not None else None
+        if k4 is None:
+            return None
+        nxt = qq + dt / 6.0 * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0])
+        nxt[3 + drive] = qq[3 + drive] + speed * dt
+        try:
+            return hand.close(nxt, fixed=fixed)
+        except DegenerateError:
+            return None
+
+    def event_at(qq: np.ndarray):
+        """``(event or None, rate at qq)``; the rate is reused when the state is accepted."""
+        _, _, s = hand.contact_geometry(qq)
+        off = np.flatnonzero((s < 0.0) | (s > 1.0))
+        if off.size:
+            i = int(off[0])
+            return Event("lost contact", f"contact {i + 1} ran off its feature (s = {s[i]:.3f})",
+                         0.0), None
+        cl = hand.clearances(qq)
+        hit = [name for name, d in cl.items() if d <= 0.0]
+        if hit:
+            return Event("new contact", f"{hit[0]} touches", 0.0), None
+        r = rate(qq)
+        if r is None:
+            return Event("mode change", f"{label} is no longer kinematically admissible", 0.0), None
+        return None, r
+
+    first, r0 = event_at(q)
+    if first is not None:
+        raise DegenerateError(f"segment cannot start: {first.detail}")
+    ts, qs, qds, tds = [0.0], [q], [r0[1]], [r0[2]]
+
+    def record(t_new: float, q_new: np.ndarray, r: tuple) -> None:
+        ts.append(t_new)
+        qs.append(q_new)
+        qds.append(r[1])
+        tds.append(r[2])
+
+    t = 0.0
+    event = Event("time limit", f"reached max_time {max_time:g} s", max_time)
+    while t < max_time - 1e-12 * max_time:
+        dt = min(h, max_time - t)
+        nxt = step(q, dt)
+        ev, r = event_at(nxt) if nxt is not None else (Event("mode change", "step failed", 0.0),
+                                                       None)
+        if ev is None:
+            t += dt
+            q = nxt
+            record(t, q, r)
+            continue
+        # Bisect on the step length for the first event.
+        a, b = 0.0, dt
+        q_ok, r_ok = q, None
+        while b - a > 1e-9 * h:
+            mid = 0.5 * (a + b)
+            qm = step(q, mid)
+            ev_m, r_m = event_at(qm) if qm is not None else (ev, None)
+            if ev_m is None:
+                a, q_ok, r_ok = mid, qm, r_m
+            else:
+                b = mid
+        if a > 0:
+            t += a
+            q = q_ok
+            record(t, q, r_ok)
+        event = Event(ev.kind, ev.detail, t)
+        break
+    if len(ts) < 2:
+        raise DegenerateError(f"segment ended at its start: {event.detail}")
+    return Segment(np.array(ts), np.array(qs), np.array(qds), np.array(tds), label, drive,
+                   float(speed), event)

@@ -1,0 +1,2 @@
+"""Matplotlib figures of planner results; matplotlib is imported lazily inside functions.
+"""

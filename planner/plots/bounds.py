@@ -1,0 +1,143 @@
+"""Figures 10-13 of Section 5.2 from a plan's band curves (matplotlib, Agg, imported lazily).
+
+* Figure 10 -- the claimed mode's torque bounds at the lower friction end (``mu = 0``);
+* Figure 11 -- the same at the upper friction end (``mu = 0.2``);
+* Figure 12 -- the rival modes' bounds at the upper end (e.g. the ``R2S`` mode);
+* Figure 13 -- the bounds that guarantee the claimed mode for every friction in the interval
+  and exclude every rival, with the planned torque commands.
+
+Upper bounds are solid, lower bounds dashed (as in the paper); unbounded ends are clipped to the
+plot range and marked with an arrow.  Abscissa: workpiece travel (mm).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from planner.files.atomic import save_figure
+from planner.plan.plan_file import Plan
+
+
+def _series(rows: list[Any], sign: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """Lower and upper curves; with ``sign = -1`` the torque axis is flipped (bounds swap)."""
+    lo = np.array([np.nan if r is None else (-np.inf if r[0] is None else r[0]) for r in rows])
+    hi = np.array([np.nan if r is None else (np.inf if r[1] is None else r[1]) for r in rows])
+    return (lo, hi) if sign > 0 else (-hi, -lo)
+
+
+def _limits(plan: Plan, sign: float) -> tuple[float, float]:
+    """Plot range from the claimed mode's curves and the commands (rivals are clipped)."""
+    vals = [sign * w.torque_command for w in plan.waypoints] + [0.0]
+    m = plan.extra["curves"]["modes"].get(plan.claim)
+    if m is not None:
+        for key in ("at_lo", "at_hi", "guaranteed"):
+            for r in m[key]:
+                if r is not None:
+                    vals += [sign * x for x in r if x is not None]
+    v = np.array(vals, dtype=float)
+    lo, hi = float(np.min(v)), float(np.max(v))
+    pad = 0.35 * max(hi - lo, 1e-9)
+    return lo - pad, hi + pad
+
+
+def _draw(ax, x, lo, hi, colour, label, ylim):
+    y0, y1 = ylim
+    lo_c = np.clip(lo, y0, y1)
+    hi_c = np.clip(hi, y0, y1)
+    ok = ~np.isnan(lo) & ~np.isnan(hi) & (lo <= hi)
+    ax.fill_between(x, lo_c, hi_c, where=ok, color=colour, alpha=0.18, linewidth=0)
+    ax.plot(np.where(ok, x, np.nan), np.where(ok, hi_c, np.nan), "-", color=colour, lw=2.2,
+            label=f"{label} upper")
+    ax.plot(np.where(ok, x, np.nan), np.where(ok, lo_c, np.nan), "--", color=colour, lw=2.2,
+            label=f"{label} lower")
+    for arr, y in ((hi, y1), (lo, y0)):
+        inf = ok & ~np.isfinite(arr)
+        if np.any(inf):
+            ax.plot(x[inf], np.full(int(inf.sum()), y), "^" if y == y1 else "v", color=colour,
+                    ms=4, ls="none")
+
+
+def plot_bounds(plan: Plan, out_dir: str | Path) -> list[Path]:
+    """Write ``fig10_bounds_mu_lo.png`` ... ``fig13_guaranteed.png`` into ``out_dir``."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out = Path(out_dir)
+    curves = plan.extra["curves"]
+    x = 1e3 * np.asarray(curves["travel"])
+    modes = curves["modes"]
+    claim = plan.claim
+    # Show squeezing torques as positive numbers (as the paper does) when the commands are < 0.
+    sign = -1.0 if float(np.median(plan.torques())) < 0 else 1.0
+    ylim = _limits(plan, sign)
+    mu_lo = curves["mu_lo"][0]
+    mu_hi = curves["mu_hi"][0]
+    eff = plan.effort_joint
+    name = plan.hand.get("fingers", [{}] * (eff + 1))[eff].get("name", f"joint {eff}")
+    ylabel = (f"torque of the {name} joint (N m, CCW +)" if sign > 0 else
+              f"squeezing torque of the {name} joint, -tau (N m)")
+    colours = ["tab:blue", "tab:red", "tab:green", "tab:purple", "tab:orange", "tab:brown"]
+    rivals = [lab for lab in modes if lab != claim
+              and any(r is not None for r in modes[lab]["at_hi"])]
+    paths = []
+
+    def new(title):
+        fig, ax = plt.subplots(figsize=(6.4, 4.2), dpi=110)
+        ax.set_title(title, fontsize=10)
+        ax.set_xlabel("workpiece travel (mm)")
+        ax.set_ylabel(ylabel)
+        ax.set_ylim(*ylim)
+        ax.axhline(0.0, color="0.6", lw=0.6)
+        ax.grid(alpha=0.3)
+        return fig, ax
+
+    def finish(fig, ax, fname):
+        ax.legend(fontsize=7, loc="best")
+        fig.tight_layout()
+        paths.append(save_figure(fig, out / fname))
+        plt.close(fig)
+
+    fam = modes[claim]["family"] if claim in modes else claim
+    for fname, key, mu in (("fig10_bounds_mu_lo.png", "at_lo", mu_lo),
+                           ("fig11_bounds_mu_hi.png", "at_hi", mu_hi)):
+        fig, ax = new(f"{fam} torque bounds, mu = {mu:g} ({claim})")
+        if claim in modes:
+            _draw(ax, x, *_series(modes[claim][key], sign), colours[0], fam, ylim)
+        finish(fig, ax, fname)
+    fig, ax = new(f"rival modes' torque bounds, mu = {mu_hi:g}")
+    for i, lab in enumerate(rivals):
+        _draw(ax, x, *_series(modes[lab]["at_hi"], sign), colours[(i + 1) % len(colours)],
+              f"{modes[lab]['family']} {lab}", ylim)
+    if claim in modes:
+        lo, hi = _series(modes[claim]["at_hi"], sign)
+        ax.plot(x, np.clip(lo, *ylim), ":", color=colours[0], lw=1, label=f"{fam} lower")
+        ax.plot(x, np.clip(hi, *ylim), ":", color=colours[0], lw=1, label=f"{fam} upper")
+    finish(fig, ax, "fig12_rival_bounds_mu_hi.png")
+    fig, ax = new(f"{fam} guaranteed, rivals excluded, mu in [{mu_lo:g}, {mu_hi:g}]")
+    band = sign * plan.bands()
+    if sign < 0:
+        band = band[:, ::-1]
+    _draw(ax, x, band[:, 0], band[:, 1], colours[0], f"guaranteed {fam}", ylim)
+    for i, lab in enumerate(rivals):
+        lo, hi = _series(modes[lab]["possible"], sign)
+        ok = ~np.isnan(lo) & (lo <= hi)
+        ax.fill_between(x, np.clip(lo, *ylim), np.clip(hi, *ylim), where=ok, hatch="//",
+                        facecolor="none", edgecolor=colours[(i + 1) % len(colours)], lw=0,
+                        label=f"{lab} possible")
+    ax.plot(x, sign * plan.torques(), "k.-", lw=1, ms=3, label=f"command ({plan.policy})")
+    finish(fig, ax, "fig13_guaranteed.png")
+    return paths
+
+
+def margin_summary(plan: Plan) -> dict[str, float]:
+    """Smallest margin of the commands (N m) and relative to the command's magnitude."""
+    m = plan.margins()
+    t = np.abs(plan.torques())
+    rel = m / np.where(t > 0, t, math.inf)
+    return {"min_margin": float(np.min(m)), "min_relative_margin": float(np.min(rel))}

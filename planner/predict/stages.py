@@ -1,0 +1,399 @@
+"""Kinematic and force stages of the feasibility test, batched over candidate modes.
+
+Eqs. (13)-(16), (23)-(25) (kinematic stage: velocities, breaking contacts separate, sliding
+directions ``xi``) and eqs. (18)-(22), (26)-(28) (force stage: ``W_Amu``, contact forces, joint
+efforts, Coulomb inequalities) of Trinkle & Zeng (1994), with the tolerances they are judged by
+and :class:`FeasibleMode`, the certificate a feasible mode carries.  The tolerance policy is
+described in :mod:`planner.predict.feasibility` and ``docs/conventions.md``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from planner.model.modes import (
+    BREAK,
+    ROLL,
+    SLIDE,
+    CandidateSet,
+    Mode,
+    enumerate_modes,
+)
+from planner.model.system import System
+
+#: Default relative tolerance on normalised constraint slacks.
+DEFAULT_TOL = 1e-9
+#: Equilibrated |det| below which P_AI or Q_AI is treated as singular (conditions 30-32).
+DEFAULT_SINGULAR_TOL = 1e-10
+
+
+@dataclass(frozen=True, eq=False)
+class FeasibleMode:
+    """A feasible contact mode with its certificate.
+
+    Attributes
+    ----------
+    mode : Mode
+        Contact interactions and sliding directions.
+    qdot : (3,) [m/s, m/s, rad/s]
+        Workpiece velocity (point at the world origin), world frame.
+    joint_velocities : (n_theta,)
+        All joint velocities (given ones and the solved ones of effort-controlled joints).
+    contact_velocities : (n_c, 2) [m/s]
+        Relative velocities ``v_i = (v_in, v_it)`` (eq. 5), contact frames.
+    contact_forces : (n_c, 2) [N]
+        ``c_i = (c_in, c_it)`` on the workpiece, contact frames (zero at breaking contacts).
+    joint_efforts : (n_theta,)
+        All joint efforts ``tau = J^T c + g_man`` (eq. 3).
+    margin : float
+        Smallest normalised constraint slack (see the module's tolerance policy).
+    on_boundary : bool
+        ``|margin| <= tol``: the mode sits on the boundary of its feasible region.
+    force_indeterminate : bool
+        True for relaxed-utility modes whose forces are not unique (certificate is one
+        feasible force distribution, the one of largest margin).
+    """
+
+    mode: Mode
+    qdot: np.ndarray
+    joint_velocities: np.ndarray
+    contact_velocities: np.ndarray
+    contact_forces: np.ndarray
+    joint_efforts: np.ndarray
+    margin: float
+    on_boundary: bool = False
+    force_indeterminate: bool = False
+
+    @property
+    def label(self) -> str:
+        return self.mode.label
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready certificate (the ``qsplan modes --json`` schema)."""
+        return {
+            "mode": self.mode.label,
+            "family": self.mode.family,
+            "qdot": self.qdot.tolist(),
+            "joint_velocities": self.joint_velocities.tolist(),
+            "contact_velocities": self.contact_velocities.tolist(),
+            "contact_forces": self.contact_forces.tolist(),
+            "joint_efforts": self.joint_efforts.tolist(),
+            "margin": float(self.margin),
+            "on_boundary": bool(self.on_boundary),
+            "force_indeterminate": bool(self.force_indeterminate),
+        }
+
+
+
+
+
+# ---------------------------------------------------------------------------------------------
+# Kinematic stage (eqs. 13-16, 23-25): independent of friction.
+# ---------------------------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class KinematicStage:
+    """Kinematic solution of every candidate (arrays indexed by candidate).
+
+    Attributes
+    ----------
+    candidates : CandidateSet
+    nonsingular : (M,) bool      P_AI invertible (conditions 30, 32).
+    qdot : (M, 3)                workpiece velocity (NaN where singular).
+    joint_velocities : (M, n_theta)
+    v : (M, 2 n_c)               relative contact velocities [v_1n, v_1t, ...] (eq. 5).
+    xi : (M, n_c) int8           sliding directions (eq. 16), 0 where not sliding.
+    margin : (M,)                smallest normalised strict kinematic slack (inf if none).
+    ok : (M,) bool               kinematically admissible: margin > tol.
+    boundary : (M,) bool         |margin| <= tol (strict constraint on its boundary).
+    """
+
+    candidates: CandidateSet
+    nonsingular: np.ndarray
+    qdot: np.ndarray
+    joint_velocities: np.ndarray
+    v: np.ndarray
+    xi: np.ndarray
+    margin: np.ndarray
+    ok: np.ndarray
+    boundary: np.ndarray
+    velocity_scale: float
+
+
+def _velocity_input(system: System) -> np.ndarray:
+    """``J_V thetadot_V`` per constraint row, (2 n_c,): the prescribed contact-point motion."""
+    V = system.velocity_joints
+    return system.J[:, V] @ system.joint_inputs[V]
+
+
+@dataclass(frozen=True, eq=False)
+class EquilibratedKinematics:
+    """``K = [W^T  -J_E]`` (2 n_c, 3 + |tau_I|) scaled for rank tests: ``Kn = diag(1/row) K
+    diag(1/col)`` with unit-max columns then unit rows, ``bn = rhs / row`` where ``rhs`` is
+    ``J_V thetadot_V`` (eq. 24's right side per constraint row).  A solution ``z'`` of the
+    scaled rows gives ``z = z' / col``."""
+
+    Kn: np.ndarray
+    bn: np.ndarray
+    col: np.ndarray
+    row: np.ndarray
+    rhs: np.ndarray
+    velocity_scale: float
+
+
+def equilibrated_kinematics(system: System) -> EquilibratedKinematics:
+    """Build :class:`EquilibratedKinematics` (shared by every kinematic test)."""
+    K = np.concatenate([system.W.T, -system.J[:, system.effort_joints]], axis=1)
+    rhs = _velocity_input(system)
+    vel_scale = float(np.max(np.abs(rhs))) if rhs.size else 0.0
+    col = np.max(np.abs(K), axis=0)
+    col[col == 0] = 1.0
+    Kc = K / col
+    row = np.linalg.norm(Kc, axis=1)
+    row[row == 0] = 1.0
+    return EquilibratedKinematics(Kc / row[:, None], rhs / row, col, row, rhs, vel_scale)
+
+
+#: Matrices per chunk of the batched LU factorisation (keeps its working set in cache).
+LU_CHUNK = 2048
+
+
+def lu_det_solve(X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Determinants and solutions of ``C`` small systems from ONE LU factorisation each.
+
+    Gaussian elimination with partial pivoting (LAPACK ``getrf``'s rule: the largest
+    ``|entry|`` of the column, the first one on ties), vectorised over the systems, which sit
+    on the last (contiguous) axis.  Used for ``P_AI`` (eq. 24) and ``Q_AI`` (eq. 26): the rank
+    test (30)-(32) and the solve share the factorisation instead of calling
+    ``numpy.linalg.det`` and ``numpy.linalg.solve`` (two LAPACK factorisations per matrix).
+
+    Parameters
+    ----------
+    X : (k + 1, k, C) float, C-contiguous, overwritten
+        ``X[c, a, m] = A_m[a, c]`` for ``c < k`` (column ``c`` of matrix ``m``) and
+        ``X[k, a, m] = b_m[a]`` (the right side).
+
+    Returns
+    -------
+    det : (C,)
+        ``det A_m`` (0 when a pivot is exactly zero).
+    z : (k, C)
+        ``A_m^{-1} b_m``; meaningless where ``det`` is (near) zero -- callers mask it.
+    """
+    kp1, k, C = X.shape
+    det = np.ones(C)
+    systems = np.arange(C)
+    flat = X.reshape(kp1, k * C)
+    lower = np.empty((k, C))
+    work = np.empty((k, C))
+    for j in range(k):
+        p = np.argmax(np.abs(X[j, j:, :]), axis=0)  # pivot row, relative to j
+        swap = p != 0
+        if swap.any():
+            src = (p + j) * C + systems
+            tail = flat[j:]  # columns j..k (left of j is no longer read)
+            pivot_rows = tail[:, src]
+            tail[:, src] = X[j:, j, :]
+            X[j:, j, :] = pivot_rows
+            det[swap] *= -1.0
+        piv = X[j, j, :]
+        det *= piv
+        if j + 1 < k:
+            n = k - j - 1
+            lj, wj = lower[:n], work[:n]
+            np.divide(X[j, j + 1:, :], np.where(piv == 0.0, 1.0, piv), out=lj)
+            for c in range(j + 1, kp1):  # rank-1 update, one contiguous column at a time
+                np.multiply(lj, X[c, j, :], out=wj)
+                X[c, j + 1:, :] -= wj
+    z = np.empty((k, C))
+    for a in range(k - 1, -1, -1):  # back substitution on U z = (L^-1 P) b
+        acc = X[k, a, :].copy()
+        if a + 1 < k:
+            acc -= np.einsum("cm,cm->m", X[a + 1:k, a, :], z[a + 1:])
+        piv = X[a, a, :]
+        z[a] = acc / np.where(piv == 0.0, 1.0, piv)
+    return det, z
+
+
+def kinematic_stage(
+    system: System,
+    candidates: CandidateSet | None = None,
+    *,
+    tol: float = DEFAULT_TOL,
+    singular_tol: float = DEFAULT_SINGULAR_TOL,
+) -> KinematicStage:
+    """Solve eqs. (13), (23)-(24) for every candidate and test eq. (25) and ``xi`` (eq. 16).
+
+    ``P_AI = [W_A^T  -J_AE]`` with ``W_A^T`` the applicable rows of ``W^T`` (eq. 14) and
+    ``J_AE`` the applicable rows of the effort-controlled joints' Jacobian columns; the right
+    side is ``J_AV thetadot_V``.
+    """
+    cand = candidates if candidates is not None else enumerate_modes(system.n_contacts, system.dof)
+    E = system.effort_joints
+    V = system.velocity_joints
+    n_c, k = system.n_contacts, cand.n_rows
+    M = len(cand)
+    # Equilibrate: global column scaling, then unit rows (rows of P_AI are rows of K).
+    eq = equilibrated_kinematics(system)
+    Kn, bn, col, vel_scale = eq.Kn, eq.bn, eq.col, eq.velocity_scale
+
+    # P_AI = Kn[rows] and its right side bn[rows], gathered chunk by chunk straight into the
+    # layout of lu_det_solve; one LU per candidate gives both |det| (30-32) and z (eq. 24).
+    aug = np.ascontiguousarray(np.concatenate([Kn, bn[:, None]], axis=1).T)  # (k+1, 2 n_c)
+    det = np.zeros(M)
+    z = np.empty((M, k))
+    for s in range(0, M, LU_CHUNK):
+        d, zc = lu_det_solve(np.take(aug, cand.rows[s:s + LU_CHUNK].T, axis=1))
+        det[s:s + LU_CHUNK] = np.abs(d)
+        z[s:s + LU_CHUNK] = zc.T
+    nonsingular = det > singular_tol
+    z[~nonsingular] = np.nan
+    z = z / col
+    qdot = z[:, :3]
+    thetadot = np.empty((M, system.n_joints))
+    thetadot[:, V] = system.joint_inputs[V]
+    thetadot[:, E] = z[:, 3:]
+    v = qdot @ system.W - thetadot @ system.J.T  # (M, 2 n_c), eq. (5)
+    v_n, v_t = v[:, 0::2], v[:, 1::2]
+    codes = cand.codes
+    is_slide = codes == SLIDE
+    scale = vel_scale if vel_scale > 0 else 1.0
+    strict = np.where(codes == BREAK, v_n, np.where(is_slide, np.abs(v_t), np.inf))
+    margin = np.min(strict, axis=1) / scale if n_c else np.full(M, np.inf)
+    margin = np.where(nonsingular, margin, -np.inf)
+    # xi = sgn(v_t) (eq. 16) at sliding contacts of nonsingular candidates; NaN counts as 0.
+    xi = (v_t > 0).view(np.int8) - (v_t < 0).view(np.int8)
+    xi *= is_slide & nonsingular[:, None]
+    ok = nonsingular & (margin > tol)
+    boundary = nonsingular & (np.abs(margin) <= tol)
+    return KinematicStage(cand, nonsingular, qdot, thetadot, v, xi, margin, ok, boundary, vel_scale)
+
+
+# ---------------------------------------------------------------------------------------------
+# Force stage (eqs. 17-22, 26-28): friction enters here.
+# ---------------------------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class ForceStage:
+    """Forces of a subset of candidates for one or many friction vectors.
+
+    Shapes use ``L`` friction vectors and ``m`` modes: ``c_A (L, m, k)``, ``contact_forces
+    (L, m, n_c, 2)``, ``joint_efforts (L, m, n_theta)``, ``margin (L, m)``,
+    ``nonsingular (L, m)``.
+    """
+
+    c_A: np.ndarray
+    contact_forces: np.ndarray
+    joint_efforts: np.ndarray
+    margin: np.ndarray
+    nonsingular: np.ndarray
+
+
+def force_rhs(system: System) -> np.ndarray:
+    """Right side of eq. (26): ``[-g_obj; tau_I - g_man_I]``, shape (3 + |tau_I|,)."""
+    E = system.effort_joints
+    return np.concatenate([-system.g_obj, system.joint_inputs[E] - system.g_man[E]])
+
+
+def force_matrices(
+    system: System, rows: np.ndarray, sliding: np.ndarray, contact: np.ndarray,
+    xi: np.ndarray, mu: np.ndarray,
+) -> np.ndarray:
+    """``Q_AI^T`` for modes given by constraint rows, batched (eqs. 18-20, 26).
+
+    Parameters
+    ----------
+    rows, sliding, contact : (m, k)
+        Candidate rows (see :class:`planner.model.modes.CandidateSet`).
+    xi : (m, n_c)
+        Sliding directions.
+    mu : (L, n_c)
+        Friction vectors.
+
+    Returns
+    -------
+    QT : (L, m, k, 3 + |tau_I|)
+        Row ``j`` is the wrench and effort-joint load of unit ``c_A[j]``: ``[w; j_E]`` of its
+        row, minus ``mu_i xi_i [w_t; j_tE]`` when it is a sliding contact's normal (eq. 17).
+    """
+    E = system.effort_joints
+    G = np.concatenate([system.W.T, system.J[:, E]], axis=1)  # (2 n_c, 3+|E|)
+    base = G[rows]  # (m, k, q)
+    tang = G[2 * contact + 1]  # tangent row of the same contact
+    xi_rows = np.take_along_axis(xi, contact, axis=1).astype(float)  # (m, k)
+    coef = mu[:, contact] * (xi_rows * sliding)[None]  # (L, m, k)
+    return base[None] - coef[..., None] * tang[None]
+
+
+def force_stage(
+    system: System,
+    candidates: CandidateSet,
+    index: np.ndarray,
+    xi: np.ndarray,
+    mu: np.ndarray,
+    *,
+    singular_tol: float = DEFAULT_SINGULAR_TOL,
+) -> ForceStage:
+    """Solve eq. (26) and test eq. (28) for candidates ``index`` at friction vectors ``mu``.
+
+    ``xi`` is ``(len(index), n_c)``; ``mu`` is ``(n_c,)`` or ``(L, n_c)``.
+    """
+    mu2 = np.atleast_2d(np.asarray(mu, dtype=float))
+    L = mu2.shape[0]
+    n_c, k = system.n_contacts, candidates.n_rows
+    rows = candidates.rows[index]
+    sliding = candidates.sliding[index]
+    contact = candidates.contact[index]
+    codes = candidates.codes[index]
+    m = rows.shape[0]
+    QT = force_matrices(system, rows, sliding, contact, xi, mu2)  # (L, m, k, k)
+    rhs = force_rhs(system)
+    # Equilibrate: global scaling of Q's rows (columns of QT), unit columns of Q per mode.
+    G_all = np.concatenate([system.W.T, system.J[:, system.effort_joints]], axis=1)
+    rs = np.max(np.abs(G_all), axis=0)
+    rs[rs == 0] = 1.0
+    QTn = QT / rs
+    cn = np.linalg.norm(QTn, axis=-1)  # (L, m, k)
+    cn[cn == 0] = 1.0
+    QTn = QTn / cn[..., None]
+    # Q_AI = QTn^T per mode: one LU per matrix gives |det| (30-32) and y (eq. 26).
+    flat = QTn.reshape(L * m, k, k)
+    det = np.zeros(L * m)
+    y = np.empty((L * m, k))
+    for s in range(0, L * m, LU_CHUNK):
+        chunk = flat[s:s + LU_CHUNK]
+        X = np.empty((k + 1, k, chunk.shape[0]))
+        X[:k] = chunk.transpose(1, 2, 0)  # X[c, a, .] = Q[a, c] = QT[c, a]
+        X[k] = (rhs / rs)[:, None]
+        d, yc = lu_det_solve(X)
+        det[s:s + LU_CHUNK] = np.abs(d)
+        y[s:s + LU_CHUNK] = yc.T
+    det = det.reshape(L, m)
+    y = y.reshape(L, m, k)
+    nonsingular = det > singular_tol
+    y[~nonsingular] = np.nan
+    c_A = y / cn
+    # Scatter to full contact forces; sliding tangential force c_t = -mu xi c_n (eq. 17).
+    c_full = np.zeros((L, m, 2 * n_c))
+    np.put_along_axis(c_full, np.broadcast_to(rows, (L, m, k)), c_A, axis=2)
+    cn_all = c_full[..., 0::2]
+    is_s = codes == SLIDE
+    c_full[..., 1::2] += np.where(is_s[None], -mu2[:, None, :] * xi[None] * cn_all, 0.0)
+    forces = c_full.reshape(L, m, n_c, 2)
+    efforts = c_full @ system.J + system.g_man  # eq. (3): tau = J^T c + g_man
+    # Coulomb (eqs. 21-22): rolling mu c_n - |c_t| >= 0, sliding c_n >= 0.
+    fn, ft = forces[..., 0], forces[..., 1]
+    # A rolling contact also needs c_n >= 0 (implied by the cone only when mu > 0).
+    slack = np.where(
+        codes[None] == ROLL, np.minimum(mu2[:, None, :] * fn - np.abs(ft), fn),
+        np.where(is_s[None], fn, np.inf),
+    )
+    f_scale = np.max(np.abs(c_A), axis=-1) if k else np.zeros((L, m))
+    f_scale = np.where(f_scale > 0, f_scale, 1.0)
+    margin = np.min(slack, axis=-1) / f_scale if n_c else np.full((L, m), np.inf)
+    margin = np.where(nonsingular, margin, -np.inf)
+    return ForceStage(c_A, forces, efforts, margin, nonsingular)
+
+
+# ---------------------------------------------------------------------------------------------

@@ -1,0 +1,143 @@
+"""``qsplan modes SYSTEM.json [--mu 0.2,0.3,0.1] [--json] [--search [--workers N | --dask ADDR]]``:
+all feasible contact modes (exhaustive eq. 49 enumeration, or the exact pruned search)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+import numpy as np
+
+from planner.errors import InputError
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "modes",
+        help="all feasible contact modes of a system file, with certificates",
+        description=(
+            "Enumerate the candidate modes (eq. 49) of the system in SYSTEM.json and print every "
+            "feasible one with its certificate: workpiece velocity qdot, joint velocities, "
+            "contact forces and joint efforts (eqs. 24-28). Exit 0 on success, 2 on bad input."
+        ),
+    )
+    p.add_argument("system", help="system file (JSON; see docs/file-formats.md)")
+    p.add_argument(
+        "--mu", help="friction coefficients, comma separated, one per contact (or one for all)"
+    )
+    p.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    p.add_argument(
+        "--no-indeterminate", action="store_true",
+        help="skip the relaxed-utility (force-indeterminate) search",
+    )
+    p.add_argument(
+        "--search", action="store_true",
+        help="exact pruned search (planner.predict.search, docs/scaling.md) instead of testing every "
+             "candidate: the same modes, far fewer tests for many contacts",
+    )
+    p.add_argument(
+        "--workers", type=int, default=1,
+        help="with --search: search subtrees on this many local processes (default 1)",
+    )
+    p.add_argument(
+        "--dask", default=None,
+        help="with --search: search subtrees on a Dask scheduler, e.g. tcp://host:8786",
+    )
+    p.set_defaults(func=run)
+
+
+def parse_mu(text: str | None) -> list[float] | None:
+    """Parse ``"0.2,0.3,0.1"``; errors name the bad token."""
+    if text is None:
+        return None
+    out = []
+    for tok in text.split(","):
+        try:
+            out.append(float(tok))
+        except ValueError as exc:
+            raise InputError(f"--mu: expected comma-separated numbers, got {tok!r}") from exc
+    return out
+
+
+def run(args: argparse.Namespace) -> int:
+    from planner.files.system_file import load_system
+    from planner.predict.feasibility import feasible_modes
+
+    system = load_system(args.system)
+    mu = parse_mu(args.mu)
+    if mu is not None and len(mu) == 1:
+        mu = mu[0]
+    indeterminate = False if args.no_indeterminate else None
+    stats = None
+    if not args.search and (args.workers != 1 or args.dask is not None):
+        raise InputError("--workers/--dask: expected together with --search")
+    if args.search:
+        from planner.predict.search import search_modes
+        from planner.sweeps.executor import make_executor
+
+        if args.workers < 1:
+            raise InputError(f"--workers: expected an integer >= 1, got {args.workers}")
+        executor = None
+        if args.dask is not None or args.workers > 1:
+            executor = make_executor(args.dask, args.workers)
+        try:
+            res = search_modes(
+                system, mu, indeterminate=indeterminate, executor=executor,
+                progress=executor is not None and not getattr(args, "quiet", False),
+            )
+        finally:
+            if executor is not None:
+                executor.close()
+        pred, stats = res.prediction, res.stats
+    else:
+        pred = feasible_modes(system, mu, indeterminate=indeterminate)
+    if args.json:
+        out = pred.to_dict()
+        if stats is not None:
+            out["search"] = stats.to_dict()
+        json.dump(out, sys.stdout, indent=2)
+        sys.stdout.write("\n")
+        return 0
+    if getattr(args, "quiet", False):
+        return 0
+    print(format_prediction(pred))
+    if stats is not None:
+        print(f"\nsearch: tested {stats.tested} of {stats.candidates} candidates "
+              f"(eq. 49), {stats.lp_solves} pruning LPs")
+    return 0
+
+
+def format_prediction(pred) -> str:  # type: ignore[no-untyped-def]
+    """A readable table of a :class:`planner.predict.feasibility.Prediction`."""
+    lines = [
+        f"status: {pred.status.value}   candidates (eq. 49): {pred.candidates}   "
+        f"mu: {np.array2string(pred.mu, precision=4, separator=', ')}",
+    ]
+    if pred.reason:
+        lines.append(f"reason: {pred.reason}")
+    if not pred.all_modes:
+        lines.append("no feasible mode" + (" (jammed)" if pred.status.value == "jammed" else ""))
+    with np.printoptions(precision=4, suppress=True, floatmode="maxprec"):
+        for m in pred.all_modes:
+            flags = []
+            if m.force_indeterminate:
+                flags.append("force-indeterminate")
+            if m.on_boundary:
+                flags.append("on boundary")
+            lines.append("")
+            lines.append(f"mode {m.label}  ({m.mode.family})  margin {m.margin:.3g}"
+                         + (f"  [{', '.join(flags)}]" if flags else ""))
+            lines.append(f"  qdot (vx, vy, omega): {m.qdot}")
+            lines.append(f"  joint velocities:     {m.joint_velocities}")
+            lines.append("  contact   v_n         v_t         c_n         c_t")
+            for i, (v, c) in enumerate(zip(m.contact_velocities, m.contact_forces)):
+                lines.append(
+                    f"  {i + 1:>7}   {v[0]:<11.4g} {v[1]:<11.4g} {c[0]:<11.4g} {c[1]:<11.4g}"
+                )
+            lines.append(f"  joint efforts:        {m.joint_efforts}")
+    if pred.boundary_modes:
+        lines.append("")
+        lines.append("within tolerance of a strict kinematic boundary (not counted): "
+                     + "; ".join(m.label for m in pred.boundary_modes))
+    return "\n".join(lines)

@@ -1,0 +1,29 @@
+"""``qsplan report RUN_DIR [--out FILE]``: one self-contained HTML page of a run's outputs."""
+
+from __future__ import annotations
+
+import argparse
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "report",
+        help="turn a run directory into a self-contained HTML report",
+        description=(
+            "Scan RUN_DIR recursively for *.png, *.gif, summary*.json and plan*.json and write "
+            "one HTML page with every figure embedded (base64) and a table of which checks "
+            "passed. Exit 0 on success, 2 if RUN_DIR is not a directory."
+        ),
+    )
+    p.add_argument("run_dir", help="directory written by qsplan demo/scenarios/validate")
+    p.add_argument("--out", help="output HTML file (default RUN_DIR/report.html)")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from qsplan.report import write_report
+
+    path = write_report(args.run_dir, args.out)
+    if not getattr(args, "quiet", False):
+        print(f"wrote {path}")
+    return 0

@@ -1,0 +1,204 @@
+"""Two-finger hand on a palm (Figure 9, Sec. 5.2) as an engine-neutral :class:`sim.scene.Scene`.
+
+Built from a hand file's content (format ``qsplan-hand``, read by :mod:`planner.model.hand`; e.g.
+``scenarios/data/two_finger_hand.json``); the initial configuration is the file's, closed so
+every declared contact touches (:func:`planner.model.hand.hand_from_dict`).
+
+Horizontal plane: no gravity; the file's ``load.force`` (support friction of the table) acts
+as a constant :class:`~sim.scene.Load` at the workpiece's centre of mass (``g_obj``, eq. 2).
+
+Bodies and contact sites (one pair per declared contact, in file order ``c1 .. c4``; only these
+pairs collide, ``Scene.only_pairs``):
+
+* ``palm``: static; one capsule per palm contact along the whole palm edge, its surface on the
+  palm line (so each palm contact is its own pair / arbiter).
+* one body per finger (name ``finger:<name>``), body frame at the pivot with ``x`` along the
+  link, on a revolute joint to the base (``joint:<name>``): a capsule of the link's width
+  (``side`` contacts) and, for a ``tip`` contact, a circle of radius ``width/2`` at the tip.
+* ``workpiece``: the polygon (``tip`` contacts touch it) plus, per ``palm`` / ``side`` contact,
+  a small circle of radius ``vertex_radius`` at the touching vertex, placed so its surface
+  touches the feature where the sharp vertex does (centre = vertex + r n, n the contact's
+  inward normal at the initial configuration). A sharp vertex has no stable contact point in
+  either engine; the circle moves the contact point by ``r`` times the change of the contact
+  normal's direction (0.5 mm x 0.16 rad = 80 um over the default segment).
+
+Mass and inertia: workpiece mass and COM from the file, rotational inertia of the uniform
+polygon about the COM; finger links of the file's mass with the inertia of a uniform rod.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from planner.errors import InputError
+from planner.model.hand import Hand, hand_from_dict
+from sim.scene import (
+    Body,
+    BodyKind,
+    Circle,
+    Command,
+    ContactPair,
+    Control,
+    Joint,
+    JointKind,
+    Load,
+    Polygon,
+    Scene,
+    Segment,
+)
+
+#: Radius [m] of the circles standing for sharp workpiece vertices.
+VERTEX_RADIUS = 5e-4
+#: Radius [m] of the palm capsules (surface on the palm line).
+PALM_RADIUS = 2e-3
+
+
+def pair_names(n_contacts: int) -> tuple[str, ...]:
+    """Contact pair names in hand-file order: ``c1, c2, ...`` (mode labels index them 1..n)."""
+    return tuple(f"c{i + 1}" for i in range(n_contacts))
+
+
+def finger_body(hand: Hand, k: int) -> str:
+    return f"finger:{hand.fingers[k].name}"
+
+
+def polygon_inertia(vertices: np.ndarray, mass: float, com: np.ndarray) -> float:
+    """Rotational inertia [kg m^2] about ``com`` of a uniform polygon ``vertices (V, 2)`` [m]
+    (counter-clockwise) of total ``mass`` [kg]."""
+    v = np.asarray(vertices, dtype=float) - np.asarray(com, dtype=float)
+    a, b = v, np.roll(v, -1, axis=0)
+    cross = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    area = 0.5 * float(np.sum(cross))
+    second = float(np.sum(cross * (np.sum(a * a, axis=1) + np.sum(a * b, axis=1)
+                                   + np.sum(b * b, axis=1)))) / 12.0
+    return mass * second / area
+
+
+def _rot(phi: float) -> np.ndarray:
+    c, s = np.cos(phi), np.sin(phi)
+    return np.array([[c, -s], [s, c]])
+
+
+def _mu(mu: Any, n: int) -> np.ndarray:
+    arr = np.asarray(mu, dtype=float)
+    if arr.ndim == 0:
+        arr = np.full(n, float(arr))
+    if arr.shape != (n,):
+        raise InputError(f"mu: expected a scalar or {n} coefficients (one per contact), "
+                         f"got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)) or np.any(arr < 0):
+        raise InputError(f"mu: expected finite coefficients >= 0, got {arr.tolist()}")
+    return arr
+
+
+def hand_scene(
+    hand_data: Mapping[str, Any],
+    mu: Any,
+    controls: Sequence[str | Control],
+    commands: Sequence[Command],
+    *,
+    vertex_radius: float = VERTEX_RADIUS,
+    overlap: float | None = None,
+) -> Scene:
+    """Scene of the hand described by ``hand_data`` (a hand file's parsed JSON).
+
+    ``mu``: scalar or (n_c,) Coulomb coefficients per contact (file order); ``controls`` (F,)
+    ``"velocity"``/``"effort"`` per finger joint; ``commands`` (F,) ``command(t, states)``
+    returning the joint rate [rad/s] or torque [N m] (counter-clockwise positive).
+    ``overlap`` [m]: vertex circles start this far into their feature (default half of pymunk's
+    collision slop, SIM-NOTES: resting contacts that start exactly touching flicker).
+    """
+    hand, q0 = hand_from_dict(hand_data, source="hand")
+    F, n_c = hand.n_fingers, hand.n_contacts
+    mu_arr = _mu(mu, n_c)
+    if len(controls) != F or len(commands) != F:
+        raise InputError(f"controls/commands: expected {F} each (one per finger), got "
+                         f"{len(controls)}/{len(commands)}")
+    try:
+        ctrl = [Control(c) for c in controls]
+    except ValueError:
+        raise InputError(f"controls: expected 'velocity' or 'effort' per joint, got "
+                         f"{list(controls)}") from None
+    if not vertex_radius > 0:
+        raise InputError(f"vertex_radius: expected > 0 m, got {vertex_radius}")
+    scale = hand.length_scale
+    if overlap is None:
+        overlap = 0.5e-4 * scale
+    pts, nrm, _ = hand.contact_geometry(q0)
+    pose0 = (float(q0[0]), float(q0[1]), float(q0[2]))
+    to_body = _rot(-pose0[2])
+
+    # palm: one capsule per palm contact, surface on the palm line
+    a, b = np.asarray(hand.palm, dtype=float)
+    down = -hand.palm_normal * PALM_RADIUS
+    palm_ids = [i for i, c in enumerate(hand.contacts) if c.kind == "palm"]
+    palm_shapes = tuple(Segment(tuple(a + down), tuple(b + down), PALM_RADIUS)
+                        for _ in palm_ids) or (Segment(tuple(a + down), tuple(b + down),
+                                                       PALM_RADIUS),)
+    palm = Body(name="palm", shapes=palm_shapes, kind=BodyKind.STATIC)
+
+    # workpiece: polygon, then one circle per vertex contact
+    V = np.asarray(hand.vertices, dtype=float)
+    shapes: list[Any] = [Polygon(tuple(map(tuple, V)))]
+    site: dict[int, int] = {}
+    for i, c in enumerate(hand.contacts):
+        if c.kind in ("palm", "side"):
+            centre = pts[i] + (vertex_radius - overlap) * nrm[i]
+            local = to_body @ (centre - np.asarray(pose0[:2]))
+            site[i] = len(shapes)
+            shapes.append(Circle((float(local[0]), float(local[1])), vertex_radius))
+    com = np.asarray(hand.com, dtype=float)
+    work = Body(name="workpiece", shapes=tuple(shapes), mass=hand.mass,
+                com=(float(com[0]), float(com[1])),
+                inertia=polygon_inertia(V, hand.mass, com), pose=pose0)
+
+    # fingers
+    bodies = [palm, work]
+    joints = []
+    tip_site: dict[int, int] = {}
+    for k, f in enumerate(hand.fingers):
+        fshapes: list[Any] = [Segment((0.0, 0.0), (f.length, 0.0), f.radius)]
+        if any(c.kind == "tip" and c.finger == k for c in hand.contacts):
+            tip_site[k] = len(fshapes)
+            fshapes.append(Circle((f.length, 0.0), f.radius))
+        name = finger_body(hand, k)
+        bodies.append(Body(name=name, shapes=tuple(fshapes), mass=f.mass,
+                           com=(0.5 * f.length, 0.0),
+                           inertia=f.mass * (f.length ** 2 + f.width ** 2) / 12.0,
+                           pose=(float(f.pivot[0]), float(f.pivot[1]), float(q0[3 + k]))))
+        joints.append(Joint(name=f"joint:{f.name}", body=name, kind=JointKind.REVOLUTE,
+                            anchor=(float(f.pivot[0]), float(f.pivot[1])), control=ctrl[k],
+                            command=commands[k]))
+
+    pairs = []
+    names = pair_names(n_c)
+    for i, c in enumerate(hand.contacts):
+        if c.kind == "palm":
+            pairs.append(ContactPair(names[i], "palm", "workpiece", float(mu_arr[i]),
+                                     shape_a=palm_ids.index(i), shape_b=site[i]))
+        elif c.kind == "side":
+            pairs.append(ContactPair(names[i], finger_body(hand, c.finger), "workpiece",
+                                     float(mu_arr[i]), shape_a=0, shape_b=site[i]))
+        else:
+            pairs.append(ContactPair(names[i], finger_body(hand, c.finger), "workpiece",
+                                     float(mu_arr[i]), shape_a=tip_site[c.finger], shape_b=0))
+    force = np.asarray(hand.load_force, dtype=float)
+    loads = (Load("workpiece", (float(force[0]), float(force[1])), 0.0),)
+    reach = max(float(np.max(np.abs(hand.palm))), *(np.hypot(*f.pivot) + f.length
+                                                   for f in hand.fingers))
+    bound = 2.0 * reach + scale
+    return Scene(
+        bodies=tuple(bodies), pairs=tuple(pairs), joints=tuple(joints), loads=loads,
+        bounds=(-bound, -bound, bound, bound), length_scale=scale, only_pairs=True,
+        meta={"task": "two-finger hand (Sec. 5.2)", "hand": hand, "q0": q0.tolist(),
+              "vertex_radius": vertex_radius},
+    )
+
+
+def finger_angles(rec: Any, hand: Hand) -> np.ndarray:
+    """(T, F) finger joint angles [rad] from a recording of :func:`hand_scene`."""
+    cols = [rec.body_names.index(finger_body(hand, k)) for k in range(hand.n_fingers)]
+    return rec.poses[:, cols, 2]
