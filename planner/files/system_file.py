@@ -163,7 +163,7 @@ def system_from_dict(data: Any, source: str = "<dict>") -> System:
         raise FileFormatError(f"system file {source}: 'wrench_matrix' needs 'mu' (one per contact)")
     W = _numbers(data["wrench_matrix"], "wrench_matrix")
     if "chain" in manip:
-        from planner.model.system import check_wrench_matrix, contact_points_from_wrench
+        from planner.model.geometry import check_wrench_matrix, contact_points_from_wrench
 
         Wm = check_wrench_matrix(W)
         kwargs["jacobian"] = _chain_jacobian(
@@ -193,7 +193,7 @@ def _chain_jacobian(manip: dict[str, Any], pts: Any, nrm: Any, source: str) -> n
 
 def system_to_dict(system: System) -> dict[str, Any]:
     """The system as a system-file object (geometric contacts when points are known)."""
-    from planner.model.system import wrench_matrix
+    from planner.model.geometry import wrench_matrix
 
     out: dict[str, Any]
     if np.allclose(wrench_matrix(system.points, system.normals), system.W, rtol=0, atol=1e-12):

@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from planner.errors import InputError
-from planner.model.system import rot90
+from planner.model.geometry import rot90
 from planner.model.validation import as_array, describe_value, unit_normal
 
 REVOLUTE, PRISMATIC = "revolute", "prismatic"

@@ -31,7 +31,10 @@ import numpy as np
 
 from planner.errors import DegenerateError, InputError
 from planner.model.hand import Hand, load_hand
-from planner.plan.bounds import EMPTY, Guarantee, Interval, guarantee, mode_bands, subtract
+from planner.model.validation import friction_interval
+from planner.plan.bounds import mode_bands
+from planner.plan.guarantee import Guarantee, guarantee
+from planner.plan.intervals import EMPTY, Interval, subtract
 from planner.plan.plan_file import Plan, Waypoint
 from planner.plan.trajectory import Segment, integrate_segment
 
@@ -188,7 +191,7 @@ def plan_hand(
     # Hold intervals: the command of waypoint k is held until k+1, so it must sit in both bands.
     hold = [_intersect(pieces[k], pieces[min(k + 1, len(pieces) - 1)]) for k in range(len(pieces))]
     hold = [h if not h.empty else p for h, p in zip(hold, pieces)]
-    mu_lo, mu_hi = _mu_ends(mu, hand.n_contacts)
+    mu_lo, mu_hi = friction_interval(mu, hand.n_contacts)
     at_lo, at_hi = _bands_at_ends(hand, seg, vel, mu_lo, mu_hi)
     taus, predicted = _choose(policy, hold, gs, scale, at_hi)
     wps = []
@@ -228,11 +231,6 @@ def plan_hand(
         extra={"source": path.name, "curves": curves},
     )
 
-
-def _mu_ends(mu: Any, n_c: int) -> tuple[np.ndarray, np.ndarray]:
-    from planner.plan.bounds import parse_mu_interval
-
-    return parse_mu_interval(mu, n_c)
 
 
 def _bands_at_ends(hand: Hand, seg: Segment, vel: int, mu_lo: np.ndarray, mu_hi: np.ndarray):
