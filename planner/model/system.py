@@ -15,6 +15,7 @@ Body*, 1994. Equations (1)-(5).
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from enum import Enum
@@ -176,12 +177,12 @@ class System:
 
     def with_mu(self, mu: Any) -> System:
         """A copy with other friction coefficients (scalar or ``(n_c,)``)."""
-        return _replace(self, mu=as_friction(mu, self.n_contacts))
+        return dataclasses.replace(self, mu=as_friction(mu, self.n_contacts))
 
     def with_joint_inputs(self, joint_inputs: Any) -> System:
         """A copy with other joint commands (velocities / efforts per :attr:`control`)."""
         arr = as_array(joint_inputs, (self.n_joints,), "joint_inputs")
-        return _replace(self, joint_inputs=arr)
+        return dataclasses.replace(self, joint_inputs=arr)
 
     # -- constructors --------------------------------------------------------------------
     @classmethod
@@ -358,14 +359,3 @@ def parse_joint(spec: Any, index: int) -> tuple[JointControl, float]:
     if not np.isfinite(val):
         raise InputError(f"joint {index + 1}: expected a finite '{key}', got {str(value)[:40]}")
     return (JointControl.VELOCITY if has_v else JointControl.EFFORT), val
-
-
-def _replace(system: System, **changes: Any) -> System:
-    fields = {
-        "W": system.W, "mu": system.mu, "g_obj": system.g_obj, "J": system.J,
-        "control": system.control, "joint_inputs": system.joint_inputs, "g_man": system.g_man,
-        "points": system.points, "normals": system.normals,
-        "virtual_joints": system.virtual_joints,
-    }
-    fields.update(changes)
-    return System(**fields)

@@ -94,7 +94,7 @@ def evaluate_partition(
     hand: Hand, seg: Segment, vel: int, mu: Any, model: str,
 ) -> PartitionReport:
     """Guarantees along ``seg`` with joint ``vel`` velocity-controlled (Section 3.2)."""
-    gs = []
+    gs: list[Guarantee] = []
     worst = math.inf
     for k in range(len(seg.t)):
         rate = float(seg.thetadot[k, vel])
@@ -233,10 +233,15 @@ def plan_hand(
 
 
 
-def _bands_at_ends(hand: Hand, seg: Segment, vel: int, mu_lo: np.ndarray, mu_hi: np.ndarray):
+BandsAt = list[dict[str, tuple[str, Interval]]]
+
+
+def _bands_at_ends(hand: Hand, seg: Segment, vel: int, mu_lo: np.ndarray, mu_hi: np.ndarray
+                   ) -> tuple[BandsAt, BandsAt]:
     """Per waypoint, every mode's interval at the friction interval's two ends:
     ``(at_lo, at_hi)``, each a list of ``{label: (family, Interval)}``."""
-    at_lo, at_hi = [], []
+    at_lo: BandsAt = []
+    at_hi: BandsAt = []
     for k in range(len(seg.t)):
         system = hand.system(seg.q[k], 0.0,
                              _joints(hand.n_fingers, vel, float(seg.thetadot[k, vel])))
@@ -286,7 +291,7 @@ def _choose(
                 taus[k] = _command_in(max(only, key=lambda x: x.upper - x.lower), scale)
     else:
         raise InputError(f"policy: expected one of {POLICIES} or 'rival:FAMILY', got {policy!r}")
-    predicted = []
+    predicted: list[tuple[str, ...]] = []
     for k in range(n):
         g = gs[k]
         if any(p.contains(taus[k]) for p in g.pieces):
