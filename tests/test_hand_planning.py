@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from planner.errors import DegenerateError, FileFormatError, InputError
-from planner.model.hand import hand_from_dict, load_hand
+from planner.files.hand_file import hand_from_dict, load_hand
 from planner.plan.bounds import guarantee, intervals, mode_bands, mode_rows, parse_mu_interval
 from planner.plan.trajectory import integrate_segment
 from planner.predict.feasibility import Status, feasible_modes

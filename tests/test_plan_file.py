@@ -100,7 +100,7 @@ def test_malformed_plans_name_the_problem(saved, mutate, match):
 
 
 @pytest.mark.parametrize("text, match", [
-    ("", "expected JSON"),
+    ("", "expected valid JSON"),
     ('{"format": "qsplan-plan", "version": 1, "x": NaN}', "NaN"),
     ("[" * 50000, "nested|JSON"),
     ("[1, 2]", "JSON object"),
@@ -115,12 +115,12 @@ def test_garbage_files(tmp_path, text, match):
 def test_truncated_and_binary_files(saved):
     raw = saved.read_bytes()
     saved.write_bytes(raw[: len(raw) // 2])
-    with pytest.raises(FileFormatError, match="expected JSON"):
+    with pytest.raises(FileFormatError, match="expected valid JSON"):
         load_plan(saved)
     saved.write_bytes(b"\xff\xfe\x00garbage")
     with pytest.raises(FileFormatError, match="UTF-8"):
         load_plan(saved)
-    with pytest.raises(InputError, match="existing plan file"):
+    with pytest.raises(InputError, match="plan file .*: expected an existing file"):
         load_plan(saved.with_name("missing.json"))
 
 

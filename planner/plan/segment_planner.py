@@ -30,7 +30,8 @@ from typing import Any
 import numpy as np
 
 from planner.errors import DegenerateError, InputError
-from planner.model.hand import Hand, load_hand
+from planner.files.hand_file import load_hand
+from planner.model.hand import Hand
 from planner.plan.bounds import EMPTY, Guarantee, Interval, guarantee, mode_bands, subtract
 from planner.plan.plan_file import Plan, Waypoint
 from planner.plan.trajectory import Segment, integrate_segment
