@@ -334,7 +334,7 @@ def run_schedule(
 
     Returns ``(comparison, recording, observed labels per recorded step, details)``.
     """
-    from planner.model.hand import hand_from_dict
+    from planner.files.hand_file import hand_from_dict
     from sim.classify import Thresholds, observed_modes
     from sim.run import RunSettings, run_scene
     from sim.scenes.hand import finger_angles, hand_scene
@@ -529,7 +529,7 @@ def hand_animation(rec: Any, observed: Sequence[str], hand_data: Any, schedule: 
     from PIL import Image
 
     from planner.files.atomic import atomic_write_bytes
-    from planner.model.hand import hand_from_dict
+    from planner.files.hand_file import hand_from_dict
     from sim.scenes.hand import finger_angles
 
     plt = _plt()

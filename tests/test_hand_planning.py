@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from planner.errors import DegenerateError, FileFormatError, InputError
-from planner.model.hand import hand_from_dict, load_hand
+from planner.files.hand_file import hand_from_dict, load_hand
 from planner.model.validation import friction_interval
 from planner.plan.bounds import intervals, mode_bands, mode_rows
 from planner.plan.guarantee import guarantee

@@ -157,7 +157,7 @@ def test_validate_bad_input(plan_files, tmp_path, capsys):
     assert "digest mismatch" in capsys.readouterr().err
     bad.write_text("{not json")
     assert main(["validate", str(bad)]) == 2
-    assert "expected JSON" in capsys.readouterr().err
+    assert "expected valid JSON" in capsys.readouterr().err
 
 
 def test_validate_fault_exit_code(plan_files, monkeypatch):

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from planner.errors import InputError
-from planner.model.hand import load_hand
+from planner.files.hand_file import load_hand
 from sim.hand_run import ENGINE_SETTINGS, hand_backend, scaled_hand
 from sim.run import RunSettings, run_scene
 from sim.scenes.hand import hand_scene, pair_names, polygon_inertia

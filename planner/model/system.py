@@ -37,6 +37,7 @@ from planner.model.validation import (
     is_numeric,
     unit_normal,
 )
+from planner.model.workpiece import WorkpieceGeometry, check_environment
 
 
 class JointControl(str, Enum):
@@ -105,6 +106,11 @@ class System:
     virtual_joints : bool
         True when the manipulator was given as contact-point velocities ``J_i thetadot``;
         then ``J`` is the identity and each contact point is a velocity-driven 2-DOF "joint".
+    workpiece : WorkpieceGeometry or None
+        Scene data for simulators (polygon, mass, centre of mass); changes no prediction.
+    environment : tuple of bool, length n_c
+        True for a contact with the fixed environment (its manipulator velocity is zero:
+        zero Jacobian rows, or a zero contact velocity); scene data, changes no prediction.
     """
 
     W: np.ndarray
@@ -117,6 +123,8 @@ class System:
     points: np.ndarray = field(repr=False)
     normals: np.ndarray = field(repr=False)
     virtual_joints: bool = False
+    workpiece: WorkpieceGeometry | None = None
+    environment: tuple[bool, ...] = ()
 
     def __post_init__(self) -> None:
         for name in ("W", "mu", "g_obj", "J", "joint_inputs", "g_man", "points", "normals"):
@@ -139,6 +147,13 @@ class System:
             )
         if self.g_man.shape != (n_t,):
             raise InputError(f"joint_loads: expected {n_t} values, got shape {self.g_man.shape}")
+        env = check_environment(self.environment, self.J, self.joint_inputs, self.virtual_joints)
+        object.__setattr__(self, "environment", env)
+        if self.workpiece is not None and not isinstance(self.workpiece, WorkpieceGeometry):
+            raise InputError(
+                "workpiece: expected a WorkpieceGeometry or None, "
+                f"got {describe_value(self.workpiece)}"
+            )
 
     # -- sizes and partitions ------------------------------------------------------------
     @property
@@ -198,6 +213,8 @@ class System:
         jacobian: Any = None,
         joints: Sequence[Any] | None = None,
         joint_loads: Any = None,
+        workpiece: WorkpieceGeometry | None = None,
+        environment: Sequence[bool] | None = None,
     ) -> System:
         """Build a system from geometric contacts (point, inward unit normal, mu).
 
@@ -205,7 +222,8 @@ class System:
         as ``contact_velocities`` ((n_c, 2): ``J_i thetadot`` in each contact frame, all
         velocity-controlled) or as ``jacobian`` ((n_c, 2, n_theta)) with ``joints`` (one
         ``{"velocity": v}`` or ``{"effort": tau}`` per column; or a :class:`JointControl`,
-        value pair) and optional ``joint_loads`` ``g_man``.
+        value pair) and optional ``joint_loads`` ``g_man``.  ``workpiece`` and ``environment``
+        (one flag per contact) are scene data (see the class docstring).
         """
         if contacts is not None:
             if points is not None or normals is not None:
@@ -230,7 +248,7 @@ class System:
         W = wrench_matrix(pts, nrm)
         return cls._assemble(
             W, mu_arr, external_wrench, contact_velocities, jacobian, joints, joint_loads,
-            pts, nrm,
+            pts, nrm, workpiece, environment,
         )
 
     @classmethod
@@ -244,6 +262,8 @@ class System:
         jacobian: Any = None,
         joints: Sequence[Any] | None = None,
         joint_loads: Any = None,
+        workpiece: WorkpieceGeometry | None = None,
+        environment: Sequence[bool] | None = None,
     ) -> System:
         """Build a system from the paper's wrench matrix ``W`` (eq. 1, as in eqs. 37 and 42).
 
@@ -257,7 +277,7 @@ class System:
         pts = contact_points_from_wrench(Wm)
         return cls._assemble(
             Wm, mu_arr, external_wrench, contact_velocities, jacobian, joints, joint_loads,
-            pts, nrm,
+            pts, nrm, workpiece, environment,
         )
 
     @classmethod
@@ -272,6 +292,8 @@ class System:
         joint_loads: Any,
         points: np.ndarray,
         normals: np.ndarray,
+        workpiece: WorkpieceGeometry | None = None,
+        environment: Sequence[bool] | None = None,
     ) -> System:
         n_c = W.shape[1] // 2
         g_obj = as_array(external_wrench, (3,), "external_wrench")
@@ -325,7 +347,8 @@ class System:
             virtual = False
         return cls(
             W=W, mu=mu, g_obj=g_obj, J=J, control=control, joint_inputs=inputs, g_man=g_man,
-            points=points, normals=normals, virtual_joints=virtual,
+            points=points, normals=normals, virtual_joints=virtual, workpiece=workpiece,
+            environment=() if environment is None else environment,  # type: ignore[arg-type]
         )
 
 

@@ -30,7 +30,8 @@ from typing import Any
 import numpy as np
 
 from planner.errors import DegenerateError, InputError
-from planner.model.hand import Hand, load_hand
+from planner.files.hand_file import load_hand
+from planner.model.hand import Hand
 from planner.model.validation import friction_interval
 from planner.plan.bounds import mode_bands
 from planner.plan.guarantee import Guarantee, guarantee

@@ -143,7 +143,9 @@ def run(args: argparse.Namespace) -> int:
     same = plans_equal(load_plan(plan_path), plan)
     checks.append(_check("plan.json reloads to the same plan", "identical canonical content",
                          "identical" if same else "different", same))
-    tampered = json.loads(plan_path.read_text())
+    from planner.files.reader import read_json
+
+    tampered = read_json(plan_path, "plan file")
     tampered["waypoints"][1]["torque_command"] = neg.waypoints[1].torque_command
     tpath = out / "negative_control" / "tampered_copy.json"
     atomic_write_text(tpath, json.dumps(tampered))

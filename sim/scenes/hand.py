@@ -34,7 +34,8 @@ from typing import Any
 import numpy as np
 
 from planner.errors import InputError
-from planner.model.hand import Hand, hand_from_dict
+from planner.files.hand_file import hand_from_dict
+from planner.model.hand import Hand
 from sim.scene import (
     Body,
     BodyKind,
