@@ -21,9 +21,15 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from planner.files.outputs import check_output_path
     from qsplan.report import write_report
 
-    path = write_report(args.run_dir, args.out)
+    target = Path(args.out) if args.out is not None else Path(args.run_dir) / "report.html"
+    if Path(args.run_dir).is_dir():
+        check_output_path(target, "file", "--out")
+    path = write_report(args.run_dir, target)
     if not getattr(args, "quiet", False):
         print(f"wrote {path}")
     return 0

@@ -25,8 +25,7 @@ exit codes: 0 passed, 1 check failed, 2 bad input, 3 simulator fault."""
 
 def register(sub: argparse._SubParsersAction) -> None:
     parser = sub.add_parser("scenarios", help="list or run simulator validation scenarios",
-                            description=DESCRIPTION, epilog=EPILOG,
-                            formatter_class=argparse.RawDescriptionHelpFormatter)
+                            description=DESCRIPTION, epilog=EPILOG)
     from scenarios.__main__ import build_parser
 
     build_parser(parser)
@@ -34,6 +33,20 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _run(args: argparse.Namespace) -> int:
+    """``list``, or ``run`` with its outputs staged and moved to ``--out`` at the end (a failed
+    run leaves the previous outputs whole)."""
     from scenarios.__main__ import execute
 
-    return execute(args)
+    if getattr(args, "action", None) != "run":
+        return execute(args)
+    from planner.files.outputs import output_set
+    from scenarios.registry import get
+
+    get(args.name)  # an unknown name is bad input before any folder is touched
+    with output_set(args.out, "dir") as work:
+        final = args.out
+        args.out = work
+        try:
+            return execute(args)
+        finally:
+            args.out = final
