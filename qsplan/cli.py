@@ -18,13 +18,14 @@ import datetime
 import importlib
 import os
 import pkgutil
+import re
 import sys
 import tempfile
 import traceback
 import warnings
 from collections.abc import Iterator, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 from planner.errors import QsplanError
 
@@ -45,6 +46,35 @@ class HelpFormatter(argparse.RawDescriptionHelpFormatter):
         return text + " (default: %(default)s)"
 
 
+_ARGPARSE_MESSAGES = (
+    (re.compile(r"argument (?P<arg>\S+): invalid (?P<type>int|float) value: (?P<got>.*)"),
+     lambda m: f"argument {m['arg']}: expected "
+               f"{'an integer' if m['type'] == 'int' else 'a number'}, got {m['got']}"),
+    (re.compile(r"argument (?P<arg>\S+): invalid choice: (?P<got>.*?) \(choose from (?P<c>.*)\)"),
+     lambda m: f"argument {m['arg']}: expected one of {m['c']}, got {m['got']}"),
+    (re.compile(r"the following arguments are required: (?P<args>.*)"),
+     lambda m: f"expected the arguments {m['args']}, got none"),
+    (re.compile(r"unrecognized arguments: (?P<args>.*)"),
+     lambda m: f"expected only known arguments, got {m['args']}"),
+    (re.compile(r"argument (?P<arg>\S+): expected one argument"),
+     lambda m: f"argument {m['arg']}: expected one value, got none"),
+    (re.compile(r"argument (?P<arg>\S+): not allowed with argument (?P<other>\S+)"),
+     lambda m: f"argument {m['arg']}: expected without {m['other']}, got both"),
+)
+
+
+class ArgumentParser(argparse.ArgumentParser):
+    """argparse with usage errors phrased as the project's messages: expected vs got."""
+
+    def error(self, message: str) -> NoReturn:
+        for pattern, phrase in _ARGPARSE_MESSAGES:
+            m = pattern.fullmatch(message)
+            if m:
+                message = phrase(m)
+                break
+        super().error(message)
+
+
 def _global_options(parser: argparse.ArgumentParser, suppress: bool) -> None:
     kw: dict[str, Any] = {"default": argparse.SUPPRESS} if suppress else {}
     verbosity = parser.add_mutually_exclusive_group()
@@ -61,7 +91,7 @@ def _global_options(parser: argparse.ArgumentParser, suppress: bool) -> None:
 
 def build_parser() -> argparse.ArgumentParser:
     """Parser with every subcommand of :mod:`qsplan.commands` registered."""
-    parser = argparse.ArgumentParser(
+    parser = ArgumentParser(
         prog="qsplan",
         description=(
             "Quasistatic planar contact-mode prediction, torque-bound planning and simulator "

@@ -105,11 +105,13 @@ def memory_budget(gib: float | None = None) -> int:
 
 
 def check_budget(need_bytes: float, budget_bytes: int, what: str, hint: str = "") -> None:
-    """Refuse a request that would need more than the budget, saying how much it would need."""
+    """Refuse a request that would need more than the budget, saying how much it would need
+    (``what`` describes the request, ``hint`` what to do instead)."""
     if need_bytes > budget_bytes:
         raise InputError(
-            f"{what}: would need {need_bytes / GIB:.3g} GiB (budget {budget_bytes / GIB:.3g} "
-            f"GiB; --memory-gib raises it){'; ' + hint if hint else ''}"
+            f"expected a request within the memory budget ({budget_bytes / GIB:.3g} GiB), got "
+            f"{what}, which would need {need_bytes / GIB:.3g} GiB"
+            f"{'; ' + hint if hint else ''} (or raise --memory-gib)"
         )
 
 

@@ -89,6 +89,9 @@ def check_output_path(path: str | os.PathLike[str], kind: Kind, what: str = "--o
     if not text or "\x00" in text:
         raise InputError(f"{what}: expected a path, got {text!r}")
     p = Path(text)
+    if len(os.fsencode(p.name)) > 255:
+        raise InputError(f"{what}: expected a file name of at most 255 bytes, got one of "
+                         f"{len(os.fsencode(p.name))}")
     st = _stat(p, what)
     wanted = "a regular file" if kind == "file" else "a directory"
     if st is None:

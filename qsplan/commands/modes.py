@@ -82,7 +82,9 @@ def run(args: argparse.Namespace) -> int:
 
     check_int(args.workers, "--workers", 1, 1024)
     if not args.search and (args.workers != 1 or args.dask is not None):
-        raise InputError("--workers/--dask: expected together with --search")
+        given = "--dask" if args.dask is not None else f"--workers {args.workers}"
+        raise InputError(f"--workers/--dask: expected together with --search, got {given} "
+                         "without --search")
     mu_list = parse_mu(args.mu)
     system = load_system(args.system)
     mu: float | list[float] | None = mu_list

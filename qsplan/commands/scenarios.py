@@ -29,6 +29,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     from scenarios.__main__ import build_parser
 
     build_parser(parser)
+    for action in parser._actions:  # keep --out as typed: Path("") would silently be "."
+        if isinstance(action, argparse._SubParsersAction):
+            for sub_parser in action.choices.values():
+                for opt in sub_parser._actions:
+                    if "--out" in opt.option_strings:
+                        opt.type = str
     parser.set_defaults(func=_run)
 
 
@@ -39,11 +45,15 @@ def _run(args: argparse.Namespace) -> int:
 
     if getattr(args, "action", None) != "run":
         return execute(args)
+    from planner.errors import InputError
     from planner.files.outputs import output_set
-    from scenarios.registry import get
+    from scenarios.registry import all_scenarios
 
-    get(args.name)  # an unknown name is bad input before any folder is touched
-    with output_set(args.out, "dir") as work:
+    names = list(all_scenarios())
+    if args.name not in names:  # bad input before any folder is touched
+        raise InputError(f"unknown scenario {args.name!r}: expected one of {', '.join(names)}; "
+                         f"got {args.name!r}")
+    with output_set(str(args.out), "dir") as work:
         final = args.out
         args.out = work
         try:

@@ -60,7 +60,7 @@ def run(args: argparse.Namespace) -> int:
     path = Path(args.plan)
     if not path.is_file():
         raise InputError(f"plan: expected an existing plan file, got {str(path)!r}")
-    if args.out:
+    if args.out is not None:
         from planner.files.outputs import output_set
 
         with output_set(args.out, "dir") as work:
