@@ -51,7 +51,7 @@ def run(args: argparse.Namespace) -> int:
     lo, hi = parse_range(args.range, "--range", lo=0.0, hi=MU_MAX)
     sliced: int | None = None
     values: tuple[float, ...] = ()
-    if args.slice:
+    if args.slice is not None:
         if len(vary) == 3:
             raise InputError("--slice: expected no --slice with three varied coefficients "
                              f"(use --panels), got {args.slice!r}")

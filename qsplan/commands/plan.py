@@ -73,7 +73,7 @@ def run(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     with contextlib.ExitStack() as stack:
         fig_dir = stack.enter_context(output_set(args.figures, "dir", "--figures")) \
-            if args.figures else None
+            if args.figures is not None else None
         plan_tmp = stack.enter_context(output_set(args.out, "file", "--out"))
         try:
             plan = plan_hand(shipped_file(args.scenario), mu=mu, model=args.model,
