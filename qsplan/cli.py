@@ -2,35 +2,105 @@
 
 Subcommands live in :mod:`qsplan.commands`: every module there defines
 ``register(subparsers)`` that adds its parser and sets ``func(args) -> int`` as the default.
-Exit codes: 0 success, 1 the job ran and its check failed (e.g. a validation disagreed),
-2 bad input (usage, malformed file, invalid values), 3 internal/simulator fault.
+
+Exit codes: 0 success; 1 the job ran and a check failed (e.g. a validation disagreed);
+2 bad input (usage, a malformed file, invalid values, an unusable output path, a request beyond
+the memory budget); 3 internal or simulator fault.  An unexpected exception never reaches the
+terminal as a traceback: one line names the fault and the log file holding the traceback
+(``--debug`` prints it instead).
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import datetime
 import importlib
+import os
 import pkgutil
+import re
 import sys
-from collections.abc import Sequence
+import tempfile
+import traceback
+import warnings
+from collections.abc import Iterator, Sequence
+from pathlib import Path
+from typing import Any, NoReturn
 
 from planner.errors import QsplanError
 
 EXIT_OK, EXIT_FAILED, EXIT_INPUT, EXIT_FAULT = 0, 1, 2, 3
+LOG_DIR_ENV = "QSPLAN_LOG_DIR"
+
+
+class HelpFormatter(argparse.RawDescriptionHelpFormatter):
+    """Descriptions as written (line breaks kept); every option's default in its help unless
+    the default is None/False or the help already mentions it."""
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        text = action.help or ""
+        default = action.default
+        if ("%(default)" in text or "default" in text or default is None or default is False
+                or default is argparse.SUPPRESS or not action.option_strings):
+            return text
+        return text + " (default: %(default)s)"
+
+
+_ARGPARSE_MESSAGES = (
+    (re.compile(r"argument (?P<arg>\S+): invalid (?P<type>int|float) value: (?P<got>.*)"),
+     lambda m: f"argument {m['arg']}: expected "
+               f"{'an integer' if m['type'] == 'int' else 'a number'}, got {m['got']}"),
+    (re.compile(r"argument (?P<arg>\S+): invalid choice: (?P<got>.*?) \(choose from (?P<c>.*)\)"),
+     lambda m: f"argument {m['arg']}: expected one of {m['c']}, got {m['got']}"),
+    (re.compile(r"the following arguments are required: (?P<args>.*)"),
+     lambda m: f"expected the arguments {m['args']}, got none"),
+    (re.compile(r"unrecognized arguments: (?P<args>.*)"),
+     lambda m: f"expected only known arguments, got {m['args']}"),
+    (re.compile(r"argument (?P<arg>\S+): expected one argument"),
+     lambda m: f"argument {m['arg']}: expected one value, got none"),
+    (re.compile(r"argument (?P<arg>\S+): not allowed with argument (?P<other>\S+)"),
+     lambda m: f"argument {m['arg']}: expected without {m['other']}, got both"),
+)
+
+
+class ArgumentParser(argparse.ArgumentParser):
+    """argparse with usage errors phrased as the project's messages: expected vs got."""
+
+    def error(self, message: str) -> NoReturn:
+        for pattern, phrase in _ARGPARSE_MESSAGES:
+            m = pattern.fullmatch(message)
+            if m:
+                message = phrase(m)
+                break
+        super().error(message)
+
+
+def _global_options(parser: argparse.ArgumentParser, suppress: bool) -> None:
+    kw: dict[str, Any] = {"default": argparse.SUPPRESS} if suppress else {}
+    verbosity = parser.add_mutually_exclusive_group()
+    verbosity.add_argument("-q", "--quiet", action="store_true", help="print only errors", **kw)
+    verbosity.add_argument("-v", "--verbose", action="store_true", help="print more detail",
+                           **kw)
+    parser.add_argument("--debug", action="store_true",
+                        help="print the traceback of an internal fault and numpy warnings",
+                        **kw)
+    parser.add_argument("--memory-gib", type=float, metavar="GIB",
+                        help="memory budget of the command in GiB; larger requests are refused "
+                             "(default $QSPLAN_MEMORY_GIB or 4)", **kw)
 
 
 def build_parser() -> argparse.ArgumentParser:
     """Parser with every subcommand of :mod:`qsplan.commands` registered."""
-    parser = argparse.ArgumentParser(
+    parser = ArgumentParser(
         prog="qsplan",
         description=(
             "Quasistatic planar contact-mode prediction, torque-bound planning and simulator "
-            "validation (Trinkle & Zeng 1994)."
+            "validation (Trinkle & Zeng 1994). Exit codes: 0 ok, 1 a check failed, 2 bad "
+            "input, 3 internal or simulator fault."
         ),
+        formatter_class=HelpFormatter,
     )
-    verbosity = parser.add_mutually_exclusive_group()
-    verbosity.add_argument("-q", "--quiet", action="store_true", help="print only errors")
-    verbosity.add_argument("-v", "--verbose", action="store_true", help="print more detail")
+    _global_options(parser, suppress=False)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     import qsplan.commands as commands_pkg
 
@@ -39,34 +109,100 @@ def build_parser() -> argparse.ArgumentParser:
         register = getattr(module, "register", None)
         if register is not None:
             register(sub)
-    # -q/-v are accepted after the subcommand too (``qsplan plan ... -q``).
+    # The global options are accepted after the subcommand too (``qsplan plan ... -q``).
     for subparser in sub.choices.values():
-        group = subparser.add_mutually_exclusive_group()
-        group.add_argument("-q", "--quiet", action="store_true", default=argparse.SUPPRESS,
-                           help="print only errors")
-        group.add_argument("-v", "--verbose", action="store_true", default=argparse.SUPPRESS,
-                           help="print more detail")
+        subparser.formatter_class = HelpFormatter
+        _global_options(subparser, suppress=True)
     return parser
+
+
+def log_dir() -> Path:
+    """Folder of the fault logs: ``$QSPLAN_LOG_DIR`` or ``<tmp>/qsplan-logs``."""
+    return Path(os.environ.get(LOG_DIR_ENV) or Path(tempfile.gettempdir()) / "qsplan-logs")
+
+
+def write_fault_log(command: str, argv: Sequence[str], exc: BaseException) -> Path | None:
+    """Write the traceback of ``exc`` to a new file in :func:`log_dir`; None if impossible."""
+    stamp = datetime.datetime.now().strftime("%Y%m%d-%H%M%S")
+    text = (f"qsplan {command}: internal fault\nargv: {list(argv)}\n\n"
+            + "".join(traceback.format_exception(exc)))
+    try:
+        folder = log_dir()
+        folder.mkdir(parents=True, exist_ok=True)
+        fd, name = tempfile.mkstemp(prefix=f"qsplan-{command}-{stamp}-", suffix=".log",
+                                    dir=folder)
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(text)
+        return Path(name)
+    except OSError:
+        return None
+
+
+@contextlib.contextmanager
+def _quiet_numerics(debug: bool) -> Iterator[None]:
+    """numpy's RuntimeWarnings (overflow, invalid value) are for developers: hidden unless
+    ``--debug``; progress bars only on a terminal."""
+    saved = os.environ.get("TQDM_DISABLE")
+    if not sys.stderr.isatty():
+        os.environ["TQDM_DISABLE"] = "1"  # read by tqdm when first imported
+    try:
+        with warnings.catch_warnings():
+            if not debug:
+                warnings.simplefilter("ignore", RuntimeWarning)
+            yield
+    finally:
+        if saved is None:
+            os.environ.pop("TQDM_DISABLE", None)
+        else:
+            os.environ["TQDM_DISABLE"] = saved
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``qsplan`` console script; returns the exit code."""
     parser = build_parser()
+    argv = list(sys.argv[1:] if argv is None else argv)
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
         parser.print_help()
         return EXIT_INPUT
+    debug = bool(getattr(args, "debug", False))
+    name = f"qsplan {args.command}"
     try:
-        return int(args.func(args) or 0)
+        if getattr(args, "memory_gib", None) is not None:
+            from qsplan.options import parse_number
+
+            args.memory_gib = parse_number(str(args.memory_gib), "--memory-gib", lo=1e-6,
+                                           hi=1e6)
+        with _quiet_numerics(debug):
+            return int(args.func(args) or 0)
     except QsplanError as exc:
-        print(f"qsplan {args.command}: error: {exc}", file=sys.stderr)
+        print(f"{name}: error: {exc}", file=sys.stderr)
         return EXIT_INPUT
     except BrokenPipeError:  # e.g. piped into `head`
-        sys.stderr.close()
+        with contextlib.suppress(OSError):
+            sys.stderr.close()
         return EXIT_OK
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
+    except MemoryError:
+        print(f"{name}: error: out of memory; expected a smaller request (lower --memory-gib "
+              "to have such requests refused up front)", file=sys.stderr)
+        return EXIT_FAULT
+    except Exception as exc:  # noqa: BLE001 - the one place that turns faults into exit 3
+        if debug:
+            traceback.print_exc()
+            return EXIT_FAULT
+        log = write_fault_log(args.command, argv, exc)
+        where = f"traceback in {log}" if log else "no log could be written"
+        print(f"{name}: internal fault: {type(exc).__name__}: {_one_line(exc)} ({where}; "
+              "--debug prints it)", file=sys.stderr)
+        return EXIT_FAULT
+
+
+def _one_line(exc: BaseException) -> str:
+    text = " ".join(str(exc).split())
+    return text[:300] + ("..." if len(text) > 300 else "")
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -1,4 +1,4 @@
-"""Self-contained HTML report of a run directory (issue 8).
+"""Self-contained HTML report of a run directory.
 
 Scans a run directory recursively for
 
@@ -43,7 +43,8 @@ def scan_run(run_dir: str | Path) -> ReportContents:
     root = Path(run_dir)
     if not root.is_dir():
         raise InputError(f"run directory: expected an existing directory, got {str(root)!r}")
-    files = sorted(p for p in root.rglob("*") if p.is_file())
+    files = sorted(p for p in root.rglob("*") if p.is_file()
+                   and not any(part.startswith(".qsplan-") for part in p.relative_to(root).parts))
     rel = [p.relative_to(root) for p in files]
     return ReportContents(
         images=tuple(p for p in rel if p.suffix.lower() in _MIME),
@@ -104,7 +105,7 @@ def _plans_table(root: Path, plans: tuple[Path, ...]) -> str:
             continue
         wps = data.get("waypoints")
         wps = wps if isinstance(wps, list) else []
-        margins = [w.get("margin") for w in wps if isinstance(w, dict)
+        margins = [float(w["margin"]) for w in wps if isinstance(w, dict)
                    and isinstance(w.get("margin"), (int, float))]
         mu = data.get("mu") or {}
         intervals = mu.get("intervals") if isinstance(mu, dict) else None
@@ -163,10 +164,10 @@ def build_html(run_dir: str | Path) -> str:
         if rel.parent != folder:
             folder = rel.parent
             out.append(f"<h3>{esc(str(folder) if str(folder) != '.' else root.name)}</h3>")
-        data = base64.b64encode((root / rel).read_bytes()).decode("ascii")
+        encoded = base64.b64encode((root / rel).read_bytes()).decode("ascii")
         mime = _MIME[rel.suffix.lower()]
         out.append(
-            f"<figure><img alt='{esc(str(rel))}' src='data:{mime};base64,{data}'>"
+            f"<figure><img alt='{esc(str(rel))}' src='data:{mime};base64,{encoded}'>"
             f"<figcaption>{esc(str(rel))}</figcaption></figure>"
         )
     out.append("</body></html>")

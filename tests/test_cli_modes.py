@@ -64,4 +64,4 @@ def test_modes_search_gives_the_exhaustive_modes(capsys, tmp_path):
     assert main(["modes", str(path), "--workers", "2"]) == 2
     assert "expected together with --search" in capsys.readouterr().err
     assert main(["modes", str(path), "--search", "--workers", "0"]) == 2
-    assert "--workers: expected an integer >= 1" in capsys.readouterr().err
+    assert "--workers: expected an integer in 1..1024, got 0" in capsys.readouterr().err

@@ -72,7 +72,7 @@ def test_demo_bad_input(tmp_path, capsys):
     assert main(["demo", "--out", str(tmp_path), "--engines", "bullet"]) == 2
     assert "--engines: expected names from pymunk, mujoco, got 'bullet'" in capsys.readouterr().err
     assert main(["demo", "--out", str(tmp_path), "--jobs", "0"]) == 2
-    assert "--jobs: expected >= 1, got 0" in capsys.readouterr().err
+    assert "--jobs: expected an integer in 1..64, got 0" in capsys.readouterr().err
 
 
 @pytest.mark.slow

@@ -1,4 +1,5 @@
-"""``qsplan demo --out report [--quick]``: the issue-5 task end to end (Section 5.2, Figs. 9-13).
+"""``qsplan demo --out report [--quick]``: the two-finger hand task end to end (Section 5.2,
+Figs. 9-13).
 
 1. plan the two-finger hand's 4S segment for friction in [0, 0.2] (``policy midband``) and a
    negative control that puts the torque in the R2S band during the first half while still
@@ -29,12 +30,15 @@ from pathlib import Path
 from typing import Any
 
 from planner.errors import InputError
+from qsplan.options import check_int
 from scenarios.registry import shipped_file
 
 SCENARIO = "two_finger_hand"
 ENGINES = ("pymunk", "mujoco")
 NEGATIVE_MU = 0.2
 RIVAL = "R2S"
+MAX_JOBS = 64
+TASK = "two-finger hand, guaranteed 4S under uncertain friction (Sec. 5.2)"
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -42,22 +46,22 @@ def register(sub: argparse._SubParsersAction) -> None:
         "demo",
         help="plan the two-finger hand segment, validate it in pymunk and MuJoCo, write a report",
         description=(
-            "The main job (issue 5): plan the 4S segment of the two-finger hand for mu in "
-            "[0, 0.2], validate it in pymunk and MuJoCo at mu = 0, 0.1, 0.2, run the R2S "
+            "The two-finger hand task (Sec. 5.2): plan the 4S segment of the two-finger hand "
+            "for mu in [0, 0.2], validate it in pymunk and MuJoCo at mu = 0, 0.1, 0.2, run the R2S "
             "negative control, and write a report folder (plans, Figures 10-13, summaries, "
             "timelines, GIFs, REPORT.md, index.html). Exit 0 only if every expectation held, "
             "1 otherwise, 2 bad input, 3 simulator fault."
         ),
         epilog="example: qsplan demo --out report",
     )
-    p.add_argument("--out", default="report", help="report folder (default: report)")
+    p.add_argument("--out", default="report",
+                   help="report folder; its contents are replaced only when the demo has "
+                        "finished (a failed run leaves the old report whole)")
     p.add_argument("--quick", action="store_true",
                    help="simulate only the first quarter of the segment")
-    p.add_argument("--scenario", default=SCENARIO, help="hand file or name (default "
-                                                        f"{SCENARIO})")
-    p.add_argument("--engines", default=",".join(ENGINES),
-                   help="comma-separated engines (default pymunk,mujoco)")
-    p.add_argument("--jobs", type=int, default=2, help="worker processes (default 2)")
+    p.add_argument("--scenario", default=SCENARIO, help="hand file or name")
+    p.add_argument("--engines", default=",".join(ENGINES), help="comma-separated engines")
+    p.add_argument("--jobs", type=int, default=2, help=f"worker processes, 1..{MAX_JOBS}")
     p.add_argument("--no-render", action="store_true", help="skip timelines and GIFs")
     p.set_defaults(func=run)
 
@@ -76,7 +80,9 @@ def _validate_job(job: dict[str, Any]) -> dict[str, Any]:
         summary.update(_rival_stats(plan, res, job["waypoints"]))
         from planner.files.atomic import atomic_write_json
 
-        atomic_write_json(Path(job["out"]) / "summary.json", summary)
+        # the folder relative to the report (the absolute one is a staging folder)
+        atomic_write_json(Path(job["out"]) / "summary.json",
+                          {**summary, "folder": job.get("folder", job["out"])})
     return summary
 
 
@@ -115,20 +121,26 @@ def _check(name: str, expected: str, measured: str, held: bool) -> dict[str, Any
 
 
 def run(args: argparse.Namespace) -> int:
-    from planner.errors import FileFormatError
-    from planner.files.atomic import atomic_write_json, atomic_write_text
-    from planner.plan.plan_file import load_plan, plans_equal, save_plan
-    from planner.plan.segment_planner import plan_hand
-
     engines = [e.strip() for e in str(args.engines).split(",") if e.strip()]
     bad = [e for e in engines if e not in ENGINES]
     if bad or not engines:
         raise InputError(f"--engines: expected names from {', '.join(ENGINES)}, got "
                          f"{args.engines!r}")
-    if args.jobs < 1:
-        raise InputError(f"--jobs: expected >= 1, got {args.jobs}")
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    check_int(args.jobs, "--jobs", 1, MAX_JOBS)
+    from planner.files.outputs import output_set
+
+    with output_set(args.out, "dir") as work:
+        return _run(args, engines, work)
+
+
+def _run(args: argparse.Namespace, engines: list[str], out: Path) -> int:
+    """The demo with every output written below ``out`` (the staging folder of --out)."""
+    from planner.errors import FileFormatError
+    from planner.files.atomic import atomic_write_json, atomic_write_text
+    from planner.plan.plan_file import load_plan, plans_equal, save_plan
+    from planner.plan.segment_planner import plan_hand
+
+    final = Path(args.out)
     t_start = time.perf_counter()
     checks: list[dict[str, Any]] = []
 
@@ -175,7 +187,8 @@ def run(args: argparse.Namespace) -> int:
                          "name": f"4S plan, {engine}, mu={mu:g}", "expect": "agree"})
     for engine in engines:
         jobs.append({"plan": str(neg_path), "engine": engine, "mu": NEGATIVE_MU,
-                     "out": str(out / "negative_control" / engine), "waypoints": n_wp,
+                     "out": str(out / "negative_control" / engine),
+                     "folder": f"negative_control/{engine}", "waypoints": n_wp,
                      "render": not args.no_render,
                      "name": f"negative control (R2S torque, claims 4S), {engine}, "
                              f"mu={NEGATIVE_MU:g}", "expect": "disagree"})
@@ -232,7 +245,7 @@ def run(args: argparse.Namespace) -> int:
     held = all(c["held"] for c in checks)
     status = "all expectations held" if held else "SOME EXPECTATIONS FAILED"
     atomic_write_json(out / "checks.json", {
-        "task": "issue 5: two-finger hand, guaranteed 4S under uncertain friction (Sec. 5.2)",
+        "task": TASK,
         "quick": bool(args.quick), "held": held, "checks": checks,
         "plan_seconds": t_plan, "simulation_seconds": t_sims, "total_seconds": total,
         "runs": results,
@@ -246,7 +259,7 @@ def run(args: argparse.Namespace) -> int:
     for c in checks:
         print(f"[{'ok' if c['held'] else 'FAIL'}] {c['check']}: {c['measured']} "
               f"(expected {c['expected']})")
-    print(f"qsplan demo: {status}; report in {out} ({total:.0f} s)")
+    print(f"qsplan demo: {status}; report in {final} ({total:.0f} s)")
     if faults:
         for r in faults:
             print(f"simulator fault: {r['engine']}: {r['fault']}", file=sys.stderr)
@@ -261,7 +274,7 @@ def _report_md(plan, neg, checks, results, figures, quick, n_wp, t_plan, t_sims,
     bands = plan.bands()
     tau = plan.torques()
     L = []
-    L.append("# Two-finger hand: guaranteed 4S under uncertain friction (issue 5, Sec. 5.2)\n")
+    L.append("# Two-finger hand: guaranteed 4S under uncertain friction (Sec. 5.2)\n")
     L.append(f"**Result: {status}.** "
              f"{sum(c['held'] for c in checks)} of {len(checks)} checks held"
              + (f" (quick run: first {n_wp} of {len(plan.waypoints)} waypoints)." if quick

@@ -6,10 +6,23 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-
-import numpy as np
+from typing import Any
 
 from planner.errors import InputError
+from qsplan.options import (
+    MU_MAX,
+    check_budget,
+    check_int,
+    fmt,
+    fmt_list,
+    memory_budget,
+    parse_numbers,
+)
+
+BYTES_PER_CANDIDATE_CONTACT = 48
+"""Peak memory of exhaustive enumeration per eq. (49) candidate and contact (measured: 38-44 B
+at n_c = 20-40 with tracemalloc), plus :data:`BYTES_PER_CANDIDATE_ROW` per constraint row."""
+BYTES_PER_CANDIDATE_ROW = 64
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -33,12 +46,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--search", action="store_true",
-        help="exact pruned search (planner.predict.search, docs/scaling.md) instead of testing every "
-             "candidate: the same modes, far fewer tests for many contacts",
+        help="exact pruned search (planner.predict.search, docs/scaling.md) instead of testing "
+             "every candidate: the same modes, far fewer tests for many contacts",
     )
     p.add_argument(
         "--workers", type=int, default=1,
-        help="with --search: search subtrees on this many local processes (default 1)",
+        help="with --search: search subtrees on this many local processes",
     )
     p.add_argument(
         "--dask", default=None,
@@ -48,49 +61,64 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def parse_mu(text: str | None) -> list[float] | None:
-    """Parse ``"0.2,0.3,0.1"``; errors name the bad token."""
+    """Parse ``"0.2,0.3,0.1"`` (finite, >= 0); errors name the bad token."""
     if text is None:
         return None
-    out = []
-    for tok in text.split(","):
-        try:
-            out.append(float(tok))
-        except ValueError as exc:
-            raise InputError(f"--mu: expected comma-separated numbers, got {tok!r}") from exc
-    return out
+    return parse_numbers(text, "--mu", lo=0.0, hi=MU_MAX)
+
+
+def exhaustive_bytes(n_contacts: int, dof: int) -> int:
+    """Peak memory of exhaustive enumeration (eq. 49), sized with
+    :func:`planner.model.modes.candidate_count` before anything is allocated."""
+    from planner.model.modes import candidate_count
+
+    m = candidate_count(n_contacts, dof)
+    return m * (BYTES_PER_CANDIDATE_CONTACT * n_contacts + BYTES_PER_CANDIDATE_ROW * dof)
 
 
 def run(args: argparse.Namespace) -> int:
     from planner.files.system_file import load_system
     from planner.predict.feasibility import feasible_modes
 
+    check_int(args.workers, "--workers", 1, 1024)
+    if not args.search and (args.workers != 1 or args.dask is not None):
+        given = "--dask" if args.dask is not None else f"--workers {args.workers}"
+        raise InputError(f"--workers/--dask: expected together with --search, got {given} "
+                         "without --search")
+    mu_list = parse_mu(args.mu)
     system = load_system(args.system)
-    mu = parse_mu(args.mu)
-    if mu is not None and len(mu) == 1:
-        mu = mu[0]
+    mu: float | list[float] | None = mu_list
+    if mu_list is not None and len(mu_list) == 1:
+        mu = mu_list[0]
     indeterminate = False if args.no_indeterminate else None
     stats = None
-    if not args.search and (args.workers != 1 or args.dask is not None):
-        raise InputError("--workers/--dask: expected together with --search")
     if args.search:
         from planner.predict.search import search_modes
         from planner.sweeps.executor import make_executor
 
-        if args.workers < 1:
-            raise InputError(f"--workers: expected an integer >= 1, got {args.workers}")
         executor = None
         if args.dask is not None or args.workers > 1:
             executor = make_executor(args.dask, args.workers)
         try:
             res = search_modes(
                 system, mu, indeterminate=indeterminate, executor=executor,
-                progress=executor is not None and not getattr(args, "quiet", False),
+                progress=(executor is not None and not getattr(args, "quiet", False)
+                          and sys.stderr.isatty()),
             )
         finally:
             if executor is not None:
                 executor.close()
         pred, stats = res.prediction, res.stats
     else:
+        from planner.model.modes import candidate_count
+
+        check_budget(
+            exhaustive_bytes(system.n_contacts, system.dof),
+            memory_budget(getattr(args, "memory_gib", None)),
+            f"exhaustive enumeration of {candidate_count(system.n_contacts, system.dof)} "
+            f"candidate modes (eq. 49, n_c = {system.n_contacts})",
+            "use --search",
+        )
         pred = feasible_modes(system, mu, indeterminate=indeterminate)
     if args.json:
         out = pred.to_dict()
@@ -108,34 +136,33 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def format_prediction(pred) -> str:  # type: ignore[no-untyped-def]
-    """A readable table of a :class:`planner.predict.feasibility.Prediction`."""
+def format_prediction(pred: Any) -> str:
+    """A readable table of a :class:`planner.predict.feasibility.Prediction` (numbers without
+    ``-0`` or numpy type names)."""
     lines = [
         f"status: {pred.status.value}   candidates (eq. 49): {pred.candidates}   "
-        f"mu: {np.array2string(pred.mu, precision=4, separator=', ')}",
+        f"mu: {fmt_list(pred.mu)}",
     ]
     if pred.reason:
         lines.append(f"reason: {pred.reason}")
     if not pred.all_modes:
         lines.append("no feasible mode" + (" (jammed)" if pred.status.value == "jammed" else ""))
-    with np.printoptions(precision=4, suppress=True, floatmode="maxprec"):
-        for m in pred.all_modes:
-            flags = []
-            if m.force_indeterminate:
-                flags.append("force-indeterminate")
-            if m.on_boundary:
-                flags.append("on boundary")
-            lines.append("")
-            lines.append(f"mode {m.label}  ({m.mode.family})  margin {m.margin:.3g}"
-                         + (f"  [{', '.join(flags)}]" if flags else ""))
-            lines.append(f"  qdot (vx, vy, omega): {m.qdot}")
-            lines.append(f"  joint velocities:     {m.joint_velocities}")
-            lines.append("  contact   v_n         v_t         c_n         c_t")
-            for i, (v, c) in enumerate(zip(m.contact_velocities, m.contact_forces)):
-                lines.append(
-                    f"  {i + 1:>7}   {v[0]:<11.4g} {v[1]:<11.4g} {c[0]:<11.4g} {c[1]:<11.4g}"
-                )
-            lines.append(f"  joint efforts:        {m.joint_efforts}")
+    for m in pred.all_modes:
+        flags = []
+        if m.force_indeterminate:
+            flags.append("force-indeterminate")
+        if m.on_boundary:
+            flags.append("on boundary")
+        lines.append("")
+        lines.append(f"mode {m.label}  ({m.mode.family})  margin {fmt(m.margin, '.3g')}"
+                     + (f"  [{', '.join(flags)}]" if flags else ""))
+        lines.append(f"  qdot (vx, vy, omega): {fmt_list(m.qdot)}")
+        lines.append(f"  joint velocities:     {fmt_list(m.joint_velocities)}")
+        lines.append("  contact   v_n         v_t         c_n         c_t")
+        for i, (v, c) in enumerate(zip(m.contact_velocities, m.contact_forces)):
+            cells = "".join(f"{fmt(x, '<11.4g')} " for x in (v[0], v[1], c[0], c[1]))
+            lines.append(f"  {i + 1:>7}   {cells.rstrip()}")
+        lines.append(f"  joint efforts:        {fmt_list(m.joint_efforts)}")
     if pred.boundary_modes:
         lines.append("")
         lines.append("within tolerance of a strict kinematic boundary (not counted): "

@@ -9,6 +9,15 @@ from planner.errors import InputError
 from planner.files.atomic import atomic_write_json
 from planner.files.system_file import load_system
 from planner.friction.muspace import muspace_map
+from qsplan.options import (
+    MU_MAX,
+    check_budget,
+    check_int,
+    memory_budget,
+    parse_indices,
+    parse_numbers,
+    parse_range,
+)
 
 DESCRIPTION = """\
 Decompose a box of friction space (the coefficients mu_i, one per contact) into regions
@@ -27,46 +36,59 @@ example:
 exit codes: 0 written, 2 bad input."""
 
 
-def _floats(text: str, what: str) -> list[float]:
-    try:
-        return [float(x) for x in text.split(",") if x.strip()]
-    except ValueError:
-        raise InputError(f"{what}: expected comma-separated numbers, got {text!r}") from None
+MAX_PANELS = 64
+BYTES_PER_POINT_CONTACT = 16
+"""Memory of a grid point per contact (the mu vector plus the feasibility columns)."""
 
 
 def run(args: argparse.Namespace) -> int:
-    system = load_system(args.system)
-    vary = tuple(int(v) - 1 for v in _floats(args.vary, "--vary"))
-    if len(vary) not in (2, 3):
-        raise InputError(f"--vary: expected two or three contact indices, got {args.vary!r}")
-    lo_hi = _floats(args.range.replace(":", ","), "--range")
-    if len(lo_hi) != 2:
-        raise InputError(f"--range: expected MIN:MAX, got {args.range!r}")
-    sliced, values = None, ()
-    if args.slice:
+    from planner.files.outputs import output_set
+
+    vary = parse_indices(args.vary, "--vary")
+    if len(vary) not in (2, 3) or len(set(vary)) != len(vary):
+        raise InputError(f"--vary: expected two or three different contact indices, got "
+                         f"{args.vary!r}")
+    lo, hi = parse_range(args.range, "--range", lo=0.0, hi=MU_MAX)
+    sliced: int | None = None
+    values: tuple[float, ...] = ()
+    if args.slice is not None:
         if len(vary) == 3:
             raise InputError("--slice: expected no --slice with three varied coefficients "
                              f"(use --panels), got {args.slice!r}")
-        key, _, vals = args.slice.partition("=")
-        try:
-            sliced = int(key) - 1
-        except ValueError:
-            raise InputError(f"--slice: expected INDEX=V1,V2,..., got {args.slice!r}") from None
+        key, eq, vals = args.slice.partition("=")
+        if not eq:
+            raise InputError(f"--slice: expected INDEX=V1,V2,..., got {args.slice!r}")
+        sliced = parse_indices(key, "--slice")[0]
         if sliced in vary:
-            raise InputError(f"--slice: expected a contact not in --vary, got {sliced + 1}")
-        values = tuple(_floats(vals, "--slice"))
-    if args.panels < 1:
-        raise InputError(f"--panels: expected >= 1, got {args.panels}")
+            raise InputError(f"--slice: expected a contact not in --vary, got {sliced}")
+        values = tuple(parse_numbers(vals, "--slice", lo=0.0, hi=MU_MAX))
+        if len(values) > MAX_PANELS:
+            raise InputError(f"--slice: expected at most {MAX_PANELS} values, got "
+                             f"{len(values)}")
+    check_int(args.panels, "--panels", 1, MAX_PANELS)
     n = args.n if args.n is not None else (200 if len(vary) == 2 else 40)
-    m = muspace_map(system, vary, None, (lo_hi[0], lo_hi[1]), n, sliced=sliced,
-                    slice_values=values)
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    atomic_write_json(out / "muspace.json", m.to_dict())
-    from planner.plots.muspace import plot_slices
+    check_int(n, "--n", 1)
+    with output_set(args.out, "dir") as work:
+        system = load_system(args.system)
+        n_c = system.n_contacts
+        for i in (*vary, *(() if sliced is None else (sliced,))):
+            if i > n_c:
+                raise InputError(f"--vary/--slice: expected contact indices in 1..{n_c}, got {i}")
+        from planner.model.modes import candidate_count
 
-    panels, titles = m.panels(args.panels)
-    plot_slices(panels, titles, out / "muspace.png", closed_forms=m.closed_forms)
+        points = n ** len(vary) * max(1, len(values))
+        need = (points * n_c * BYTES_PER_POINT_CONTACT
+                + candidate_count(n_c, system.dof) * (48 * n_c + 64 * system.dof))
+        check_budget(need, memory_budget(getattr(args, "memory_gib", None)),
+                     f"a grid of {points} friction points", "use a smaller --n")
+        m = muspace_map(system, tuple(v - 1 for v in vary), None, (lo, hi), n,
+                        sliced=None if sliced is None else sliced - 1, slice_values=values)
+        atomic_write_json(work / "muspace.json", m.to_dict())
+        from planner.plots.muspace import plot_slices
+
+        panels, titles = m.panels(args.panels)
+        plot_slices(panels, titles, work / "muspace.png", closed_forms=m.closed_forms)
+    out = Path(args.out)
     if not getattr(args, "quiet", False):
         print(f"wrote {out / 'muspace.json'} and {out / 'muspace.png'}")
         if getattr(args, "verbose", False):
@@ -79,17 +101,20 @@ def run(args: argparse.Namespace) -> int:
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("muspace", help="friction-space maps of a system file (Figs. 3, 6)",
-                       description=DESCRIPTION, epilog=EPILOG,
-                       formatter_class=argparse.RawDescriptionHelpFormatter)
+                       description=DESCRIPTION, epilog=EPILOG)
     p.add_argument("system", help="system file (JSON)")
     p.add_argument("--vary", required=True,
                    help="two or three 1-based contact indices, e.g. 1,2 or 1,2,3")
     p.add_argument("--slice", help="a contact not in --vary and its values, e.g. 3=0,0.2,0.4 "
                                    "(one panel each); the others keep the file's mu")
-    p.add_argument("--range", default="0:1", help="MIN:MAX of the varied coefficients")
+    p.add_argument("--range", default="0:1", help="LO:HI of the varied coefficients")
     p.add_argument("--n", type=int, default=None,
-                   help="grid points per axis (default 200 for 2-D, 40 for 3-D)")
+                   help="grid points per axis (default 200 for 2-D, 40 for 3-D; refused beyond "
+                        "the memory budget)")
     p.add_argument("--panels", type=int, default=4,
-                   help="slices drawn of a 3-D grid (with --vary of three contacts)")
-    p.add_argument("--out", required=True, help="output directory")
+                   help="slices drawn of a 3-D grid (with --vary of three contacts), "
+                        f"1..{MAX_PANELS}")
+    p.add_argument("--out", required=True,
+                   help="output directory (created; muspace.json and muspace.png in it are "
+                        "replaced together, only when both were written)")
     p.set_defaults(func=run)

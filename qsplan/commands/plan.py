@@ -3,11 +3,16 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 import time
+from pathlib import Path
 
 from planner.errors import InputError
+from qsplan.options import MU_MAX, check_int, fmt, parse_number, parse_range
 from scenarios.registry import shipped_file
+
+MAX_WAYPOINTS = 10_000
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -32,69 +37,73 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="torque choice: midband, constant, or rival:MODE (negative control)")
     p.add_argument("--control", default="auto",
                    help="index of the velocity-controlled joint, or auto (utility conditions)")
-    p.add_argument("--waypoints", type=int, help="number of waypoints (default from the file)")
-    p.add_argument("--out", default="plan.json", help="plan file to write (default plan.json)")
-    p.add_argument("--figures", help="folder for Figures 10-13 (PNG)")
+    p.add_argument("--waypoints", type=int,
+                   help=f"number of waypoints, 2..{MAX_WAYPOINTS} (default from the file)")
+    p.add_argument("--out", default="plan.json", help="plan file to write")
+    p.add_argument("--figures", help="folder for Figures 10-13 (PNG); written together with the "
+                                     "plan, only when both succeed")
     p.set_defaults(func=run)
 
 
 def parse_interval(text: str | None) -> tuple[float, float] | list[tuple[float, float]] | None:
     """``"0:0.2"`` -> (0.0, 0.2); a number -> (x, x); ``"0:0.2,0:0.3,..."`` -> one interval per
-    contact (used with ``--model independent``)."""
+    contact (used with ``--model independent``).  Finite, ``0 <= LO <= HI``."""
     if text is None:
         return None
     out = []
-    for item in text.split(","):
-        parts = item.split(":")
-        try:
-            vals = [float(x) for x in parts]
-        except ValueError:
-            raise InputError(
-                "--mu: expected LO:HI (e.g. 0:0.2), a number, or one LO:HI per contact, "
-                f"got {text!r}"
-            ) from None
-        if len(vals) == 1:
-            vals = vals * 2
-        if len(vals) != 2:
-            raise InputError(f"--mu: expected LO:HI (e.g. 0:0.2) or a number, got {item!r}")
-        out.append((vals[0], vals[1]))
+    for item in str(text).split(","):
+        if ":" in item:
+            out.append(parse_range(item, "--mu", lo=0.0, hi=MU_MAX))
+        else:
+            x = parse_number(item, "--mu", lo=0.0, hi=MU_MAX)
+            out.append((x, x))
     return out[0] if len(out) == 1 else out
 
 
 def run(args: argparse.Namespace) -> int:
     from planner.errors import DegenerateError
+    from planner.files.outputs import output_set
     from planner.plan.plan_file import save_plan
     from planner.plan.segment_planner import plan_hand
 
     control = args.control if args.control == "auto" else _int(args.control, "--control")
+    mu = parse_interval(args.mu)
+    if args.waypoints is not None:
+        check_int(args.waypoints, "--waypoints", 2, MAX_WAYPOINTS)
     t0 = time.perf_counter()
-    try:
-        plan = plan_hand(shipped_file(args.scenario), mu=parse_interval(args.mu), model=args.model,
-                         policy=args.policy, control=control, waypoints=args.waypoints)
-    except DegenerateError as exc:
-        print(f"qsplan plan: cannot guarantee the mode: {exc}", file=sys.stderr)
-        return 3
-    path = save_plan(plan, args.out)
-    figs = []
-    if args.figures:
-        from planner.plots.bounds import plot_bounds
+    with contextlib.ExitStack() as stack:
+        fig_dir = stack.enter_context(output_set(args.figures, "dir", "--figures")) \
+            if args.figures is not None else None
+        plan_tmp = stack.enter_context(output_set(args.out, "file", "--out"))
+        try:
+            plan = plan_hand(shipped_file(args.scenario), mu=mu, model=args.model,
+                             policy=args.policy, control=control, waypoints=args.waypoints)
+        except DegenerateError as exc:
+            print(f"qsplan plan: cannot guarantee the mode: {exc}", file=sys.stderr)
+            return 3
+        save_plan(plan, plan_tmp)
+        figs = []
+        if fig_dir is not None:
+            from planner.plots.bounds import plot_bounds
 
-        figs = plot_bounds(plan, args.figures)
+            figs = [Path(args.figures) / f.name for f in plot_bounds(plan, fig_dir)]
+    path = Path(args.out)
     quiet = getattr(args, "quiet", False)
     if not quiet:
         m = plan.margins()
         print(f"plan: {path}  ({len(plan.waypoints)} waypoints, {time.perf_counter() - t0:.2f} s)")
         ivs = sorted({tuple(iv) for iv in plan.mu_intervals})
-        mu_text = " ".join(f"[{a:g}, {b:g}]" for a, b in ivs)
+        mu_text = " ".join(f"[{fmt(a)}, {fmt(b)}]" for a, b in ivs)
         print(f"  claim {plan.claim}; control {', '.join(plan.control)}; mu {plan.mu_model} "
               f"{mu_text}; policy {plan.policy}")
-        print(f"  segment ends at t = {plan.event['t']:.3g} s: {plan.event['kind']} "
-              f"({plan.event['detail']}); travel {1e3 * plan.travel():.2f} mm")
-        print(f"  smallest torque margin {m.min():.3g} N m; exact bounds: {plan.exact}")
+        print(f"  segment ends at t = {fmt(plan.event['t'], '.3g')} s: {plan.event['kind']} "
+              f"({plan.event['detail']}); travel {fmt(1e3 * plan.travel(), '.2f')} mm")
+        print(f"  smallest torque margin {fmt(m.min(), '.3g')} N m; exact bounds: {plan.exact}")
         if getattr(args, "verbose", False):
             for w in plan.waypoints:
-                print(f"  t={w.t:7.3f}  tau={w.torque_command:+.5f}  band=[{w.band[0]:+.5f}, "
-                      f"{w.band[1]:+.5f}]  {' | '.join(w.predicted)}")
+                print(f"  t={w.t:7.3f}  tau={fmt(w.torque_command, '+.5f')}  "
+                      f"band=[{fmt(w.band[0], '+.5f')}, {fmt(w.band[1], '+.5f')}]  "
+                      f"{' | '.join(w.predicted)}")
         for f in figs:
             print(f"  figure: {f}")
     return 0
@@ -105,5 +114,3 @@ def _int(text: str, name: str) -> int:
         return int(text)
     except ValueError:
         raise InputError(f"{name}: expected an integer or 'auto', got {text!r}") from None
-
-

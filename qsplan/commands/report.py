@@ -21,9 +21,20 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from planner.errors import InputError
+    from planner.files.outputs import output_set
     from qsplan.report import write_report
 
-    path = write_report(args.run_dir, args.out)
+    if not str(args.run_dir).strip():
+        raise InputError("run directory: expected an existing directory, got ''")
+    run_dir = Path(args.run_dir)
+    if not run_dir.is_dir():
+        raise InputError(f"run directory: expected an existing directory, got {str(run_dir)!r}")
+    target = Path(args.out) if args.out is not None else run_dir / "report.html"
+    with output_set(target, "file", "--out") as tmp:
+        write_report(run_dir, tmp)
     if not getattr(args, "quiet", False):
-        print(f"wrote {path}")
+        print(f"wrote {target}")
     return 0

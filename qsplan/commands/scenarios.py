@@ -25,15 +25,38 @@ exit codes: 0 passed, 1 check failed, 2 bad input, 3 simulator fault."""
 
 def register(sub: argparse._SubParsersAction) -> None:
     parser = sub.add_parser("scenarios", help="list or run simulator validation scenarios",
-                            description=DESCRIPTION, epilog=EPILOG,
-                            formatter_class=argparse.RawDescriptionHelpFormatter)
+                            description=DESCRIPTION, epilog=EPILOG)
     from scenarios.__main__ import build_parser
 
     build_parser(parser)
+    for action in parser._actions:  # keep --out as typed: Path("") would silently be "."
+        if isinstance(action, argparse._SubParsersAction):
+            for sub_parser in action.choices.values():
+                for opt in sub_parser._actions:
+                    if "--out" in opt.option_strings:
+                        opt.type = str
     parser.set_defaults(func=_run)
 
 
 def _run(args: argparse.Namespace) -> int:
+    """``list``, or ``run`` with its outputs staged and moved to ``--out`` at the end (a failed
+    run leaves the previous outputs whole)."""
     from scenarios.__main__ import execute
 
-    return execute(args)
+    if getattr(args, "action", None) != "run":
+        return execute(args)
+    from planner.errors import InputError
+    from planner.files.outputs import output_set
+    from scenarios.registry import all_scenarios
+
+    names = list(all_scenarios())
+    if args.name not in names:  # bad input before any folder is touched
+        raise InputError(f"unknown scenario {args.name!r}: expected one of {', '.join(names)}; "
+                         f"got {args.name!r}")
+    with output_set(str(args.out), "dir") as work:
+        final = args.out
+        args.out = work
+        try:
+            return execute(args)
+        finally:
+            args.out = final

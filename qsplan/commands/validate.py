@@ -1,5 +1,5 @@
 """``qsplan validate PLAN.json --engine pymunk|mujoco [--mu 0.1] [--out DIR]``: run a plan in a
-simulator and compare observed with predicted modes and poses (issue 5).
+simulator and compare observed with predicted modes and poses.
 
 Default friction: every value of the plan's ``mu.validate`` list (the plan passes only if every
 run agrees). Exit codes: 0 agreed, 1 disagreed or inconclusive, 2 bad input (missing, malformed
@@ -10,10 +10,10 @@ or tampered plan, bad option), 3 simulator fault. The simulator is imported lazi
 from __future__ import annotations
 
 import argparse
-import math
 from pathlib import Path
 
 from planner.errors import InputError
+from qsplan.options import MU_MAX, fmt, parse_numbers
 
 ENGINES = ("pymunk", "mujoco")
 
@@ -25,34 +25,32 @@ def register(sub: argparse._SubParsersAction) -> None:
         description=(
             "Run PLAN.json (written by `qsplan plan`) in slow motion in the chosen engine, "
             "classify the observed contact modes from contact data and compare them and the "
-            "workpiece poses with the plan: the claimed mode on >= 95%% of the segment and the "
-            "final position within 2%% of the travel. Exit 0 pass, 1 fail, 2 bad input, "
+            "workpiece poses with the plan: the claimed mode on >= 95% of the segment and the "
+            "final position within 2% of the travel. Exit 0 pass, 1 fail, 2 bad input, "
             "3 simulator fault."
         ),
         epilog="example: qsplan validate plan.json --engine mujoco --mu 0.1 --out val/",
     )
     p.add_argument("plan", help="plan file (JSON; see docs/plan-format.md)")
-    p.add_argument("--engine", default="pymunk", help="pymunk (default) or mujoco")
+    p.add_argument("--engine", default="pymunk", help="pymunk or mujoco")
     p.add_argument("--mu", default=None,
                    help="friction coefficient(s) to simulate: one number, or comma-separated "
                         "values (each its own run); default: the plan's mu.validate list")
     p.add_argument("--out", help="output folder: summary.json, timeline.png and animation.gif "
-                                 "per run (subfolders mu_<value> when several)")
+                                 "per run (subfolders mu_<value> when several); written "
+                                 "into place only when every run has finished")
     p.add_argument("--no-render", action="store_true", help="skip the timeline and GIF")
     p.set_defaults(func=run)
 
 
+MAX_RUNS = 100
+
+
 def parse_mu_list(text: str) -> list[float]:
     """``"0.1"`` or ``"0,0.1,0.2"`` -> coefficients (finite, >= 0)."""
-    out = []
-    for part in str(text).split(","):
-        try:
-            v = float(part)
-        except ValueError:
-            raise InputError(f"--mu: expected numbers separated by commas, got {text!r}") from None
-        if not math.isfinite(v) or v < 0:
-            raise InputError(f"--mu: expected coefficients >= 0, got {part.strip()!r}")
-        out.append(v)
+    out = parse_numbers(text, "--mu", lo=0.0, hi=MU_MAX)
+    if len(out) > MAX_RUNS:
+        raise InputError(f"--mu: expected at most {MAX_RUNS} values, got {len(out)}")
     return out
 
 
@@ -63,6 +61,17 @@ def run(args: argparse.Namespace) -> int:
     path = Path(args.plan)
     if not path.is_file():
         raise InputError(f"plan: expected an existing plan file, got {str(path)!r}")
+    if args.out is not None:
+        from planner.files.outputs import output_set
+
+        with output_set(args.out, "dir") as work:
+            return _run(args, path, mus, work)
+    return _run(args, path, mus, None)
+
+
+def _run(args: argparse.Namespace, path: Path, mus: list[float] | None,
+         work: Path | None) -> int:
+    """Validate the plan at ``path``; outputs go to ``work`` (the staging folder of --out)."""
     from planner.plan.plan_file import load_plan
 
     plan = load_plan(path)  # FileFormatError (a ValueError) -> exit 2 in cli.main
@@ -76,20 +85,20 @@ def run(args: argparse.Namespace) -> int:
     statuses = []
     for mu in mus:
         out = None
-        if args.out:
-            out = Path(args.out) if len(mus) == 1 else Path(args.out) / f"mu_{mu:g}"
+        if work is not None:
+            out = work if len(mus) == 1 else work / f"mu_{fmt(mu)}"
         res = run_plan(plan, args.engine, mu, out, render=not args.no_render)
         v = res.verdict
         statuses.append(v.outcome)
         wall = f"[{res.summary['settings']['wall_time_s']:.1f} s]"
         if v.plan is not None:
             pm = v.plan
-            print(f"{args.engine} mu={mu:g}: {v.outcome.value.upper()}  claim {pm.claim.label!r} "
-                  f"observed {pm.claim_fraction:.1%} (predicted modes "
+            print(f"{args.engine} mu={fmt(mu)}: {v.outcome.value.upper()}  "
+                  f"claim {pm.claim.label!r} observed {pm.claim_fraction:.1%} (predicted modes "
                   f"{pm.predicted_fraction:.1%}), final position "
                   f"{pm.final_error_of_travel:.2%} of travel {wall}")
         else:
-            print(f"{args.engine} mu={mu:g}: {v.outcome.value.upper()} {wall}")
+            print(f"{args.engine} mu={fmt(mu)}: {v.outcome.value.upper()} {wall}")
         if v.outcome is not Outcome.AGREED:
             for r in v.reasons:
                 print(f"    {r}")

@@ -1,0 +1,131 @@
+"""Option parsing shared by the subcommands: one range syntax, finite numbers, a memory budget,
+plain number formatting.
+
+Every parser raises :class:`planner.errors.InputError` whose message names the option, says
+what was expected and quotes what came (the CLI maps it to exit 2).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Sequence
+
+from planner.errors import InputError
+
+GIB = 2 ** 30
+DEFAULT_MEMORY_GIB = 4.0
+"""Default memory budget of one command in GiB (``--memory-gib`` or ``QSPLAN_MEMORY_GIB``)."""
+MU_MAX = 1e6
+"""Largest friction coefficient the command line accepts (larger values are typing errors)."""
+
+
+def parse_number(text: str, what: str, *, lo: float = -math.inf, hi: float = math.inf) -> float:
+    """A finite number in ``[lo, hi]``; ``what`` names the option in the message."""
+    tok = str(text).strip()
+    try:
+        value = float(tok)
+    except ValueError:
+        raise InputError(f"{what}: expected a number, got {tok!r}") from None
+    if not math.isfinite(value):
+        raise InputError(f"{what}: expected a finite number, got {tok!r}")
+    if not lo <= value <= hi:
+        raise InputError(f"{what}: expected a number in [{fmt(lo)}, {fmt(hi)}], got {tok!r}")
+    return value
+
+
+def parse_numbers(text: str, what: str, *, lo: float = -math.inf,
+                  hi: float = math.inf) -> list[float]:
+    """Comma-separated finite numbers in ``[lo, hi]`` (at least one)."""
+    parts = [p for p in str(text).split(",")]
+    if not str(text).strip() or any(not p.strip() for p in parts):
+        raise InputError(f"{what}: expected comma-separated numbers, got {text!r}")
+    for p in parts:
+        try:
+            float(p)
+        except ValueError:
+            raise InputError(f"{what}: expected comma-separated numbers, got {p.strip()!r}"
+                             + (f" in {text!r}" if len(parts) > 1 else "")) from None
+    return [parse_number(p, what, lo=lo, hi=hi) for p in parts]
+
+
+def parse_indices(text: str, what: str, count: int | None = None) -> list[int]:
+    """Comma-separated 1-based integers (``1,2``); with ``count``, each in ``1..count``."""
+    out = []
+    for tok in str(text).split(","):
+        tok = tok.strip()
+        try:
+            value = int(tok)
+        except ValueError:
+            raise InputError(f"{what}: expected comma-separated 1-based integers, got "
+                             f"{text!r}") from None
+        if value < 1 or (count is not None and value > count):
+            span = f"1..{count}" if count is not None else ">= 1"
+            raise InputError(f"{what}: expected indices in {span}, got {value}")
+        out.append(value)
+    return out
+
+
+def parse_range(text: str, what: str, *, lo: float = 0.0, hi: float = MU_MAX,
+                legacy_comma: bool = False) -> tuple[float, float]:
+    """``"LO:HI"`` -> ``(LO, HI)`` with ``lo <= LO <= HI <= hi``, both finite.
+
+    The one range syntax of the command line.  ``legacy_comma=True`` also accepts ``LO,HI``
+    (only for options whose help documented it).
+    """
+    raw = str(text).strip()
+    parts = raw.split(":")
+    if legacy_comma and len(parts) == 1 and raw.count(",") == 1:
+        parts = raw.split(",")
+    if len(parts) != 2:
+        hint = " (a comma is not a range separator)" if "," in raw else ""
+        raise InputError(f"{what}: expected LO:HI, e.g. 0:1, got {raw!r}{hint}")
+    a = parse_number(parts[0], what, lo=lo, hi=hi)
+    b = parse_number(parts[1], what, lo=lo, hi=hi)
+    if a > b:
+        raise InputError(f"{what}: expected LO <= HI, got {raw!r}")
+    return a, b
+
+
+def check_int(value: int, what: str, lo: int, hi: int | None = None) -> int:
+    """An integer option in ``[lo, hi]``."""
+    if value < lo or (hi is not None and value > hi):
+        span = f">= {lo}" if hi is None else f"in {lo}..{hi}"
+        raise InputError(f"{what}: expected an integer {span}, got {value}")
+    return value
+
+
+def memory_budget(gib: float | None = None) -> int:
+    """The memory budget in bytes: ``gib``, else ``$QSPLAN_MEMORY_GIB``, else the default."""
+    if gib is None:
+        env = os.environ.get("QSPLAN_MEMORY_GIB")
+        gib = (parse_number(env, "QSPLAN_MEMORY_GIB", lo=0.0, hi=1e6) if env
+               else DEFAULT_MEMORY_GIB)
+    return int(gib * GIB)
+
+
+def check_budget(need_bytes: float, budget_bytes: int, what: str, hint: str = "") -> None:
+    """Refuse a request that would need more than the budget, saying how much it would need
+    (``what`` describes the request, ``hint`` what to do instead)."""
+    if need_bytes > budget_bytes:
+        raise InputError(
+            f"expected a request within the memory budget ({budget_bytes / GIB:.3g} GiB), got "
+            f"{what}, which would need {need_bytes / GIB:.3g} GiB"
+            f"{'; ' + hint if hint else ''} (or raise --memory-gib)"
+        )
+
+
+def fmt(x: float, spec: str = "g") -> str:
+    """A number as text without ``-0`` and without numpy's type wrapper."""
+    value = float(x)
+    if value == 0.0:
+        value = 0.0  # drops the sign of -0.0
+    if math.isinf(value):
+        return "inf" if value > 0 else "-inf"
+    text = format(value, spec)
+    return text[1:] if text.startswith("-") and float(text) == 0.0 else text
+
+
+def fmt_list(values: Sequence[float], spec: str = ".4g") -> str:
+    """``[a, b, c]`` formatted with :func:`fmt`."""
+    return "[" + ", ".join(fmt(v, spec) for v in values) + "]"
