@@ -12,18 +12,23 @@ left null space of ``Q_A`` be trivial (full row rank).  Here:
 * forces: ``c_A = Q_A^+ rhs + N y`` (generalised inverse plus null space); feasibility of
   ``B_A c_A >= 0`` is a linear program (scipy HiGHS) maximising the smallest normalised slack.
 
-The kinematic stage is batched per constraint count; the LP runs only for the few modes that
-pass it.
+The candidates are not enumerated (``3^n_c`` modes): :func:`scan_indeterminate` solves every
+``k``-row subset of ``K`` (polynomial in ``n_c``), keeps the velocities at which more than ``k``
+rows vanish, and reads the modes off them; the exact kinematic test and the LP run only for
+those few modes.
 """
 
 from __future__ import annotations
 
+import itertools
+from collections.abc import Iterator
 from dataclasses import dataclass
+from math import comb
 
 import numpy as np
-from scipy.optimize import linprog
+from scipy.optimize import linprog  # type: ignore[import-untyped]
 
-from planner.model.modes import BREAK, ROLL, SLIDE, Mode, enumerate_modes
+from planner.model.modes import BREAK, ROLL, SLIDE, Mode, candidates_from_codes
 from planner.model.system import System
 from planner.predict.stages import (
     DEFAULT_SINGULAR_TOL,
@@ -32,6 +37,7 @@ from planner.predict.stages import (
     equilibrated_kinematics,
     force_matrices,
     force_rhs,
+    lu_det_solve,
 )
 
 
@@ -56,6 +62,152 @@ class IndeterminateKinematics:
         return Mode(tuple(int(c) for c in self.codes), tuple(int(x) for x in self.xi))
 
 
+#: Largest number of ``k``-row subsets of ``K`` (``C(2 n_c, 3 + |tau_I|)``) the relaxed-utility
+#: pass examines by default; above it the pass is skipped and the result says so.
+DEFAULT_MAX_ROW_SUBSETS = 4_000_000
+#: Row subsets solved per batch (bounds the pass's memory at any ``n_c``).
+SUBSET_CHUNK = 4096
+#: Generation tolerance, relative to the largest equilibrated right side: a row with
+#: ``|v| <= GEN_TOL max|bn|`` at a subset's solution may vanish in the mode (it covers the
+#: difference between the subset's exact solution and the mode's generalised-inverse one,
+#: ``cond(K_S) * tol``); every generated mode is then decided by the exact test.
+GEN_TOL = 1e-6
+#: Largest number of modes one subset's velocity may generate (contacts within ``GEN_TOL`` of
+#: two states multiply); above it the pass reports a limit.
+MAX_MODES_PER_VELOCITY = 4096
+
+
+@dataclass(frozen=True, eq=False)
+class IndeterminateScan:
+    """Result of :func:`scan_indeterminate`.
+
+    ``kinematics``: the kinematically admissible force-indeterminate candidates; ``subsets``:
+    ``k``-row subsets of ``K`` examined; ``generated``: distinct candidate modes given to the
+    exact test; ``limit``: empty when the scan is complete, else why it is not."""
+
+    kinematics: tuple[IndeterminateKinematics, ...]
+    subsets: int
+    generated: int
+    limit: str = ""
+
+
+def row_subset_count(system: System) -> int:
+    """``C(2 n_c, 3 + |tau_I|)``: the ``k``-row subsets :func:`scan_indeterminate` solves."""
+    return comb(2 * system.n_contacts, system.dof)
+
+
+def scan_indeterminate(
+    system: System,
+    *,
+    tol: float = DEFAULT_TOL,
+    singular_tol: float = DEFAULT_SINGULAR_TOL,
+    max_subsets: int = DEFAULT_MAX_ROW_SUBSETS,
+) -> IndeterminateScan:
+    """Every kinematically admissible force-indeterminate candidate (relaxed utility, end of
+    Sec. 3.2), at any ``n_c``, without enumerating the ``3^n_c`` modes.
+
+    A relaxed-utility mode has rows ``A`` with ``|A| > k = 3 + |tau_I|`` and ``P_A`` of full
+    column rank, so its velocity ``z = (qdot, thetadot_E)`` is unique (eq. 24) and already
+    fixed by some ``k`` linearly independent rows of ``A``.  Conversely ``z`` fixes the mode:
+    ``v = K z - b`` (eq. 5) vanishes on exactly the rows of ``A``; contacts with ``v_n > 0``
+    break (eq. 25), with ``v_n = 0, v_t != 0`` slide with ``xi = sgn(v_t)`` (eq. 16), with
+    ``v = 0`` roll.  Hence:
+
+    1. solve ``K_S z = b_S`` for every ``k``-subset ``S`` of the ``2 n_c`` rows of ``K``
+       (``C(2 n_c, k)`` small systems, batched, in chunks of :data:`SUBSET_CHUNK`): the rank
+       test (30)-(32) on ``K_S`` drops singular subsets;
+    2. keep the ``z`` at which more than ``k`` rows vanish (within :data:`GEN_TOL`: the cheap
+       test; at generic ``z`` exactly ``k`` rows vanish and the subset is dropped) and read
+       the mode(s) off ``v`` (a contact within ``GEN_TOL`` of two states yields both);
+    3. decide every generated mode by the exact test of :func:`indeterminate_kinematics_of`
+       (full column rank of ``P_A``, generalised-inverse velocities, consistency within
+       ``tol``, strict margins), the same as testing it among all ``3^n_c`` modes.
+
+    The work is polynomial in ``n_c`` for a fixed number of effort joints.  When
+    ``C(2 n_c, k) > max_subsets`` nothing is scanned and ``limit`` says so.
+    """
+    n_c, k = system.n_contacts, system.dof
+    count = row_subset_count(system)
+    if 2 * n_c <= k:  # no mode can have more than k rows
+        return IndeterminateScan((), 0, 0)
+    if count > max_subsets:
+        return IndeterminateScan((), 0, 0, (
+            f"force-indeterminate (relaxed-utility) modes not searched: C(2 n_c, 3 + |tau_I|) "
+            f"= C({2 * n_c}, {k}) = {count} row subsets exceed max_subsets = {max_subsets}"
+        ))
+    eq = equilibrated_kinematics(system)
+    Kn, bn = eq.Kn, eq.bn
+    b_scale = float(np.max(np.abs(bn))) if bn.size else 0.0
+    gen = GEN_TOL * b_scale
+    scale = eq.velocity_scale if eq.velocity_scale > 0 else 1.0
+    strict = tol * scale / eq.row  # (2 n_c,) equilibrated threshold of eqs. (16), (25)
+    aug = np.ascontiguousarray(np.concatenate([Kn, bn[:, None]], axis=1).T)  # (k+1, 2 n_c)
+    found: set[bytes] = set()
+    codes_out: list[np.ndarray] = []
+    limit = ""
+    combos = itertools.combinations(range(2 * n_c), k)
+    while True:
+        flat = np.fromiter(itertools.chain.from_iterable(itertools.islice(combos, SUBSET_CHUNK)),
+                           dtype=np.int64)
+        if flat.size == 0:
+            break
+        S = flat.reshape(-1, k)
+        det, z = lu_det_solve(np.take(aug, S.T, axis=1))
+        good = np.abs(det) > singular_tol * 1e-3  # loose: the exact test decides the rank
+        if not np.any(good):
+            continue
+        z = z[:, good]
+        v = Kn @ z - bn[:, None]  # (2 n_c, C) equilibrated velocities, eq. (5)
+        zero = np.abs(v) <= gen
+        many = np.flatnonzero(zero.sum(axis=0) > k)
+        if many.size == 0:
+            continue
+        # What each contact may be at each kept z (B; in contact; rolling; sliding): many
+        # subsets of one mode give the same pattern, which is expanded once.
+        vm, zm = v[:, many], zero[:, many]
+        pattern = np.concatenate([
+            vm[0::2] > strict[0::2, None], zm[0::2], zm[1::2],
+            np.abs(vm[1::2]) > strict[1::2, None],
+        ]).T
+        for row in np.unique(pattern, axis=0):
+            for code in _modes_of_pattern(row.reshape(4, n_c)):
+                if code is None:
+                    limit = (f"a velocity near {MAX_MODES_PER_VELOCITY}+ mode boundaries: "
+                             "some force-indeterminate candidates were not generated")
+                    continue
+                key = code.tobytes()
+                if key not in found:
+                    found.add(key)
+                    codes_out.append(code)
+    kins = indeterminate_kinematics_of(system, codes_out, tol=tol, singular_tol=singular_tol)
+    return IndeterminateScan(tuple(kins), count, len(codes_out), limit)
+
+
+def _modes_of_pattern(pattern: np.ndarray) -> Iterator[np.ndarray | None]:
+    """Mode codes ``(n_c,) int8`` allowed by ``pattern (4, n_c)`` (rows: may break; normal
+    vanishes; tangent vanishes; may slip) -- a superset of the modes whose rows all vanish;
+    one None instead once more than :data:`MAX_MODES_PER_VELOCITY` would be generated."""
+    can_b, zn, zt, can_s = pattern
+    options: list[list[int]] = []
+    size = 1
+    for i in range(pattern.shape[1]):
+        opts = [BREAK] if can_b[i] else []
+        if zn[i]:
+            if zt[i]:
+                opts.append(ROLL)
+            if can_s[i]:
+                opts.append(SLIDE)
+        if not opts:  # penetrating (v_n < 0): no mode
+            return
+        options.append(opts)
+        size *= len(opts)
+    if size > MAX_MODES_PER_VELOCITY:
+        yield None
+        return
+    for combo in itertools.product(*options):
+        yield np.array(combo, dtype=np.int8)
+
+
 def indeterminate_kinematics(
     system: System,
     *,
@@ -64,17 +216,40 @@ def indeterminate_kinematics(
 ) -> list[IndeterminateKinematics]:
     """Candidates with ``2 n_R + n_S > 3 + |tau_I|`` that pass the kinematic tests (unique,
     consistent velocities; eqs. 16, 24-25 in the generalised-inverse sense).  Friction- and
-    effort-independent."""
+    effort-independent.  Found by :func:`scan_indeterminate` (with no subset budget)."""
+    scan = scan_indeterminate(system, tol=tol, singular_tol=singular_tol,
+                              max_subsets=row_subset_count(system))
+    return list(scan.kinematics)
+
+
+def indeterminate_kinematics_of(
+    system: System,
+    codes: list[np.ndarray] | np.ndarray,
+    *,
+    tol: float = DEFAULT_TOL,
+    singular_tol: float = DEFAULT_SINGULAR_TOL,
+) -> list[IndeterminateKinematics]:
+    """The exact kinematic test of the given modes ``codes (m, n_c)`` with more than
+    ``3 + |tau_I|`` rows (others are ignored): ``P_A`` of full column rank, ``z = P_A^+ b_A``
+    (generalised inverse, Sec. 3.2) consistent within ``tol``, breaking contacts separate and
+    sliding contacts slip (eqs. 16, 25).  Returned in :func:`enumerate_modes` order."""
     out: list[IndeterminateKinematics] = []
     n_c, k = system.n_contacts, system.dof
+    codes = np.asarray(codes, dtype=np.int8).reshape(-1, n_c)
+    if codes.shape[0] == 0:
+        return out
     E, V = system.effort_joints, system.velocity_joints
     eq = equilibrated_kinematics(system)
     Kn, bn, col = eq.Kn, eq.bn, eq.col
     scale = eq.velocity_scale if eq.velocity_scale > 0 else 1.0
+    n_rows_all = 2 * (codes == ROLL).sum(axis=1) + (codes == SLIDE).sum(axis=1)
+    order = canonical_mode_order(codes)
+    codes, n_rows_all = codes[order], n_rows_all[order]
     for k_rows in range(k + 1, 2 * n_c + 1):
-        cand = enumerate_modes(n_c, k_rows)
-        if len(cand) == 0:
+        sel = n_rows_all == k_rows
+        if not np.any(sel):
             continue
+        cand = candidates_from_codes(codes[sel], k_rows)
         P = Kn[cand.rows]  # (M, k_rows, k)
         b = bn[cand.rows]
         s = np.linalg.svd(P, compute_uv=False)
@@ -97,17 +272,30 @@ def indeterminate_kinematics(
         thetadot[:, E] = z[:, 3:]
         v = qdot @ system.W - thetadot @ system.J.T
         v_n, v_t = v[:, 0::2], v[:, 1::2]
-        codes = cand.codes[idx]
-        strict = np.where(codes == BREAK, v_n, np.where(codes == SLIDE, np.abs(v_t), np.inf))
+        codes_k = cand.codes[idx]
+        strict = np.where(codes_k == BREAK, v_n,
+                          np.where(codes_k == SLIDE, np.abs(v_t), np.inf))
         kin_margin = np.min(strict, axis=1) / scale
-        xi = np.where(codes == SLIDE, np.sign(v_t), 0).astype(np.int8)
+        xi = np.where(codes_k == SLIDE, np.sign(v_t), 0).astype(np.int8)
         for j in np.flatnonzero(kin_margin > tol):
             i = idx[j]
             out.append(IndeterminateKinematics(
-                cand.rows[i], cand.sliding[i], cand.contact[i], codes[j], xi[j],
+                cand.rows[i], cand.sliding[i], cand.contact[i], codes_k[j], xi[j],
                 qdot[j].copy(), thetadot[j].copy(), v[j].copy(), float(kin_margin[j]),
             ))
     return out
+
+
+def canonical_mode_order(codes: np.ndarray) -> np.ndarray:
+    """Indices sorting mode codes ``(m, n_c)`` as :func:`enumerate_modes` does within one row
+    count: by ``n_R``, then lexicographically by the rolling and the sliding set."""
+    if len(codes) == 0:
+        return np.zeros(0, dtype=np.int64)
+    n_c = codes.shape[1]
+    keys = [-(codes[:, i] == SLIDE).astype(int) for i in reversed(range(n_c))]
+    keys += [-(codes[:, i] == ROLL).astype(int) for i in reversed(range(n_c))]
+    keys.append((codes == ROLL).sum(axis=1))
+    return np.lexsort(keys)
 
 
 def indeterminate_modes(
@@ -116,10 +304,15 @@ def indeterminate_modes(
     *,
     tol: float = DEFAULT_TOL,
     singular_tol: float = DEFAULT_SINGULAR_TOL,
+    kinematics: tuple[IndeterminateKinematics, ...] | list[IndeterminateKinematics] | None = None,
 ) -> list[FeasibleMode]:
-    """Feasible modes with ``2 n_R + n_S > 3 + |tau_I|`` (force-indeterminate)."""
+    """Feasible modes with ``2 n_R + n_S > 3 + |tau_I|`` (force-indeterminate): the force LP
+    of :func:`force_lp` on every kinematically admissible one (``kinematics``, default
+    :func:`indeterminate_kinematics`)."""
     out: list[FeasibleMode] = []
-    for kin in indeterminate_kinematics(system, tol=tol, singular_tol=singular_tol):
+    if kinematics is None:
+        kinematics = indeterminate_kinematics(system, tol=tol, singular_tol=singular_tol)
+    for kin in kinematics:
         result = force_lp(system, kin.rows, kin.sliding, kin.contact, kin.codes, kin.xi, mu,
                            singular_tol)
         if result is None:

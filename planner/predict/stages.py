@@ -283,7 +283,7 @@ class ForceStage:
     ``nonsingular (L, m)``.
     """
 
-    c_A: np.ndarray
+    c_A: np.ndarray  # noqa: N815 (the paper's symbol)
     contact_forces: np.ndarray
     joint_efforts: np.ndarray
     margin: np.ndarray

@@ -28,13 +28,16 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
     p.add_argument(
-        "--no-indeterminate", action="store_true",
-        help="skip the relaxed-utility (force-indeterminate) search",
+        "--indeterminate", action=argparse.BooleanOptionalAction, default=None,
+        help="search the relaxed-utility (force-indeterminate) modes at any n_c, whatever the "
+             "cost (--indeterminate) or not at all (--no-indeterminate); default: while "
+             "C(2 n_c, 3 + |tau_I|) row subsets fit the budget. A skipped search is printed "
+             "as a limit",
     )
     p.add_argument(
         "--search", action="store_true",
-        help="exact pruned search (planner.predict.search, docs/scaling.md) instead of testing every "
-             "candidate: the same modes, far fewer tests for many contacts",
+        help="exact pruned search (planner.predict.search, docs/scaling.md) instead of testing "
+             "every candidate: the same modes, far fewer tests for many contacts",
     )
     p.add_argument(
         "--workers", type=int, default=1,
@@ -68,7 +71,7 @@ def run(args: argparse.Namespace) -> int:
     mu = parse_mu(args.mu)
     if mu is not None and len(mu) == 1:
         mu = mu[0]
-    indeterminate = False if args.no_indeterminate else None
+    indeterminate = args.indeterminate
     stats = None
     if not args.search and (args.workers != 1 or args.dask is not None):
         raise InputError("--workers/--dask: expected together with --search")
@@ -116,6 +119,8 @@ def format_prediction(pred) -> str:  # type: ignore[no-untyped-def]
     ]
     if pred.reason:
         lines.append(f"reason: {pred.reason}")
+    for limit in getattr(pred, "limits", ()):
+        lines.append(f"limit: {limit}")
     if not pred.all_modes:
         lines.append("no feasible mode" + (" (jammed)" if pred.status.value == "jammed" else ""))
     with np.printoptions(precision=4, suppress=True, floatmode="maxprec"):
