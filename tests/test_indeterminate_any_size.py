@@ -14,6 +14,11 @@ from scipy.optimize import linprog
 from planner import Status, System, feasible_modes
 from planner.errors import InputError
 from planner.predict import feasibility
+from planner.predict.indeterminate import (
+    closed_bases_suffice,
+    indeterminate_modes,
+    scan_indeterminate,
+)
 
 B_, S_, R_ = 0, 1, 2  # this file's own codes (the brute force shares nothing with planner)
 
@@ -133,6 +138,19 @@ def forces_feasible(system, codes, xi):
     return res.status == 0 and -res.fun >= -1e-9 * scale
 
 
+def pinched_box(n_supports, lift=0.01, squeeze=0.0, mu=0.6, rng=None):
+    """A box on ``n_supports`` supports, pinched by two fingers on one horizontal line (the
+    opposite normals defeat the structural shortcut) that move up by ``lift``."""
+    xs = (np.sort(rng.uniform(-1.0, 1.0, n_supports)) if rng is not None
+          else np.linspace(-1.0, 1.0, n_supports))
+    points = [[x, 0.0] for x in xs] + [[-1.0, 0.5], [1.0, 0.5]]
+    normals = [[0.0, 1.0]] * n_supports + [[1.0, 0.0], [-1.0, 0.0]]
+    # contact frames: t = (-n_y, n_x) rotated so that n x t = +1
+    vel = [[0.0, 0.0]] * n_supports + [[squeeze, lift], [squeeze, -lift]]
+    return System.from_contacts(points=points, normals=normals, mu=mu,
+                                external_wrench=[0.0, -1.0, 0.0], contact_velocities=vel)
+
+
 @pytest.mark.parametrize("n_c", range(9, 15))
 def test_relaxed_utility_modes_agree_with_brute_force(n_c):
     rng = np.random.default_rng(1500 + n_c)
@@ -140,9 +158,24 @@ def test_relaxed_utility_modes_agree_with_brute_force(n_c):
     pred = feasible_modes(system)
     assert pred.complete and pred.limits == ()
     got = sorted(m.label for m in pred.indeterminate_modes)
-    assert got == brute_force_indeterminate(system)
+    want = brute_force_indeterminate(system)
+    assert got == want
     for fm in pred.indeterminate_modes:
         check_certificate(system, fm)
+    # the general row-subset scan (used when the structural shortcut does not apply) agrees
+    scan = scan_indeterminate(system)
+    assert sorted(m.label for m in indeterminate_modes(
+        system, system.mu, kinematics=scan.kinematics)) == want
+
+
+def test_pinch_grasp_needs_the_full_scan_and_gets_it():
+    system = pinched_box(7, rng=np.random.default_rng(7))
+    assert not closed_bases_suffice(system)
+    assert closed_bases_suffice(box_on_supports(7, rng=np.random.default_rng(7)))
+    pred = feasible_modes(system)
+    want = brute_force_indeterminate(system)
+    assert sorted(m.label for m in pred.indeterminate_modes) == want
+    assert "B1 B2 B3 B4 B5 B6 B7 R8 R9" in want and pred.complete
 
 
 def test_brute_force_finds_relaxed_modes_in_these_systems():

@@ -45,6 +45,10 @@ from planner.model.system import System
 from planner.model.validation import as_friction
 from planner.predict.indeterminate import (
     DEFAULT_MAX_ROW_SUBSETS,
+    closed_bases_suffice,
+    codes_from_velocities,
+    generation_thresholds,
+    indeterminate_kinematics_of,
     indeterminate_modes,
     scan_indeterminate,
 )
@@ -52,6 +56,8 @@ from planner.predict.stages import (
     DEFAULT_SINGULAR_TOL,
     DEFAULT_TOL,
     FeasibleMode,
+    KinematicStage,
+    equilibrated_kinematics,
     force_stage,
     kinematic_stage,
 )
@@ -201,27 +207,55 @@ def feasible_modes(
             f"{k}); use planner.predict.search.search_modes (qsplan modes --search)"
         )
     chunk = stream_chunk(n_c)
+    # Relaxed-utility modes from the determinate candidates' velocities when the structural
+    # test allows it (indeterminate.closed_bases_suffice), else by the row-subset scan.
+    from_candidates = indeterminate is not False and closed_bases_suffice(system)
     if n_cand <= chunk:
         prediction, _ = predict_candidates(
             system, enumerate_modes(n_c, k), mu_arr, tol=tol, singular_tol=singular_tol,
             indeterminate=indeterminate, max_subsets=max_subsets,
+            relaxed_from_candidates=from_candidates,
         )
         return prediction
     # Streamed: the kinematic stage chunk by chunk, keeping the admissible and boundary
     # candidates (same arithmetic per candidate; eq. 24's LU does not see its batch).
     kept, singular, n_chunks = [], 0, 0
+    relaxed = RelaxedCodes(system, tol) if from_candidates else None
     for codes in iter_candidate_codes(n_c, k, chunk):
         n_chunks += 1
         kin = kinematic_stage(system, candidates_from_codes(codes, k), tol=tol,
                               singular_tol=singular_tol)
         singular += int(np.count_nonzero(~kin.nonsingular))
         kept.append(codes[kin.ok | kin.boundary])
+        if relaxed is not None:
+            relaxed.add(kin)
     prediction, _ = predict_candidates(
         system, candidates_from_codes(np.concatenate(kept), k), mu_arr, tol=tol,
         singular_tol=singular_tol, indeterminate=indeterminate, max_subsets=max_subsets,
         extra_degenerate=singular, method=f"exhaustive, streamed in {n_chunks} chunks",
+        relaxed=relaxed,
     )
     return prediction
+
+
+class RelaxedCodes:
+    """Relaxed-utility candidates read off determinate candidates' velocities (valid when
+    :func:`planner.predict.indeterminate.closed_bases_suffice` holds and every eq. (49)
+    candidate is added): :func:`planner.predict.indeterminate.codes_from_velocities`."""
+
+    def __init__(self, system: System, tol: float) -> None:
+        self.system, self.k = system, system.dof
+        self.strict, self.gen = generation_thresholds(system, tol)
+        self.row = equilibrated_kinematics(system).row
+        self.found: set[bytes] = set()
+        self.codes: list[np.ndarray] = []
+        self.limit = ""
+
+    def add(self, kin: KinematicStage) -> None:
+        """Read the modes off the nonsingular candidates of one kinematic stage."""
+        v = kin.v[kin.nonsingular] / self.row  # equilibrated velocities (eq. 5)
+        self.limit = codes_from_velocities(
+            v, self.k, self.strict, self.gen, self.found, self.codes) or self.limit
 
 
 def predict_candidates(
@@ -235,6 +269,8 @@ def predict_candidates(
     max_subsets: int = DEFAULT_MAX_ROW_SUBSETS,
     extra_degenerate: int = 0,
     method: str = "exhaustive",
+    relaxed_from_candidates: bool = False,
+    relaxed: RelaxedCodes | None = None,
 ) -> tuple[Prediction, int]:
     """Kinematic then force stage on the candidates ``cand`` and the :class:`Prediction`
     (eqs. 23-28); also the number of candidates that reached the force stage.
@@ -243,7 +279,10 @@ def predict_candidates(
     survive the pruning for :func:`planner.predict.search.search_modes` or the streamed
     enumeration (same arithmetic per candidate, same assembly); ``candidates`` in the result is
     always the eq. (49) count.  ``extra_degenerate`` singular candidates were dropped before;
-    ``indeterminate`` and ``max_subsets`` as in :func:`feasible_modes`.
+    ``indeterminate`` and ``max_subsets`` as in :func:`feasible_modes`.  The relaxed-utility
+    candidates come from ``relaxed`` (collected over streamed chunks), from ``cand``'s own
+    velocities (``relaxed_from_candidates``: ``cand`` is every eq. (49) candidate and the
+    structural test holds), or else from the row-subset scan.
     """
     kin = kinematic_stage(system, cand, tol=tol, singular_tol=singular_tol)
     idx = np.flatnonzero(kin.ok)
@@ -283,14 +322,24 @@ def predict_candidates(
     if indeterminate is False:
         limits.append(INDETERMINATE_OFF)
     else:
-        scan = scan_indeterminate(
-            system, tol=tol, singular_tol=singular_tol,
-            max_subsets=max_subsets if indeterminate is None else 2**63,
-        )
-        if scan.limit:
-            limits.append(scan.limit)
-        extra = tuple(indeterminate_modes(system, mu_arr, tol=tol, singular_tol=singular_tol,
-                                          kinematics=scan.kinematics))
+        if relaxed is None and relaxed_from_candidates:
+            relaxed = RelaxedCodes(system, tol)
+            relaxed.add(kin)
+        if relaxed is not None:
+            kinematics = tuple(indeterminate_kinematics_of(
+                system, relaxed.codes, tol=tol, singular_tol=singular_tol))
+            limit = relaxed.limit
+        else:
+            scan = scan_indeterminate(
+                system, tol=tol, singular_tol=singular_tol,
+                max_subsets=max_subsets if indeterminate is None else 2**63,
+            )
+            kinematics, limit = scan.kinematics, scan.limit
+        if limit:
+            limits.append(limit)
+        if kinematics:
+            extra = tuple(indeterminate_modes(system, mu_arr, tol=tol,
+                                              singular_tol=singular_tol, kinematics=kinematics))
     n_feasible = len(modes) + len(extra)
     n_cand = candidate_count(system.n_contacts, system.dof)
     if n_cand == 0:
