@@ -45,6 +45,7 @@ from planner.model.system import System
 from planner.model.validation import as_friction
 from planner.predict.indeterminate import (
     DEFAULT_MAX_ROW_SUBSETS,
+    IndeterminateKinematics,
     closed_bases_suffice,
     codes_from_velocities,
     generation_thresholds,
@@ -253,9 +254,13 @@ class RelaxedCodes:
 
     def add(self, kin: KinematicStage) -> None:
         """Read the modes off the nonsingular candidates of one kinematic stage."""
-        v = kin.v[kin.nonsingular] / self.row  # equilibrated velocities (eq. 5)
+        self.add_velocities(kin.v[kin.nonsingular])
+
+    def add_velocities(self, v: np.ndarray) -> None:
+        """Read the modes off relative velocities ``v (m, 2 n_c)`` (eq. 5) of nonsingular
+        candidates."""
         self.limit = codes_from_velocities(
-            v, self.k, self.strict, self.gen, self.found, self.codes) or self.limit
+            v / self.row, self.k, self.strict, self.gen, self.found, self.codes) or self.limit
 
 
 def predict_candidates(
@@ -317,15 +322,46 @@ def predict_candidates(
     degenerate = extra_degenerate + int(np.count_nonzero(~kin.nonsingular)) + int(
         np.count_nonzero(~fs.nonsingular[0])
     )
+    if indeterminate is not False and relaxed is None and relaxed_from_candidates:
+        relaxed = RelaxedCodes(system, tol)
+        relaxed.add(kin)
+    prediction = finish_prediction(
+        system, mu_arr, tuple(modes), boundary, degenerate, kin.velocity_scale,
+        tol=tol, singular_tol=singular_tol, indeterminate=indeterminate,
+        max_subsets=max_subsets, relaxed=relaxed, method=method,
+    )
+    return prediction, len(idx)
+
+
+def finish_prediction(
+    system: System,
+    mu_arr: np.ndarray,
+    modes: tuple[FeasibleMode, ...],
+    boundary: tuple[Mode, ...],
+    degenerate: int,
+    velocity_scale: float,
+    *,
+    tol: float,
+    singular_tol: float,
+    indeterminate: bool | None,
+    max_subsets: int,
+    relaxed: RelaxedCodes | None,
+    method: str,
+    relaxed_kinematics: tuple[tuple[IndeterminateKinematics, ...], str] | None = None,
+) -> Prediction:
+    """The relaxed-utility modes (from ``relaxed`` or the row-subset scan), the status, the
+    reason and the limits: the :class:`Prediction` of the determinate results ``modes``,
+    ``boundary``, ``degenerate`` (shared by the single and the batch API).
+    ``relaxed_kinematics``: the admissible relaxed-utility candidates and a limit message,
+    already found (batch API)."""
     extra: tuple[FeasibleMode, ...] = ()
     limits: list[str] = []
     if indeterminate is False:
         limits.append(INDETERMINATE_OFF)
     else:
-        if relaxed is None and relaxed_from_candidates:
-            relaxed = RelaxedCodes(system, tol)
-            relaxed.add(kin)
-        if relaxed is not None:
+        if relaxed_kinematics is not None:
+            kinematics, limit = relaxed_kinematics
+        elif relaxed is not None:
             kinematics = tuple(indeterminate_kinematics_of(
                 system, relaxed.codes, tol=tol, singular_tol=singular_tol))
             limit = relaxed.limit
@@ -348,7 +384,7 @@ def predict_candidates(
             f"the utility conditions (29)-(32) admit no mode: {system.n_contacts} contact(s) "
             f"cannot supply 2 n_R + n_S = {system.dof} kinematic constraints"
         )
-    elif kin.velocity_scale == 0.0:
+    elif velocity_scale == 0.0:
         status = Status.AT_REST
         reason = (
             "every commanded joint velocity is zero: nothing slides or breaks; "
@@ -364,14 +400,14 @@ def predict_candidates(
     else:
         status = Status.UNIQUE if n_feasible == 1 else Status.AMBIGUOUS
         reason = f"{n_feasible} feasible mode(s)"
-    if boundary or any(m.on_boundary for m in modes + list(extra)):
+    if boundary or any(m.on_boundary for m in list(modes) + list(extra)):
         reason += "; some decisions are within tolerance of a boundary"
     if limits:
         reason += "; NOT COMPLETE: " + "; ".join(limits)
-    prediction = Prediction(
+    return Prediction(
         status=status,
         candidates=n_cand,
-        modes=tuple(modes),
+        modes=modes,
         indeterminate_modes=extra,
         boundary_modes=boundary,
         degenerate=degenerate,
@@ -381,4 +417,3 @@ def predict_candidates(
         limits=tuple(limits),
         method=method,
     )
-    return prediction, len(idx)

@@ -24,6 +24,7 @@ import itertools
 import weakref
 from collections.abc import Iterator
 from dataclasses import dataclass
+from functools import lru_cache
 from math import comb
 
 import numpy as np
@@ -180,7 +181,7 @@ def codes_from_velocities(
     ], axis=1)
     limit = ""
     for row in np.unique(pattern, axis=0):
-        for code in _modes_of_pattern(row.reshape(4, n_c)):
+        for code in modes_of_pattern(row.reshape(4, n_c)):
             if code is None:
                 limit = (f"a velocity near {MAX_MODES_PER_VELOCITY}+ mode boundaries: "
                          "some force-indeterminate candidates were not generated")
@@ -192,8 +193,8 @@ def codes_from_velocities(
     return limit
 
 
-#: Relative smallest singular value below which :func:`closed_bases_suffice` treats rows as
-#: dependent (conservative: then the full row-subset scan runs).
+#: Rows (unit length) whose Gram determinant is at most ``SPAN_TOL**2`` count as dependent in
+#: :func:`closed_bases_suffice` (conservative: then the full row-subset scan runs).
 SPAN_TOL = 1e-6
 #: Largest number of rank tests :func:`closed_bases_suffice` makes before answering False.
 MAX_STRUCTURE_TESTS = 50_000
@@ -211,8 +212,8 @@ def closed_bases_suffice(system: System) -> bool:
     to use a normal ``n_s`` whose tangent is not in ``B``, exchanging ``n_s`` for ``(n_j, t_j)``
     would give a larger closed independent set; so ``n_j`` lies in the span of at most
     ``(k - 1) / 2`` rolling pairs ``(n_a, t_a)`` of other contacts.  This function checks that
-    no normal does (smallest singular value of ``[n_j; n_a; t_a; ...]`` above ``SPAN_TOL``
-    relative); e.g. a pinch grasp (opposite normals on one line) fails it.  Answers False
+    no normal does (Gram determinant of ``[n_j; n_a; t_a; ...]`` above ``SPAN_TOL^2``); e.g.
+    a pinch grasp (opposite normals on one line) fails it.  Answers False
     (scan everything) when that takes more than :data:`MAX_STRUCTURE_TESTS` tests."""
     n_c, k = system.n_contacts, system.dof
     p_max = (k - 1) // 2
@@ -232,19 +233,33 @@ _CLOSED_BASES: weakref.WeakKeyDictionary[System, bool] = weakref.WeakKeyDictiona
 def _no_normal_in_pair_span(Kn: np.ndarray, n_c: int, p_max: int) -> bool:
     """No normal row ``Kn[2 j]`` (near) in the span of ``p <= p_max`` pairs of other contacts."""
     for p in range(1, min(p_max, n_c - 1) + 1):
-        sets = np.array(list(itertools.combinations(range(n_c), p)), dtype=np.int64)
-        j = np.repeat(np.arange(n_c), len(sets))
-        P = np.tile(sets, (n_c, 1))
-        keep = ~np.any(P == j[:, None], axis=1)
-        j, P = j[keep], P[keep]
-        rows = np.concatenate([2 * j[:, None], 2 * P, 2 * P + 1], axis=1)
-        s = np.linalg.svd(Kn[rows], compute_uv=False)
-        if np.any(s[:, -1] <= SPAN_TOL * s[:, 0]):
+        if np.any(near_dependent(Kn[pair_span_rows(n_c, p)])):
             return False
     return True
 
 
-def _modes_of_pattern(pattern: np.ndarray) -> Iterator[np.ndarray | None]:
+def near_dependent(X: np.ndarray) -> np.ndarray:
+    """``X (..., r, k)`` with unit rows: True where ``det(X X^T) <= SPAN_TOL^2`` (the product
+    of the squared singular values: exactly dependent rows give 0)."""
+    gram = X @ np.swapaxes(X, -1, -2)
+    return np.linalg.det(gram) <= SPAN_TOL ** 2
+
+
+@lru_cache(maxsize=64)
+def pair_span_rows(n_c: int, p: int) -> np.ndarray:
+    """Row indices ``(T, 2 p + 1)``: ``[n_j, n_a, ..., t_a, ...]`` for every contact ``j`` and
+    every ``p``-set of other contacts (the tests of :func:`closed_bases_suffice`)."""
+    sets = np.array(list(itertools.combinations(range(n_c), p)), dtype=np.int64)
+    j = np.repeat(np.arange(n_c), len(sets))
+    P = np.tile(sets, (n_c, 1))
+    keep = ~np.any(P == j[:, None], axis=1)
+    j, P = j[keep], P[keep]
+    rows = np.concatenate([2 * j[:, None], 2 * P, 2 * P + 1], axis=1)
+    rows.setflags(write=False)
+    return rows
+
+
+def modes_of_pattern(pattern: np.ndarray) -> Iterator[np.ndarray | None]:
     """Mode codes ``(n_c,) int8`` allowed by ``pattern (4, n_c)`` (rows: may break; normal
     vanishes; tangent vanishes; may slip) -- a superset of the modes whose rows all vanish;
     one None instead once more than :data:`MAX_MODES_PER_VELOCITY` would be generated."""

@@ -137,3 +137,23 @@ def _lapack(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray] | Non
     except np.linalg.LinAlgError:
         return None
     return det, z
+
+
+def batch_det_solve(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``det A_m`` and ``A_m^{-1} b_m`` for ``A (M, k, k)``, ``b (M, k)``."""
+    M, k, _ = A.shape
+    if M <= SMALL_BATCH:
+        hit = _lapack(A, b)
+        if hit is not None:
+            return hit
+    det = np.zeros(M)
+    z = np.empty((M, k))
+    for s in range(0, M, LU_CHUNK):
+        chunk = A[s:s + LU_CHUNK]
+        X = np.empty((k + 1, k, chunk.shape[0]))
+        X[:k] = chunk.transpose(2, 1, 0)  # X[c, a, m] = A_m[a, c]
+        X[k] = b[s:s + LU_CHUNK].T
+        d, zc = lu_det_solve(X)
+        det[s:s + LU_CHUNK] = d
+        z[s:s + LU_CHUNK] = zc.T
+    return det, z

@@ -66,25 +66,46 @@ def indeterminate_kinematics_of(
     ``3 + |tau_I|`` rows (others are ignored): ``P_A`` of full column rank, ``z = P_A^+ b_A``
     (generalised inverse, Sec. 3.2) consistent within ``tol``, breaking contacts separate and
     sliding contacts slip (eqs. 16, 25).  Returned in :func:`enumerate_modes` order."""
-    out: list[IndeterminateKinematics] = []
-    n_c, k = system.n_contacts, system.dof
+    n_c = system.n_contacts
     codes = np.asarray(codes, dtype=np.int8).reshape(-1, n_c)
+    eq = equilibrated_kinematics(system)
+    return stacked_relaxed_kinematics(
+        eq.Kn[None], eq.bn[None], eq.col[None], np.array([eq.velocity_scale]),
+        system.W[None], system.J[None], system.joint_inputs[None], system.effort_joints,
+        system.velocity_joints, np.zeros(len(codes), dtype=np.int64), codes, 1,
+        tol=tol, singular_tol=singular_tol,
+    )[0]
+
+
+def stacked_relaxed_kinematics(
+    Kn: np.ndarray, bn: np.ndarray, col: np.ndarray, velocity_scale: np.ndarray,
+    W: np.ndarray, J: np.ndarray, inputs: np.ndarray, E: np.ndarray, V: np.ndarray,
+    config: np.ndarray, codes: np.ndarray, n_configs: int, *,
+    tol: float, singular_tol: float,
+) -> list[list[IndeterminateKinematics]]:
+    """:func:`indeterminate_kinematics_of` for modes ``codes (G, n_c)`` of configurations
+    ``config (G,)`` of stacked systems (equilibrated ``Kn (B, 2 n_c, k)``, ``bn``, ``col``,
+    ``velocity_scale (B,)``, ``W (B, 3, 2 n_c)``, ``J (B, 2 n_c, n_theta)``, joint
+    ``inputs (B, n_theta)``); one list per configuration, in :func:`enumerate_modes` order."""
+    out: list[list[IndeterminateKinematics]] = [[] for _ in range(n_configs)]
     if codes.shape[0] == 0:
         return out
-    E, V = system.effort_joints, system.velocity_joints
-    eq = equilibrated_kinematics(system)
-    Kn, bn, col = eq.Kn, eq.bn, eq.col
-    scale = eq.velocity_scale if eq.velocity_scale > 0 else 1.0
+    n_c, k = codes.shape[1], Kn.shape[2]
+    n_joints = inputs.shape[1]
     n_rows_all = 2 * (codes == ROLL).sum(axis=1) + (codes == SLIDE).sum(axis=1)
-    order = canonical_mode_order(codes)
-    codes, n_rows_all = codes[order], n_rows_all[order]
+    order = np.lexsort((canonical_rank(codes), config))
+    codes, n_rows_all, config = codes[order], n_rows_all[order], config[order]
+    scale_all = np.where(velocity_scale > 0, velocity_scale, 1.0)
+    b_all = np.max(np.abs(bn), axis=1)  # relative to the commanded motion (no floor)
+    found: list[tuple[int, int, IndeterminateKinematics]] = []
     for k_rows in range(k + 1, 2 * n_c + 1):
-        sel = n_rows_all == k_rows
-        if not np.any(sel):
+        sel = np.flatnonzero(n_rows_all == k_rows)
+        if sel.size == 0:
             continue
         cand = candidates_from_codes(codes[sel], k_rows)
-        P = Kn[cand.rows]  # (M, k_rows, k)
-        b = bn[cand.rows]
+        cfg = config[sel]
+        P = Kn[cfg[:, None], cand.rows]  # (G, k_rows, k)
+        b = bn[cfg[:, None], cand.rows]
         s = np.linalg.svd(P, compute_uv=False)
         full_rank = s[:, -1] > np.sqrt(singular_tol) * s[:, 0]
         if not np.any(full_rank):
@@ -93,30 +114,42 @@ def indeterminate_kinematics_of(
         Pf, bf = P[idx], b[idx]
         z = (np.linalg.pinv(Pf) @ bf[..., None])[..., 0]  # generalised inverse (Sec. 3.2)
         resid = np.max(np.abs((Pf @ z[..., None])[..., 0] - bf), axis=1)
-        b_scale = float(np.max(np.abs(bn)))  # relative to the commanded motion (no floor)
-        consistent = resid <= tol * (b_scale if b_scale > 0 else 1.0)
+        b_scale = b_all[cfg[idx]]
+        consistent = resid <= tol * np.where(b_scale > 0, b_scale, 1.0)
         idx, z = idx[consistent], z[consistent]
         if idx.size == 0:
             continue
-        z = z / col
+        c = cfg[idx]
+        z = z / col[c]
         qdot = z[:, :3]
-        thetadot = np.empty((idx.size, system.n_joints))
-        thetadot[:, V] = system.joint_inputs[V]
+        thetadot = np.empty((idx.size, n_joints))
+        thetadot[:, V] = inputs[c][:, V]
         thetadot[:, E] = z[:, 3:]
-        v = qdot @ system.W - thetadot @ system.J.T
+        v = (np.einsum("gi,gir->gr", qdot, W[c])
+             - np.einsum("gj,grj->gr", thetadot, J[c]))  # eq. (5)
         v_n, v_t = v[:, 0::2], v[:, 1::2]
         codes_k = cand.codes[idx]
         strict = np.where(codes_k == BREAK, v_n,
                           np.where(codes_k == SLIDE, np.abs(v_t), np.inf))
-        kin_margin = np.min(strict, axis=1) / scale
+        kin_margin = np.min(strict, axis=1) / scale_all[c]
         xi = np.where(codes_k == SLIDE, np.sign(v_t), 0).astype(np.int8)
         for j in np.flatnonzero(kin_margin > tol):
             i = idx[j]
-            out.append(IndeterminateKinematics(
+            found.append((int(c[j]), int(sel[i]), IndeterminateKinematics(
                 cand.rows[i], cand.sliding[i], cand.contact[i], codes_k[j], xi[j],
                 qdot[j].copy(), thetadot[j].copy(), v[j].copy(), float(kin_margin[j]),
-            ))
+            )))
+    for c, _pos, kin in sorted(found, key=lambda t: (n_rows_all[t[1]], t[1])):
+        out[c].append(kin)
     return out
+
+
+def canonical_rank(codes: np.ndarray) -> np.ndarray:
+    """Rank of each mode ``codes (m, n_c)`` in :func:`enumerate_modes` order within its row
+    count (see :func:`canonical_mode_order`)."""
+    rank = np.empty(len(codes), dtype=np.int64)
+    rank[canonical_mode_order(codes)] = np.arange(len(codes))
+    return rank
 
 
 def canonical_mode_order(codes: np.ndarray) -> np.ndarray:
