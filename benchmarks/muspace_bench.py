@@ -1,11 +1,11 @@
 """Benchmark: 400 x 400 mu-space map (three contacts) by the general test and by the closed
 forms; writes ``benchmarks/results/muspace_bench.json``.
 
-Reports, for Examples 4.1 and 4.3, the best of 3 wall times of :func:`planner.friction.muspace.mu_grid`
-(kinematic stage once + one batched force stage over 160 000 friction vectors; target <= 1 s),
-of evaluating every closed-form region (eqs. 35-36, 40-41) on the same points, their ratio
-measured in the same run, and the number of grid points where the two disagree away from a
-boundary (expected 0).
+Reports, for Examples 4.1 and 4.3, the best of 3 wall times of
+:func:`planner.friction.muspace.mu_grid` (kinematic stage once + one batched force stage over
+160 000 friction vectors; target <= 1 s), of evaluating every closed-form region (eqs. 35-36,
+40-41) on the same points, their ratio measured in the same run, and the number of grid
+points where the two disagree away from a boundary (expected 0).
 
 Run: ``PYTHONPATH=. python benchmarks/muspace_bench.py``
 """

@@ -676,14 +676,19 @@ def test_failed_run_leaves_no_new_folder(fx):
     assert not out.parent.exists()
 
 
-def test_memory_budget_refuses_exhaustive_enumeration(tmp_path, capsys):
-    """200 contacts: sized by candidate_count before any allocation; --search suggested."""
+def test_too_large_exhaustive_enumeration_is_refused_with_its_size(tmp_path, capsys):
+    """1200 contacts: C(1200, 3) + 1200 * 1199 > 2e8 candidates (eq. 49).  Exhaustive enumeration
+    streams in bounded memory, but a request this large is refused at once with its size and
+    the way out (--search), never attempted."""
     import numpy as np
 
+    from planner.model.modes import candidate_count
+    from planner.predict.feasibility import MAX_EXHAUSTIVE_CANDIDATES
     from qsplan.cli import main
 
     rng = np.random.default_rng(0)
-    n = 200
+    n = 1200
+    assert candidate_count(n, 3) > MAX_EXHAUSTIVE_CANDIDATES
     angles = rng.uniform(0, 2 * np.pi, n)
     normals = np.stack([np.cos(angles), np.sin(angles)], axis=1)
     points = rng.normal(size=(n, 2))
@@ -697,9 +702,8 @@ def test_memory_budget_refuses_exhaustive_enumeration(tmp_path, capsys):
                                     "contact_velocities": rng.normal(size=(n, 2)).tolist()}}))
     assert main(["modes", str(path)]) == 2
     err = capsys.readouterr().err
-    assert "expected a request within the memory budget (4 GiB)" in err
-    assert "1353200 candidate modes" in err and "would need 12.3 GiB" in err
-    assert "use --search" in err
+    assert f"expected at most {MAX_EXHAUSTIVE_CANDIDATES} candidate modes" in err, err
+    assert str(candidate_count(n, 3)) in err and "--search" in err, err
 
 
 def test_help_texts_show_defaults_and_no_markup(capsys):

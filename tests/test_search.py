@@ -118,7 +118,7 @@ def test_linprog_fallback_gives_the_same_modes(monkeypatch):
 def test_one_lu_gives_numpy_det_and_solve(k):
     """The batched LU shared by the rank test (30)-(32) and the solves (24), (26) agrees with
     numpy.linalg.det / solve, including matrices that need row exchanges and singular ones."""
-    from planner.predict.stages import lu_det_solve
+    from planner.predict.linalg import lu_det_solve
 
     rng = np.random.default_rng(k)
     A = rng.normal(size=(500, k, k))

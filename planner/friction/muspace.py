@@ -31,7 +31,7 @@ from planner.errors import InputError
 from planner.friction.closed_form import ClosedFormRegion, closed_form_region
 from planner.model.modes import SLIDE, Mode, enumerate_modes
 from planner.model.system import System
-from planner.predict.feasibility import INDETERMINATE_AUTO_MAX_CONTACTS
+from planner.predict.indeterminate import DEFAULT_MAX_ROW_SUBSETS, row_subset_count
 from planner.predict.stages import DEFAULT_SINGULAR_TOL, DEFAULT_TOL, force_stage, kinematic_stage
 
 JAM = "jam"
@@ -206,7 +206,8 @@ def mu_grid(
     mu_range : (min, max), ``0 <= min <= max``.
     n : grid points per axis (``n**3`` points for three varied coefficients).
     indeterminate : include force-indeterminate modes (relaxed utility, Sec. 3.2) by linear
-        programs; default as :func:`planner.predict.feasibility.feasible_modes` (``n_c <= 8``).
+        programs; default as :func:`planner.predict.feasibility.feasible_modes` (while
+        ``C(2 n_c, 3 + |tau_I|)`` is within its row-subset budget).
     """
     n_c = system.n_contacts
     vary = _check_vary(vary, n_c)
@@ -233,7 +234,7 @@ def mu_grid(
     else:
         feas = np.zeros((mu.shape[0], 0), bool)
     if indeterminate is None:
-        indeterminate = n_c <= INDETERMINATE_AUTO_MAX_CONTACTS
+        indeterminate = row_subset_count(system) <= DEFAULT_MAX_ROW_SUBSETS
     if indeterminate:
         extra_labels, extra = _indeterminate_grid(system, grid, mu, tol)
         labels = labels + extra_labels
@@ -286,7 +287,7 @@ def _indeterminate_grid(system: System, grid: MuGrid, mu: np.ndarray, tol: float
             flat = pts.reshape(-1, pts.shape[-1])
             it = range(flat.shape[0])
             if flat.shape[0] > 2000:
-                from tqdm import tqdm
+                from tqdm import tqdm  # type: ignore[import-untyped]
 
                 it = tqdm(it, desc=f"LPs for {kin.mode.label}", leave=False)
             col = np.array([ok(kin, flat[i]) for i in it]).reshape(shape)

@@ -15,6 +15,7 @@ Trinkle & Zeng (1994), eqs. (12), (14), (29)-(32), (49), Table 1.
 from __future__ import annotations
 
 import itertools
+from collections.abc import Iterator
 from dataclasses import dataclass
 from functools import lru_cache
 from math import comb
@@ -123,6 +124,71 @@ def enumerate_modes(n_contacts: int, n_rows: int) -> CandidateSet:
     for arr in (codes, rows, sliding, contact):
         arr.setflags(write=False)
     return CandidateSet(n_contacts, n_rows, codes, rows, sliding, contact)
+
+
+def iter_candidate_codes(n_contacts: int, n_rows: int, chunk: int) -> Iterator[np.ndarray]:
+    """The codes of :func:`enumerate_modes` ``(n_contacts, n_rows)``, in its order, as
+    ``(<= chunk, n_contacts) int8`` blocks: memory bounded by ``chunk`` at any ``n_c``."""
+    if chunk < 1:
+        raise InputError(f"chunk: expected an integer >= 1, got {chunk}")
+    contacts = range(n_contacts)
+    buf: list[np.ndarray] = []
+    filled = 0
+    for n_r in range(n_rows // 2 + 1):
+        n_s = n_rows - 2 * n_r
+        if n_r + n_s > n_contacts:
+            continue
+        for r_set in itertools.combinations(contacts, n_r):
+            rest = np.array([c for c in contacts if c not in set(r_set)], dtype=np.int64)
+            s_iter = itertools.combinations(range(len(rest)), n_s)
+            while True:
+                picked = list(itertools.islice(s_iter, chunk - filled))
+                if not picked:
+                    break
+                s_idx = np.array(picked, dtype=np.int64).reshape(len(picked), n_s)
+                codes = np.zeros((len(picked), n_contacts), dtype=np.int8)
+                codes[:, list(r_set)] = ROLL
+                np.put_along_axis(codes, rest[s_idx], SLIDE, axis=1)
+                buf.append(codes)
+                filled += len(picked)
+                if filled >= chunk:
+                    yield np.concatenate(buf)
+                    buf, filled = [], 0
+    if buf:
+        yield np.concatenate(buf)
+
+
+def candidates_from_codes(codes: np.ndarray, n_rows: int) -> CandidateSet:
+    """Build a :class:`CandidateSet` from mode codes ``(M, n_c)`` (each with ``n_rows`` rows).
+
+    Rows follow :func:`planner.model.modes.enumerate_modes`: ``[n_R normals; t_R tangents; n_S
+    normals]`` (eq. 14), each block in contact order, so the arithmetic per candidate is the
+    same as on the exhaustive path.
+    """
+    codes = np.asarray(codes, dtype=np.int8)
+    M, n_c = codes.shape
+    if M == 0:  # e.g. no candidate at all (n_c < n_rows / 2, eq. 49 count 0)
+        empty = np.zeros((0, n_rows), dtype=np.int64)
+        return CandidateSet(n_c, n_rows, codes, empty, empty.astype(bool), empty.copy())
+    if n_rows > 2 * n_c:
+        raise InputError(
+            f"n_rows: expected at most 2 n_c = {2 * n_c} constraint rows, got {n_rows}"
+        )
+    idx = np.arange(n_c)
+    big = 4 * n_c
+    key_n = np.where(codes == ROLL, idx, np.where(codes == SLIDE, 2 * n_c + idx, big))
+    key_t = np.where(codes == ROLL, n_c + idx, big)
+    keys = np.concatenate([key_n, key_t], axis=1)  # (M, 2 n_c)
+    row_id = np.concatenate([np.broadcast_to(2 * idx, (M, n_c)),
+                             np.broadcast_to(2 * idx + 1, (M, n_c))], axis=1)
+    order = np.argsort(keys, axis=1, kind="stable")[:, :n_rows]
+    rows = np.take_along_axis(row_id, order, axis=1).astype(np.int64)
+    sel = np.take_along_axis(keys, order, axis=1)
+    if M and np.any(sel >= big):
+        raise InputError(f"codes: expected every mode to have {n_rows} constraint rows")
+    sliding = sel >= 2 * n_c
+    contact = rows // 2
+    return CandidateSet(n_c, n_rows, codes, rows, sliding, contact)
 
 
 @dataclass(frozen=True)

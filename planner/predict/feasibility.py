@@ -37,21 +37,45 @@ from planner.model.modes import (
     CandidateSet,
     Mode,
     candidate_count,
+    candidates_from_codes,
     enumerate_modes,
+    iter_candidate_codes,
 )
 from planner.model.system import System
 from planner.model.validation import as_friction
-from planner.predict.indeterminate import indeterminate_modes
+from planner.predict.indeterminate import (
+    DEFAULT_MAX_ROW_SUBSETS,
+    IndeterminateKinematics,
+    closed_bases_suffice,
+    codes_from_velocities,
+    generation_thresholds,
+    indeterminate_kinematics_of,
+    indeterminate_modes,
+    scan_indeterminate,
+)
 from planner.predict.stages import (
     DEFAULT_SINGULAR_TOL,
     DEFAULT_TOL,
     FeasibleMode,
+    KinematicStage,
+    equilibrated_kinematics,
     force_stage,
     kinematic_stage,
 )
 
-#: Above this many contacts the relaxed (force-indeterminate) search is off unless asked for.
-INDETERMINATE_AUTO_MAX_CONTACTS = 8
+#: Elements of the per-chunk velocity array ``(chunk, 2 n_c)`` of the exhaustive enumeration:
+#: above this many candidates they are streamed in chunks (memory bounded at any ``n_c``).
+STREAM_ELEMENTS = 1 << 22
+#: Largest eq. (49) count :func:`feasible_modes` enumerates; larger requests are refused with
+#: a pointer to :func:`planner.predict.search.search_modes`.
+MAX_EXHAUSTIVE_CANDIDATES = 200_000_000
+#: ``Prediction.limits`` entry when the relaxed-utility pass was switched off.
+INDETERMINATE_OFF = "force-indeterminate (relaxed-utility) modes not searched (indeterminate=False)"
+
+
+def stream_chunk(n_contacts: int) -> int:
+    """Candidates per chunk of the streamed exhaustive enumeration at ``n_c`` contacts."""
+    return max(256, STREAM_ELEMENTS // max(2 * n_contacts, 1))
 
 
 class Status(str, Enum):
@@ -76,6 +100,9 @@ class Prediction:
     """All feasible modes of one system at one friction vector.
 
     ``status`` counts determinate and force-indeterminate feasible modes together.
+    ``limits`` lists every class of candidates that was not searched (empty: the prediction
+    is complete; otherwise ``reason`` says so too), ``method`` how the determinate candidates
+    were enumerated (``exhaustive``, ``exhaustive, streamed in N chunks`` or ``search``).
     """
 
     status: Status
@@ -87,6 +114,13 @@ class Prediction:
     tol: float = DEFAULT_TOL
     mu: np.ndarray = field(default_factory=lambda: np.zeros(0))
     reason: str = ""
+    limits: tuple[str, ...] = ()
+    method: str = "exhaustive"
+
+    @property
+    def complete(self) -> bool:
+        """True when every candidate class was searched (``limits`` is empty)."""
+        return not self.limits
 
     @property
     def all_modes(self) -> tuple[FeasibleMode, ...]:
@@ -118,6 +152,9 @@ class Prediction:
             "boundary_modes": [m.label for m in self.boundary_modes],
             "degenerate_candidates": int(self.degenerate),
             "reason": self.reason,
+            "complete": self.complete,
+            "limits": list(self.limits),
+            "method": self.method,
         }
 # Public entry point.
 # ---------------------------------------------------------------------------------------------
@@ -128,6 +165,7 @@ def feasible_modes(
     tol: float = DEFAULT_TOL,
     singular_tol: float = DEFAULT_SINGULAR_TOL,
     indeterminate: bool | None = None,
+    max_subsets: int = DEFAULT_MAX_ROW_SUBSETS,
 ) -> Prediction:
     """Every feasible contact mode of ``system`` with its certificate (eqs. 13-32).
 
@@ -141,25 +179,88 @@ def feasible_modes(
     singular_tol : float
         Equilibrated-determinant threshold for the rank conditions (30)-(32).
     indeterminate : bool, optional
-        Also search the relaxed-utility (force-indeterminate) modes. Default: only when
-        ``n_c <= 8``.
+        Search the relaxed-utility (force-indeterminate) modes (end of Sec. 3.2) too, at any
+        ``n_c`` (:func:`planner.predict.indeterminate.scan_indeterminate`).  Default (None):
+        yes while ``C(2 n_c, 3 + |tau_I|) <= max_subsets``; True: regardless of the cost;
+        False: no.  Whatever is not searched is named in ``Prediction.limits``.
+    max_subsets : int
+        Row-subset budget of the relaxed-utility pass when ``indeterminate`` is None.
 
     Returns
     -------
     Prediction
         ``status`` is ``unique`` (one feasible mode), ``ambiguous`` (several, Section 4.3)
-        or ``jammed`` (none).
+        or ``jammed`` (none); ``limits`` is empty when nothing was skipped.  More than
+        :data:`STREAM_ELEMENTS` ``/ 2 n_c`` candidates are streamed in chunks (``method``
+        says so); more than :data:`MAX_EXHAUSTIVE_CANDIDATES` are refused (InputError).
     """
     if not isinstance(system, System):
         raise InputError(f"system: expected a planner System, got {type(system).__name__}")
     mu_arr = system.mu if mu is None else as_friction(mu, system.n_contacts)
     if not (np.isfinite(tol) and tol >= 0):
         raise InputError(f"tol: expected a finite number >= 0, got {tol}")
-    cand = enumerate_modes(system.n_contacts, system.dof)
+    n_c, k = system.n_contacts, system.dof
+    n_cand = candidate_count(n_c, k)
+    if n_cand > MAX_EXHAUSTIVE_CANDIDATES:
+        raise InputError(
+            f"feasible_modes: expected at most {MAX_EXHAUSTIVE_CANDIDATES} candidate modes "
+            f"(eq. 49) for exhaustive enumeration, got {n_cand} (n_c = {n_c}, 3 + |tau_I| = "
+            f"{k}); use planner.predict.search.search_modes (qsplan modes --search)"
+        )
+    chunk = stream_chunk(n_c)
+    # Relaxed-utility modes from the determinate candidates' velocities when the structural
+    # test allows it (indeterminate.closed_bases_suffice), else by the row-subset scan.
+    from_candidates = indeterminate is not False and closed_bases_suffice(system)
+    if n_cand <= chunk:
+        prediction, _ = predict_candidates(
+            system, enumerate_modes(n_c, k), mu_arr, tol=tol, singular_tol=singular_tol,
+            indeterminate=indeterminate, max_subsets=max_subsets,
+            relaxed_from_candidates=from_candidates,
+        )
+        return prediction
+    # Streamed: the kinematic stage chunk by chunk, keeping the admissible and boundary
+    # candidates (same arithmetic per candidate; eq. 24's LU does not see its batch).
+    kept, singular, n_chunks = [], 0, 0
+    relaxed = RelaxedCodes(system, tol) if from_candidates else None
+    for codes in iter_candidate_codes(n_c, k, chunk):
+        n_chunks += 1
+        kin = kinematic_stage(system, candidates_from_codes(codes, k), tol=tol,
+                              singular_tol=singular_tol)
+        singular += int(np.count_nonzero(~kin.nonsingular))
+        kept.append(codes[kin.ok | kin.boundary])
+        if relaxed is not None:
+            relaxed.add(kin)
     prediction, _ = predict_candidates(
-        system, cand, mu_arr, tol=tol, singular_tol=singular_tol, indeterminate=indeterminate
+        system, candidates_from_codes(np.concatenate(kept), k), mu_arr, tol=tol,
+        singular_tol=singular_tol, indeterminate=indeterminate, max_subsets=max_subsets,
+        extra_degenerate=singular, method=f"exhaustive, streamed in {n_chunks} chunks",
+        relaxed=relaxed,
     )
     return prediction
+
+
+class RelaxedCodes:
+    """Relaxed-utility candidates read off determinate candidates' velocities (valid when
+    :func:`planner.predict.indeterminate.closed_bases_suffice` holds and every eq. (49)
+    candidate is added): :func:`planner.predict.indeterminate.codes_from_velocities`."""
+
+    def __init__(self, system: System, tol: float) -> None:
+        self.system, self.k = system, system.dof
+        self.strict, self.gen = generation_thresholds(system, tol)
+        self.row = equilibrated_kinematics(system).row
+        self.found: set[bytes] = set()
+        self.codes: list[np.ndarray] = []
+        self.limit = ""
+
+    def add(self, kin: KinematicStage) -> None:
+        """Read the modes off the nonsingular candidates of one kinematic stage."""
+        self.add_velocities(kin.v[kin.nonsingular])
+
+    def add_velocities(self, v: np.ndarray) -> None:
+        """Read the modes off relative velocities ``v (m, 2 n_c)`` (eq. 5) of nonsingular
+        candidates."""
+        self.limit = codes_from_velocities(
+            v / self.row, self.k, self.strict, self.gen, self.found, self.codes) or self.limit
 
 
 def predict_candidates(
@@ -170,13 +271,23 @@ def predict_candidates(
     tol: float,
     singular_tol: float,
     indeterminate: bool | None,
+    max_subsets: int = DEFAULT_MAX_ROW_SUBSETS,
+    extra_degenerate: int = 0,
+    method: str = "exhaustive",
+    relaxed_from_candidates: bool = False,
+    relaxed: RelaxedCodes | None = None,
 ) -> tuple[Prediction, int]:
     """Kinematic then force stage on the candidates ``cand`` and the :class:`Prediction`
     (eqs. 23-28); also the number of candidates that reached the force stage.
 
     ``cand`` is every eq. (49) candidate for :func:`feasible_modes`, and the candidates that
-    survive the pruning for :func:`planner.predict.search.search_modes` (same arithmetic per
-    candidate, same assembly); ``candidates`` in the result is always the eq. (49) count.
+    survive the pruning for :func:`planner.predict.search.search_modes` or the streamed
+    enumeration (same arithmetic per candidate, same assembly); ``candidates`` in the result is
+    always the eq. (49) count.  ``extra_degenerate`` singular candidates were dropped before;
+    ``indeterminate`` and ``max_subsets`` as in :func:`feasible_modes`.  The relaxed-utility
+    candidates come from ``relaxed`` (collected over streamed chunks), from ``cand``'s own
+    velocities (``relaxed_from_candidates``: ``cand`` is every eq. (49) candidate and the
+    structural test holds), or else from the row-subset scan.
     """
     kin = kinematic_stage(system, cand, tol=tol, singular_tol=singular_tol)
     idx = np.flatnonzero(kin.ok)
@@ -208,14 +319,63 @@ def predict_candidates(
         Mode(tuple(int(c) for c in cand.codes[i]), tuple(int(x) for x in kin.xi[i]))
         for i in np.flatnonzero(kin.boundary)
     )
-    degenerate = int(np.count_nonzero(~kin.nonsingular)) + int(
+    degenerate = extra_degenerate + int(np.count_nonzero(~kin.nonsingular)) + int(
         np.count_nonzero(~fs.nonsingular[0])
     )
-    if indeterminate is None:
-        indeterminate = system.n_contacts <= INDETERMINATE_AUTO_MAX_CONTACTS
+    if indeterminate is not False and relaxed is None and relaxed_from_candidates:
+        relaxed = RelaxedCodes(system, tol)
+        relaxed.add(kin)
+    prediction = finish_prediction(
+        system, mu_arr, tuple(modes), boundary, degenerate, kin.velocity_scale,
+        tol=tol, singular_tol=singular_tol, indeterminate=indeterminate,
+        max_subsets=max_subsets, relaxed=relaxed, method=method,
+    )
+    return prediction, len(idx)
+
+
+def finish_prediction(
+    system: System,
+    mu_arr: np.ndarray,
+    modes: tuple[FeasibleMode, ...],
+    boundary: tuple[Mode, ...],
+    degenerate: int,
+    velocity_scale: float,
+    *,
+    tol: float,
+    singular_tol: float,
+    indeterminate: bool | None,
+    max_subsets: int,
+    relaxed: RelaxedCodes | None,
+    method: str,
+    relaxed_kinematics: tuple[tuple[IndeterminateKinematics, ...], str] | None = None,
+) -> Prediction:
+    """The relaxed-utility modes (from ``relaxed`` or the row-subset scan), the status, the
+    reason and the limits: the :class:`Prediction` of the determinate results ``modes``,
+    ``boundary``, ``degenerate`` (shared by the single and the batch API).
+    ``relaxed_kinematics``: the admissible relaxed-utility candidates and a limit message,
+    already found (batch API)."""
     extra: tuple[FeasibleMode, ...] = ()
-    if indeterminate:
-        extra = tuple(indeterminate_modes(system, mu_arr, tol=tol, singular_tol=singular_tol))
+    limits: list[str] = []
+    if indeterminate is False:
+        limits.append(INDETERMINATE_OFF)
+    else:
+        if relaxed_kinematics is not None:
+            kinematics, limit = relaxed_kinematics
+        elif relaxed is not None:
+            kinematics = tuple(indeterminate_kinematics_of(
+                system, relaxed.codes, tol=tol, singular_tol=singular_tol))
+            limit = relaxed.limit
+        else:
+            scan = scan_indeterminate(
+                system, tol=tol, singular_tol=singular_tol,
+                max_subsets=max_subsets if indeterminate is None else 2**63,
+            )
+            kinematics, limit = scan.kinematics, scan.limit
+        if limit:
+            limits.append(limit)
+        if kinematics:
+            extra = tuple(indeterminate_modes(system, mu_arr, tol=tol,
+                                              singular_tol=singular_tol, kinematics=kinematics))
     n_feasible = len(modes) + len(extra)
     n_cand = candidate_count(system.n_contacts, system.dof)
     if n_cand == 0:
@@ -224,7 +384,7 @@ def predict_candidates(
             f"the utility conditions (29)-(32) admit no mode: {system.n_contacts} contact(s) "
             f"cannot supply 2 n_R + n_S = {system.dof} kinematic constraints"
         )
-    elif kin.velocity_scale == 0.0:
+    elif velocity_scale == 0.0:
         status = Status.AT_REST
         reason = (
             "every commanded joint velocity is zero: nothing slides or breaks; "
@@ -240,17 +400,20 @@ def predict_candidates(
     else:
         status = Status.UNIQUE if n_feasible == 1 else Status.AMBIGUOUS
         reason = f"{n_feasible} feasible mode(s)"
-    if boundary or any(m.on_boundary for m in modes + list(extra)):
+    if boundary or any(m.on_boundary for m in list(modes) + list(extra)):
         reason += "; some decisions are within tolerance of a boundary"
-    prediction = Prediction(
+    if limits:
+        reason += "; NOT COMPLETE: " + "; ".join(limits)
+    return Prediction(
         status=status,
         candidates=n_cand,
-        modes=tuple(modes),
+        modes=modes,
         indeterminate_modes=extra,
         boundary_modes=boundary,
         degenerate=degenerate,
         tol=tol,
         mu=np.array(mu_arr, dtype=float),
         reason=reason,
+        limits=tuple(limits),
+        method=method,
     )
-    return prediction, len(idx)

@@ -12,48 +12,276 @@ left null space of ``Q_A`` be trivial (full row rank).  Here:
 * forces: ``c_A = Q_A^+ rhs + N y`` (generalised inverse plus null space); feasibility of
   ``B_A c_A >= 0`` is a linear program (scipy HiGHS) maximising the smallest normalised slack.
 
-The kinematic stage is batched per constraint count; the LP runs only for the few modes that
-pass it.
+The candidates are not enumerated (``3^n_c`` modes): :func:`scan_indeterminate` solves every
+``k``-row subset of ``K`` (polynomial in ``n_c``), keeps the velocities at which more than ``k``
+rows vanish, and reads the modes off them; the exact kinematic test and the LP run only for
+those few modes.
 """
 
 from __future__ import annotations
 
+import itertools
+import weakref
+from collections.abc import Iterator
 from dataclasses import dataclass
+from functools import lru_cache
+from math import comb
 
 import numpy as np
-from scipy.optimize import linprog
 
-from planner.model.modes import BREAK, ROLL, SLIDE, Mode, enumerate_modes
+from planner.model.modes import BREAK, ROLL, SLIDE
 from planner.model.system import System
+from planner.predict.linalg import lu_det_solve
+from planner.predict.relaxed_modes import (
+    IndeterminateKinematics,
+    coulomb_rows,
+    feasible_relaxed_modes,
+    force_lp,
+    indeterminate_kinematics_of,
+)
 from planner.predict.stages import (
     DEFAULT_SINGULAR_TOL,
     DEFAULT_TOL,
     FeasibleMode,
     equilibrated_kinematics,
-    force_matrices,
-    force_rhs,
 )
+
+__all__ = [
+    "IndeterminateKinematics", "IndeterminateScan", "coulomb_rows", "force_lp",
+    "indeterminate_kinematics", "indeterminate_kinematics_of", "indeterminate_modes",
+    "row_subset_count", "scan_indeterminate",
+]
+
+
+#: Largest number of ``k``-row subsets of ``K`` (``C(2 n_c, 3 + |tau_I|)``) the relaxed-utility
+#: pass examines by default; above it the pass is skipped and the result says so.
+DEFAULT_MAX_ROW_SUBSETS = 4_000_000
+#: Row subsets solved per batch (bounds the pass's memory at any ``n_c``).
+SUBSET_CHUNK = 4096
+#: Generation tolerance, relative to the largest equilibrated right side: a row with
+#: ``|v| <= GEN_TOL max|bn|`` at a subset's solution may vanish in the mode (it covers the
+#: difference between the subset's exact solution and the mode's generalised-inverse one,
+#: ``cond(K_S) * tol``); every generated mode is then decided by the exact test.
+GEN_TOL = 1e-6
+#: Largest number of modes one subset's velocity may generate (contacts within ``GEN_TOL`` of
+#: two states multiply); above it the pass reports a limit.
+MAX_MODES_PER_VELOCITY = 4096
 
 
 @dataclass(frozen=True, eq=False)
-class IndeterminateKinematics:
-    """A kinematically admissible force-indeterminate candidate: constraint ``rows``,
-    ``sliding``, ``contact`` (as in :class:`planner.model.modes.CandidateSet`), ``codes``, ``xi``,
-    velocities ``qdot (3,)``, ``thetadot (n_theta,)``, ``v (2 n_c,)`` and the kinematic margin."""
+class IndeterminateScan:
+    """Result of :func:`scan_indeterminate`.
 
-    rows: np.ndarray
-    sliding: np.ndarray
-    contact: np.ndarray
-    codes: np.ndarray
-    xi: np.ndarray
-    qdot: np.ndarray
-    thetadot: np.ndarray
-    v: np.ndarray
-    margin: float
+    ``kinematics``: the kinematically admissible force-indeterminate candidates; ``subsets``:
+    ``k``-row subsets of ``K`` examined; ``generated``: distinct candidate modes given to the
+    exact test; ``limit``: empty when the scan is complete, else why it is not."""
 
-    @property
-    def mode(self) -> Mode:
-        return Mode(tuple(int(c) for c in self.codes), tuple(int(x) for x in self.xi))
+    kinematics: tuple[IndeterminateKinematics, ...]
+    subsets: int
+    generated: int
+    limit: str = ""
+
+
+def row_subset_count(system: System) -> int:
+    """``C(2 n_c, 3 + |tau_I|)``: the ``k``-row subsets :func:`scan_indeterminate` solves."""
+    return comb(2 * system.n_contacts, system.dof)
+
+
+def scan_indeterminate(
+    system: System,
+    *,
+    tol: float = DEFAULT_TOL,
+    singular_tol: float = DEFAULT_SINGULAR_TOL,
+    max_subsets: int = DEFAULT_MAX_ROW_SUBSETS,
+) -> IndeterminateScan:
+    """Every kinematically admissible force-indeterminate candidate (relaxed utility, end of
+    Sec. 3.2), at any ``n_c``, without enumerating the ``3^n_c`` modes.
+
+    A relaxed-utility mode has rows ``A`` with ``|A| > k = 3 + |tau_I|`` and ``P_A`` of full
+    column rank, so its velocity ``z = (qdot, thetadot_E)`` is unique (eq. 24) and already
+    fixed by some ``k`` linearly independent rows of ``A``.  Conversely ``z`` fixes the mode:
+    ``v = K z - b`` (eq. 5) vanishes on exactly the rows of ``A``; contacts with ``v_n > 0``
+    break (eq. 25), with ``v_n = 0, v_t != 0`` slide with ``xi = sgn(v_t)`` (eq. 16), with
+    ``v = 0`` roll.  Hence:
+
+    1. solve ``K_S z = b_S`` for every ``k``-subset ``S`` of the ``2 n_c`` rows of ``K``
+       (``C(2 n_c, k)`` small systems, batched, in chunks of :data:`SUBSET_CHUNK`): the rank
+       test (30)-(32) on ``K_S`` drops singular subsets;
+    2. keep the ``z`` at which more than ``k`` rows vanish (within :data:`GEN_TOL`: the cheap
+       test; at generic ``z`` exactly ``k`` rows vanish and the subset is dropped) and read
+       the mode(s) off ``v`` (a contact within ``GEN_TOL`` of two states yields both);
+    3. decide every generated mode by the exact test of :func:`indeterminate_kinematics_of`
+       (full column rank of ``P_A``, generalised-inverse velocities, consistency within
+       ``tol``, strict margins), the same as testing it among all ``3^n_c`` modes.
+
+    The work is polynomial in ``n_c`` for a fixed number of effort joints.  When
+    ``C(2 n_c, k) > max_subsets`` nothing is scanned and ``limit`` says so.
+    """
+    n_c, k = system.n_contacts, system.dof
+    count = row_subset_count(system)
+    if 2 * n_c <= k:  # no mode can have more than k rows
+        return IndeterminateScan((), 0, 0)
+    if count > max_subsets:
+        return IndeterminateScan((), 0, 0, (
+            f"force-indeterminate (relaxed-utility) modes not searched: C(2 n_c, 3 + |tau_I|) "
+            f"= C({2 * n_c}, {k}) = {count} row subsets exceed max_subsets = {max_subsets}"
+        ))
+    eq = equilibrated_kinematics(system)
+    Kn, bn = eq.Kn, eq.bn
+    strict, gen = generation_thresholds(system, tol)
+    aug = np.ascontiguousarray(np.concatenate([Kn, bn[:, None]], axis=1).T)  # (k+1, 2 n_c)
+    found: set[bytes] = set()
+    codes_out: list[np.ndarray] = []
+    limit = ""
+    combos = itertools.combinations(range(2 * n_c), k)
+    while True:
+        flat = np.fromiter(itertools.chain.from_iterable(itertools.islice(combos, SUBSET_CHUNK)),
+                           dtype=np.int64)
+        if flat.size == 0:
+            break
+        S = flat.reshape(-1, k)
+        det, z = lu_det_solve(np.take(aug, S.T, axis=1))
+        good = np.abs(det) > singular_tol * 1e-3  # loose: the exact test decides the rank
+        if not np.any(good):
+            continue
+        z = z[:, good]
+        v = Kn @ z - bn[:, None]  # (2 n_c, C) equilibrated velocities, eq. (5)
+        limit = codes_from_velocities(v.T, k, strict, gen, found, codes_out) or limit
+    kins = indeterminate_kinematics_of(system, codes_out, tol=tol, singular_tol=singular_tol)
+    return IndeterminateScan(tuple(kins), count, len(codes_out), limit)
+
+
+def generation_thresholds(system: System, tol: float) -> tuple[np.ndarray, float]:
+    """``(strict (2 n_c,), gen)``: the equilibrated velocity a breaking contact's normal or a
+    sliding contact's tangent must exceed (eqs. 16, 25: ``tol`` times the velocity scale), and
+    the size below which a row counts as vanishing (:data:`GEN_TOL`)."""
+    eq = equilibrated_kinematics(system)
+    b_scale = float(np.max(np.abs(eq.bn))) if eq.bn.size else 0.0
+    scale = eq.velocity_scale if eq.velocity_scale > 0 else 1.0
+    return tol * scale / eq.row, GEN_TOL * b_scale
+
+
+def codes_from_velocities(
+    v: np.ndarray, k: int, strict: np.ndarray, gen: float,
+    found: set[bytes], codes_out: list[np.ndarray],
+) -> str:
+    """Append to ``codes_out`` the modes (not yet in ``found``) read off the equilibrated
+    velocities ``v (C, 2 n_c)`` at which more than ``k`` rows vanish; a limit message if a
+    velocity near too many mode boundaries was skipped, else ``""``."""
+    zero = np.abs(v) <= gen
+    many = np.flatnonzero(zero.sum(axis=1) > k)
+    if many.size == 0:
+        return ""
+    n_c = v.shape[1] // 2
+    # What each contact may be at each kept velocity (break; normal vanishes; tangent
+    # vanishes; slip): many subsets of one mode give the same pattern, expanded once.
+    vm, zm = v[many], zero[many]
+    pattern = np.concatenate([
+        vm[:, 0::2] > strict[0::2], zm[:, 0::2], zm[:, 1::2], np.abs(vm[:, 1::2]) > strict[1::2],
+    ], axis=1)
+    limit = ""
+    for row in np.unique(pattern, axis=0):
+        for code in modes_of_pattern(row.reshape(4, n_c)):
+            if code is None:
+                limit = (f"a velocity near {MAX_MODES_PER_VELOCITY}+ mode boundaries: "
+                         "some force-indeterminate candidates were not generated")
+                continue
+            key = code.tobytes()
+            if key not in found:
+                found.add(key)
+                codes_out.append(code)
+    return limit
+
+
+#: Rows (unit length) whose Gram determinant is at most ``SPAN_TOL**2`` count as dependent in
+#: :func:`closed_bases_suffice` (conservative: then the full row-subset scan runs).
+SPAN_TOL = 1e-6
+#: Largest number of rank tests :func:`closed_bases_suffice` makes before answering False.
+MAX_STRUCTURE_TESTS = 50_000
+
+
+def closed_bases_suffice(system: System) -> bool:
+    """Cheap structural test: True when every relaxed-utility mode contains an eq. (49)
+    candidate (``n_R`` rolling pairs and ``n_S`` sliding normals, ``k`` rows) that is
+    nonsingular, so that the velocities of the determinate candidates already reveal every
+    force-indeterminate mode.
+
+    Let ``B`` be a maximal independent set of a mode's rows that is *closed* (a tangent only
+    with its normal).  Every normal of the mode lies in ``span B``; if ``rank B < k`` some
+    rolling contact ``j`` has ``t_j`` outside it and ``n_j`` inside.  Were ``n_j``'s expansion
+    to use a normal ``n_s`` whose tangent is not in ``B``, exchanging ``n_s`` for ``(n_j, t_j)``
+    would give a larger closed independent set; so ``n_j`` lies in the span of at most
+    ``(k - 1) / 2`` rolling pairs ``(n_a, t_a)`` of other contacts.  This function checks that
+    no normal does (Gram determinant of ``[n_j; n_a; t_a; ...]`` above ``SPAN_TOL^2``); e.g.
+    a pinch grasp (opposite normals on one line) fails it.  Answers False
+    (scan everything) when that takes more than :data:`MAX_STRUCTURE_TESTS` tests."""
+    n_c, k = system.n_contacts, system.dof
+    p_max = (k - 1) // 2
+    if sum(n_c * comb(n_c - 1, p) for p in range(1, p_max + 1)) > MAX_STRUCTURE_TESTS:
+        return False
+    hit = _CLOSED_BASES.get(system)
+    if hit is None:
+        hit = _CLOSED_BASES[system] = _no_normal_in_pair_span(
+            equilibrated_kinematics(system).Kn, n_c, p_max)
+    return hit
+
+
+#: Per-system cache of :func:`closed_bases_suffice` (friction-independent).
+_CLOSED_BASES: weakref.WeakKeyDictionary[System, bool] = weakref.WeakKeyDictionary()
+
+
+def _no_normal_in_pair_span(Kn: np.ndarray, n_c: int, p_max: int) -> bool:
+    """No normal row ``Kn[2 j]`` (near) in the span of ``p <= p_max`` pairs of other contacts."""
+    for p in range(1, min(p_max, n_c - 1) + 1):
+        if np.any(near_dependent(Kn[pair_span_rows(n_c, p)])):
+            return False
+    return True
+
+
+def near_dependent(X: np.ndarray) -> np.ndarray:
+    """``X (..., r, k)`` with unit rows: True where ``det(X X^T) <= SPAN_TOL^2`` (the product
+    of the squared singular values: exactly dependent rows give 0)."""
+    gram = X @ np.swapaxes(X, -1, -2)
+    return np.linalg.det(gram) <= SPAN_TOL ** 2
+
+
+@lru_cache(maxsize=64)
+def pair_span_rows(n_c: int, p: int) -> np.ndarray:
+    """Row indices ``(T, 2 p + 1)``: ``[n_j, n_a, ..., t_a, ...]`` for every contact ``j`` and
+    every ``p``-set of other contacts (the tests of :func:`closed_bases_suffice`)."""
+    sets = np.array(list(itertools.combinations(range(n_c), p)), dtype=np.int64)
+    j = np.repeat(np.arange(n_c), len(sets))
+    P = np.tile(sets, (n_c, 1))
+    keep = ~np.any(P == j[:, None], axis=1)
+    j, P = j[keep], P[keep]
+    rows = np.concatenate([2 * j[:, None], 2 * P, 2 * P + 1], axis=1)
+    rows.setflags(write=False)
+    return rows
+
+
+def modes_of_pattern(pattern: np.ndarray) -> Iterator[np.ndarray | None]:
+    """Mode codes ``(n_c,) int8`` allowed by ``pattern (4, n_c)`` (rows: may break; normal
+    vanishes; tangent vanishes; may slip) -- a superset of the modes whose rows all vanish;
+    one None instead once more than :data:`MAX_MODES_PER_VELOCITY` would be generated."""
+    can_b, zn, zt, can_s = pattern
+    options: list[list[int]] = []
+    size = 1
+    for i in range(pattern.shape[1]):
+        opts = [BREAK] if can_b[i] else []
+        if zn[i]:
+            if zt[i]:
+                opts.append(ROLL)
+            if can_s[i]:
+                opts.append(SLIDE)
+        if not opts:  # penetrating (v_n < 0): no mode
+            return
+        options.append(opts)
+        size *= len(opts)
+    if size > MAX_MODES_PER_VELOCITY:
+        yield None
+        return
+    for combo in itertools.product(*options):
+        yield np.array(combo, dtype=np.int8)
 
 
 def indeterminate_kinematics(
@@ -64,50 +292,12 @@ def indeterminate_kinematics(
 ) -> list[IndeterminateKinematics]:
     """Candidates with ``2 n_R + n_S > 3 + |tau_I|`` that pass the kinematic tests (unique,
     consistent velocities; eqs. 16, 24-25 in the generalised-inverse sense).  Friction- and
-    effort-independent."""
-    out: list[IndeterminateKinematics] = []
-    n_c, k = system.n_contacts, system.dof
-    E, V = system.effort_joints, system.velocity_joints
-    eq = equilibrated_kinematics(system)
-    Kn, bn, col = eq.Kn, eq.bn, eq.col
-    scale = eq.velocity_scale if eq.velocity_scale > 0 else 1.0
-    for k_rows in range(k + 1, 2 * n_c + 1):
-        cand = enumerate_modes(n_c, k_rows)
-        if len(cand) == 0:
-            continue
-        P = Kn[cand.rows]  # (M, k_rows, k)
-        b = bn[cand.rows]
-        s = np.linalg.svd(P, compute_uv=False)
-        full_rank = s[:, -1] > np.sqrt(singular_tol) * s[:, 0]
-        if not np.any(full_rank):
-            continue
-        idx = np.flatnonzero(full_rank)
-        Pf, bf = P[idx], b[idx]
-        z = (np.linalg.pinv(Pf) @ bf[..., None])[..., 0]  # generalised inverse (Sec. 3.2)
-        resid = np.max(np.abs((Pf @ z[..., None])[..., 0] - bf), axis=1)
-        b_scale = float(np.max(np.abs(bn)))  # relative to the commanded motion (no floor)
-        consistent = resid <= tol * (b_scale if b_scale > 0 else 1.0)
-        idx, z = idx[consistent], z[consistent]
-        if idx.size == 0:
-            continue
-        z = z / col
-        qdot = z[:, :3]
-        thetadot = np.empty((idx.size, system.n_joints))
-        thetadot[:, V] = system.joint_inputs[V]
-        thetadot[:, E] = z[:, 3:]
-        v = qdot @ system.W - thetadot @ system.J.T
-        v_n, v_t = v[:, 0::2], v[:, 1::2]
-        codes = cand.codes[idx]
-        strict = np.where(codes == BREAK, v_n, np.where(codes == SLIDE, np.abs(v_t), np.inf))
-        kin_margin = np.min(strict, axis=1) / scale
-        xi = np.where(codes == SLIDE, np.sign(v_t), 0).astype(np.int8)
-        for j in np.flatnonzero(kin_margin > tol):
-            i = idx[j]
-            out.append(IndeterminateKinematics(
-                cand.rows[i], cand.sliding[i], cand.contact[i], codes[j], xi[j],
-                qdot[j].copy(), thetadot[j].copy(), v[j].copy(), float(kin_margin[j]),
-            ))
-    return out
+    effort-independent.  Found by :func:`scan_indeterminate` (with no subset budget)."""
+    scan = scan_indeterminate(system, tol=tol, singular_tol=singular_tol,
+                              max_subsets=row_subset_count(system))
+    return list(scan.kinematics)
+
+
 
 
 def indeterminate_modes(
@@ -116,95 +306,11 @@ def indeterminate_modes(
     *,
     tol: float = DEFAULT_TOL,
     singular_tol: float = DEFAULT_SINGULAR_TOL,
+    kinematics: tuple[IndeterminateKinematics, ...] | list[IndeterminateKinematics] | None = None,
 ) -> list[FeasibleMode]:
-    """Feasible modes with ``2 n_R + n_S > 3 + |tau_I|`` (force-indeterminate)."""
-    out: list[FeasibleMode] = []
-    for kin in indeterminate_kinematics(system, tol=tol, singular_tol=singular_tol):
-        result = force_lp(system, kin.rows, kin.sliding, kin.contact, kin.codes, kin.xi, mu,
-                           singular_tol)
-        if result is None:
-            continue
-        forces, efforts, f_margin = result
-        margin = min(kin.margin, f_margin)
-        if margin < -tol:
-            continue
-        out.append(
-            FeasibleMode(
-                mode=kin.mode,
-                qdot=kin.qdot,
-                joint_velocities=kin.thetadot,
-                contact_velocities=kin.v.reshape(-1, 2).copy(),
-                contact_forces=forces,
-                joint_efforts=efforts,
-                margin=margin,
-                on_boundary=abs(margin) <= tol,
-                force_indeterminate=True,
-            )
-        )
-    return out
-
-
-def force_lp(
-    system: System, rows: np.ndarray, sliding: np.ndarray, contact: np.ndarray,
-    codes: np.ndarray, xi: np.ndarray, mu: np.ndarray, singular_tol: float,
-) -> tuple[np.ndarray, np.ndarray, float] | None:
-    """Max-margin feasible forces of one indeterminate mode, or None if rank-deficient."""
-    n_c = system.n_contacts
-    QT = force_matrices(system, rows[None], sliding[None], contact[None], xi[None], mu[None])[0, 0]
-    Q = QT.T  # (3+|E|, k_rows)
-    rhs = force_rhs(system)
-    rs = np.max(np.abs(Q), axis=1)
-    rs[rs == 0] = 1.0
-    Qs = Q / rs[:, None]
-    sv = np.linalg.svd(Qs, compute_uv=False)
-    if sv[-1] <= np.sqrt(singular_tol) * sv[0]:
-        return None  # left null space of Q_A non-trivial
-    k_rows = rows.size
-    B = coulomb_rows(rows, sliding, contact, codes, mu)
-    f_scale = max(float(np.max(np.abs(rhs / rs))), 1e-300)
-    # Variables [c_A (scaled), s]; maximise s s.t. B c - s >= 0, Q c = rhs, |c| <= C, s <= f.
-    bound = 1e3 * f_scale / max(float(np.min(np.linalg.svd(Qs, compute_uv=False))), 1e-12)
-    A_ub = np.hstack([-B, np.ones((B.shape[0], 1))])
-    res = linprog(
-        c=np.r_[np.zeros(k_rows), -1.0], A_ub=A_ub, b_ub=np.zeros(B.shape[0]),
-        A_eq=np.hstack([Qs, np.zeros((Qs.shape[0], 1))]), b_eq=rhs / rs,
-        bounds=[(-bound, bound)] * k_rows + [(None, f_scale)], method="highs",
-    )
-    if res.status != 0:
-        return None
-    c_A = res.x[:k_rows]
-    c_full = np.zeros(2 * n_c)
-    c_full[rows] = c_A
-    is_s = codes == SLIDE
-    c_full[1::2] += np.where(is_s, -mu * xi * c_full[0::2], 0.0)
-    efforts = c_full @ system.J + system.g_man
-    norm = max(float(np.max(np.abs(c_A))), 1e-300) if np.any(c_A) else 1.0
-    margin = float(res.x[-1]) / norm if np.any(c_A) else 0.0
-    return c_full.reshape(n_c, 2), efforts, margin
-
-
-def coulomb_rows(
-    rows: np.ndarray, sliding: np.ndarray, contact: np.ndarray, codes: np.ndarray,
-    mu: np.ndarray,
-) -> np.ndarray:
-    """``B_A`` of eqs. (21)-(22) acting on ``c_A`` (the mode's applicable force components):
-    rolling ``mu c_n -+ c_t >= 0`` and ``c_n >= 0``, sliding ``c_n >= 0``."""
-    k_rows = rows.size
-    B = []
-    for j in range(k_rows):
-        r = rows[j]
-        if r % 2 == 0 and codes[contact[j]] == ROLL:
-            jt = int(np.flatnonzero(rows == r + 1)[0])
-            for sign in (1.0, -1.0):
-                line = np.zeros(k_rows)
-                line[j] = mu[contact[j]]
-                line[jt] = sign
-                B.append(line)
-            line = np.zeros(k_rows)
-            line[j] = 1.0  # c_n >= 0 (implied by the cone only when mu > 0)
-            B.append(line)
-        elif sliding[j]:
-            line = np.zeros(k_rows)
-            line[j] = 1.0
-            B.append(line)
-    return np.array(B).reshape(-1, k_rows)
+    """Feasible modes with ``2 n_R + n_S > 3 + |tau_I|`` (force-indeterminate) at friction
+    ``mu (n_c,)``: the force LP on every kinematically admissible one (``kinematics``, default
+    :func:`indeterminate_kinematics`)."""
+    if kinematics is None:
+        kinematics = indeterminate_kinematics(system, tol=tol, singular_tol=singular_tol)
+    return feasible_relaxed_modes(system, mu, kinematics, tol=tol, singular_tol=singular_tol)

@@ -35,8 +35,8 @@ bounds change between nodes).  Two relaxations (``relaxation=``):
   crossover; below it the forces-only LP's free inheritance wins).
 
 Subtrees with at most ``batch_size`` candidates are generated and queued, and tested in
-batches by the same code as the exhaustive path (:func:`planner.predict.feasibility.kinematic_stage`,
-then :func:`planner.predict.feasibility.force_stage` on the kinematically admissible ones).
+batches by the same code as the exhaustive path (:func:`planner.predict.stages.kinematic_stage`,
+then :func:`planner.predict.stages.force_stage` on the kinematically admissible ones).
 
 Why it is exact
 ---------------
@@ -76,7 +76,14 @@ from typing import Any
 import numpy as np
 
 from planner.errors import InputError
-from planner.model.modes import BREAK, ROLL, SLIDE, CandidateSet, candidate_count, enumerate_modes
+from planner.model.modes import (
+    BREAK,
+    ROLL,
+    SLIDE,
+    candidate_count,
+    candidates_from_codes,
+    enumerate_modes,
+)
 from planner.model.system import System
 from planner.model.validation import as_friction
 from planner.predict.feasibility import Prediction, predict_candidates
@@ -151,48 +158,15 @@ def _completion_count(n_free: int, rows_needed: int) -> int:
     )
 
 
-def candidates_from_codes(codes: np.ndarray, n_rows: int) -> CandidateSet:
-    """Build a :class:`CandidateSet` from mode codes ``(M, n_c)`` (each with ``n_rows`` rows).
-
-    Rows follow :func:`planner.model.modes.enumerate_modes`: ``[n_R normals; t_R tangents; n_S
-    normals]`` (eq. 14), each block in contact order, so the arithmetic per candidate is the
-    same as on the exhaustive path.
-    """
-    codes = np.asarray(codes, dtype=np.int8)
-    M, n_c = codes.shape
-    if M == 0:  # e.g. no candidate at all (n_c < n_rows / 2, eq. 49 count 0)
-        empty = np.zeros((0, n_rows), dtype=np.int64)
-        return CandidateSet(n_c, n_rows, codes, empty, empty.astype(bool), empty.copy())
-    if n_rows > 2 * n_c:
-        raise InputError(
-            f"n_rows: expected at most 2 n_c = {2 * n_c} constraint rows, got {n_rows}"
-        )
-    idx = np.arange(n_c)
-    big = 4 * n_c
-    key_n = np.where(codes == ROLL, idx, np.where(codes == SLIDE, 2 * n_c + idx, big))
-    key_t = np.where(codes == ROLL, n_c + idx, big)
-    keys = np.concatenate([key_n, key_t], axis=1)  # (M, 2 n_c)
-    row_id = np.concatenate([np.broadcast_to(2 * idx, (M, n_c)),
-                             np.broadcast_to(2 * idx + 1, (M, n_c))], axis=1)
-    order = np.argsort(keys, axis=1, kind="stable")[:, :n_rows]
-    rows = np.take_along_axis(row_id, order, axis=1).astype(np.int64)
-    sel = np.take_along_axis(keys, order, axis=1)
-    if M and np.any(sel >= big):
-        raise InputError(f"codes: expected every mode to have {n_rows} constraint rows")
-    sliding = sel >= 2 * n_c
-    contact = rows // 2
-    return CandidateSet(n_c, n_rows, codes, rows, sliding, contact)
-
-
 class Pruner:
     """LP relaxation of a partial assignment: velocities, forces and their power (module
     docstring); ``coupled=False`` keeps only the forces (no ``z'``, no ``vel`` rows, the
     ``pow`` row free).
 
     Variables ``x = (z', c, N)``: the scaled kinematic unknowns ``z' = col * z`` (``k``, see
-    :class:`planner.predict.feasibility.EquilibratedKinematics`), the contact forces ``c (2 n_c)`` and
-    ``N = sum_j c_jn`` (its own column and row keep the matrix sparse: HiGHS's time per solve
-    grows with the nonzeros).
+    :class:`planner.predict.stages.EquilibratedKinematics`), the contact forces ``c (2 n_c)``
+    and ``N = sum_j c_jn`` (its own column and row keep the matrix sparse: HiGHS's time per
+    solve grows with the nonzeros).
     The constraint matrix is built once; a partial assignment only changes row and column
     bounds, so HiGHS re-solves each node from the previous basis (dual simplex warm start).
     Rows are normalised so that HiGHS's absolute tolerances act as relative ones.  Row blocks,
@@ -376,7 +350,7 @@ class HighsLp:
     (SciPy's bundled binding) so that bound changes re-solve from the previous basis."""
 
     def __init__(self, A: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> None:
-        from scipy.optimize._highspy import _core
+        from scipy.optimize._highspy import _core  # type: ignore[import-untyped]
 
         self._core = _core
         inf = _core.kHighsInf
@@ -464,7 +438,7 @@ class LinprogLp:
         self.col_lower[j], self.col_upper[j] = lo, hi
 
     def solve(self) -> Any:
-        from scipy.optimize import linprog
+        from scipy.optimize import linprog  # type: ignore[import-untyped]
 
         eq = self.lower == self.upper
         up = ~eq & np.isfinite(self.upper)
@@ -586,8 +560,8 @@ class _LeafBatches:
 
     The kinematic test of a candidate does not depend on the other candidates of its batch,
     and the traversal does not depend on leaf outcomes, so leaves are queued and tested
-    together by :func:`planner.predict.feasibility.kinematic_stage` (eqs. 23-25, 16).  A candidate is
-    kept when it is kinematically admissible or on a kinematic boundary and, at every contact
+    together by :func:`planner.predict.stages.kinematic_stage` (eqs. 23-25, 16).  A candidate
+    is kept when it is kinematically admissible or on a kinematic boundary and, at every contact
     its leaf fixed to ``S+``/``S-``, its computed ``xi`` is that of the leaf (``xi = 0``, only
     possible on a boundary, is owned by ``S+``), so each candidate is owned by one leaf.
     """
@@ -794,6 +768,7 @@ def _expand(
             leaves.add(_completions(states, k), states, xi)
             continue
         i = _branch_contact(states, None if point is None else point[pruner.nz:-1], mu_arr)
+        children: tuple[tuple[int, int], ...]
         if states[i] == FREE:
             children = ((BREAK, 0), (CONTACT, 0))
         else:
@@ -849,7 +824,8 @@ def _pruner_key(system: System, mu: np.ndarray, eps: float, coupled: bool) -> by
 
 
 def canonical_order(codes: np.ndarray) -> np.ndarray:
-    """Sort codes as :func:`planner.model.modes.enumerate_modes`: by ``n_R``, rolling, sliding set."""
+    """Sort codes as :func:`planner.model.modes.enumerate_modes`: by ``n_R``, rolling set,
+    sliding set."""
     if len(codes) == 0:
         return codes
     n_c = codes.shape[1]

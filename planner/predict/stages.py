@@ -9,6 +9,7 @@ described in :mod:`planner.predict.feasibility` and ``docs/conventions.md``.
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass
 from typing import Any
 
@@ -23,6 +24,13 @@ from planner.model.modes import (
     enumerate_modes,
 )
 from planner.model.system import System
+from planner.predict.linalg import LU_CHUNK, det_solve, lu_det_solve, transposed_det_solve
+
+__all__ = [
+    "DEFAULT_SINGULAR_TOL", "DEFAULT_TOL", "EquilibratedKinematics", "FeasibleMode",
+    "ForceStage", "KinematicStage", "LU_CHUNK", "equilibrated_kinematics", "force_matrices",
+    "force_rhs", "force_stage", "kinematic_stage", "lu_det_solve",
+]
 
 #: Default relative tolerance on normalised constraint slacks.
 DEFAULT_TOL = 1e-9
@@ -143,8 +151,22 @@ class EquilibratedKinematics:
     velocity_scale: float
 
 
+#: Per-system cache of :func:`equilibrated_kinematics` (a System's arrays are read-only).
+_EQUILIBRATED: weakref.WeakKeyDictionary[System, EquilibratedKinematics] = (
+    weakref.WeakKeyDictionary()
+)
+
+
 def equilibrated_kinematics(system: System) -> EquilibratedKinematics:
-    """Build :class:`EquilibratedKinematics` (shared by every kinematic test)."""
+    """Build :class:`EquilibratedKinematics` (shared by every kinematic test; cached per
+    system, whose arrays are read-only)."""
+    hit = _EQUILIBRATED.get(system)
+    if hit is None:
+        hit = _EQUILIBRATED[system] = _equilibrate(system)
+    return hit
+
+
+def _equilibrate(system: System) -> EquilibratedKinematics:
     K = np.concatenate([system.W.T, -system.J[:, system.effort_joints]], axis=1)
     rhs = _velocity_input(system)
     vel_scale = float(np.max(np.abs(rhs))) if rhs.size else 0.0
@@ -154,67 +176,6 @@ def equilibrated_kinematics(system: System) -> EquilibratedKinematics:
     row = np.linalg.norm(Kc, axis=1)
     row[row == 0] = 1.0
     return EquilibratedKinematics(Kc / row[:, None], rhs / row, col, row, rhs, vel_scale)
-
-
-#: Matrices per chunk of the batched LU factorisation (keeps its working set in cache).
-LU_CHUNK = 2048
-
-
-def lu_det_solve(X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Determinants and solutions of ``C`` small systems from ONE LU factorisation each.
-
-    Gaussian elimination with partial pivoting (LAPACK ``getrf``'s rule: the largest
-    ``|entry|`` of the column, the first one on ties), vectorised over the systems, which sit
-    on the last (contiguous) axis.  Used for ``P_AI`` (eq. 24) and ``Q_AI`` (eq. 26): the rank
-    test (30)-(32) and the solve share the factorisation instead of calling
-    ``numpy.linalg.det`` and ``numpy.linalg.solve`` (two LAPACK factorisations per matrix).
-
-    Parameters
-    ----------
-    X : (k + 1, k, C) float, C-contiguous, overwritten
-        ``X[c, a, m] = A_m[a, c]`` for ``c < k`` (column ``c`` of matrix ``m``) and
-        ``X[k, a, m] = b_m[a]`` (the right side).
-
-    Returns
-    -------
-    det : (C,)
-        ``det A_m`` (0 when a pivot is exactly zero).
-    z : (k, C)
-        ``A_m^{-1} b_m``; meaningless where ``det`` is (near) zero -- callers mask it.
-    """
-    kp1, k, C = X.shape
-    det = np.ones(C)
-    systems = np.arange(C)
-    flat = X.reshape(kp1, k * C)
-    lower = np.empty((k, C))
-    work = np.empty((k, C))
-    for j in range(k):
-        p = np.argmax(np.abs(X[j, j:, :]), axis=0)  # pivot row, relative to j
-        swap = p != 0
-        if swap.any():
-            src = (p + j) * C + systems
-            tail = flat[j:]  # columns j..k (left of j is no longer read)
-            pivot_rows = tail[:, src]
-            tail[:, src] = X[j:, j, :]
-            X[j:, j, :] = pivot_rows
-            det[swap] *= -1.0
-        piv = X[j, j, :]
-        det *= piv
-        if j + 1 < k:
-            n = k - j - 1
-            lj, wj = lower[:n], work[:n]
-            np.divide(X[j, j + 1:, :], np.where(piv == 0.0, 1.0, piv), out=lj)
-            for c in range(j + 1, kp1):  # rank-1 update, one contiguous column at a time
-                np.multiply(lj, X[c, j, :], out=wj)
-                X[c, j + 1:, :] -= wj
-    z = np.empty((k, C))
-    for a in range(k - 1, -1, -1):  # back substitution on U z = (L^-1 P) b
-        acc = X[k, a, :].copy()
-        if a + 1 < k:
-            acc -= np.einsum("cm,cm->m", X[a + 1:k, a, :], z[a + 1:])
-        piv = X[a, a, :]
-        z[a] = acc / np.where(piv == 0.0, 1.0, piv)
-    return det, z
 
 
 def kinematic_stage(
@@ -233,7 +194,7 @@ def kinematic_stage(
     cand = candidates if candidates is not None else enumerate_modes(system.n_contacts, system.dof)
     E = system.effort_joints
     V = system.velocity_joints
-    n_c, k = system.n_contacts, cand.n_rows
+    n_c = system.n_contacts
     M = len(cand)
     # Equilibrate: global column scaling, then unit rows (rows of P_AI are rows of K).
     eq = equilibrated_kinematics(system)
@@ -241,13 +202,8 @@ def kinematic_stage(
 
     # P_AI = Kn[rows] and its right side bn[rows], gathered chunk by chunk straight into the
     # layout of lu_det_solve; one LU per candidate gives both |det| (30-32) and z (eq. 24).
-    aug = np.ascontiguousarray(np.concatenate([Kn, bn[:, None]], axis=1).T)  # (k+1, 2 n_c)
-    det = np.zeros(M)
-    z = np.empty((M, k))
-    for s in range(0, M, LU_CHUNK):
-        d, zc = lu_det_solve(np.take(aug, cand.rows[s:s + LU_CHUNK].T, axis=1))
-        det[s:s + LU_CHUNK] = np.abs(d)
-        z[s:s + LU_CHUNK] = zc.T
+    det, z = det_solve(Kn, bn, cand.rows)
+    det = np.abs(det)
     nonsingular = det > singular_tol
     z[~nonsingular] = np.nan
     z = z / col
@@ -283,7 +239,7 @@ class ForceStage:
     ``nonsingular (L, m)``.
     """
 
-    c_A: np.ndarray
+    c_A: np.ndarray  # noqa: N815 (the paper's symbol)
     contact_forces: np.ndarray
     joint_efforts: np.ndarray
     margin: np.ndarray
@@ -358,17 +314,8 @@ def force_stage(
     cn[cn == 0] = 1.0
     QTn = QTn / cn[..., None]
     # Q_AI = QTn^T per mode: one LU per matrix gives |det| (30-32) and y (eq. 26).
-    flat = QTn.reshape(L * m, k, k)
-    det = np.zeros(L * m)
-    y = np.empty((L * m, k))
-    for s in range(0, L * m, LU_CHUNK):
-        chunk = flat[s:s + LU_CHUNK]
-        X = np.empty((k + 1, k, chunk.shape[0]))
-        X[:k] = chunk.transpose(1, 2, 0)  # X[c, a, .] = Q[a, c] = QT[c, a]
-        X[k] = (rhs / rs)[:, None]
-        d, yc = lu_det_solve(X)
-        det[s:s + LU_CHUNK] = np.abs(d)
-        y[s:s + LU_CHUNK] = yc.T
+    det, y = transposed_det_solve(QTn.reshape(L * m, k, k), rhs / rs)
+    det = np.abs(det)
     det = det.reshape(L, m)
     y = y.reshape(L, m, k)
     nonsingular = det > singular_tol
