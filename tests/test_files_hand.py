@@ -90,7 +90,7 @@ def test_an_explicit_revolute_type_is_fine():
     (lambda d: d["mu"].update(interval=[0.3, 0.1]), "mu.interval: expected lo <= hi"),
     (lambda d: d["mu"].update(interval=[[0, 0.1]] * 3),
      r"mu.interval: expected \[lo, hi\] or 4 such pairs"),
-    (lambda d: d["mu"].update(interval=[-0.1, 0.1]), "mu.interval: expected a number >= 0"),
+    (lambda d: d["mu"].update(interval=[-0.1, 0.1]), "mu.interval: expected friction coefficients >= 0"),
     (lambda d: d["mu"].update(validate=0.1), "mu.validate: expected a list of numbers"),
     (lambda d: d["mu"].update(validate=[-1]), r"mu.validate\[0\]: expected a number >= 0"),
     (lambda d: d["workpiece"].update(pose={"x": 0}), "workpiece.pose: expected \\[x, y, phi\\]"),

@@ -7,7 +7,7 @@ import pytest
 
 from planner.errors import InputError
 from planner.files.system_file import load_system
-from planner.model.system import cross2, rot90
+from planner.model.geometry import cross2, rot90
 from planner.predict.feasibility import feasible_modes
 from scenarios.paper_sims import DATA
 from sim.backends import make_backend

@@ -248,7 +248,7 @@ NOTATION_MODULES = ("model.system", "model.modes", "predict.stages", "predict.fe
                     "friction.graphical", "predict.search", "sweeps.executor",
                     "predict.indeterminate", "model.hand", "plan.trajectory", "plan.bounds",
                     "plan.segment_planner", "plan.plan_file", "files.system_file",
-                    "files.hand_file")
+                    "plan.guarantee", "plan.intervals", "model.geometry", "files.hand_file")
 
 
 def _member(obj, name):

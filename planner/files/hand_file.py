@@ -34,8 +34,9 @@ from planner.files.fields import (
     type_name,
 )
 from planner.files.reader import read_json
+from planner.model.geometry import rot90
 from planner.model.hand import CONTACT_KINDS, ContactSpec, Finger, Hand, rotation
-from planner.model.system import rot90
+from planner.model.validation import friction_interval
 from planner.model.workpiece import check_convex_ccw
 
 HAND_FORMAT = "qsplan-hand"
@@ -227,13 +228,8 @@ def _mu_section(mu: Any, n_c: int) -> tuple[tuple[tuple[float, float], ...] | No
                 f"mu.interval: expected [lo, hi] or {n_c} such pairs (one per contact), "
                 f"got {short(raw)}"
             )
-        out = []
-        for p in pairs:
-            lo = number(p[0], "mu.interval", minimum=0.0)
-            hi = number(p[1], "mu.interval", minimum=0.0)
-            if lo > hi:
-                raise FileFormatError(f"mu.interval: expected lo <= hi, got {short(p)}")
-            out.append((lo, hi))
+        out = [(number(p[0], "mu.interval"), number(p[1], "mu.interval")) for p in pairs]
+        friction_interval(out if len(out) > 1 else out[0], n_c, "mu.interval")  # signs, order
         interval = tuple(out)
     val = mu.get("validate", [])
     if not isinstance(val, list):

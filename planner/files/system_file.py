@@ -174,7 +174,7 @@ def _system(data: Any) -> System:
             f"environment: expected a list of true/false, one per contact, got {short(env_raw)}"
         )
     if form == "chain":
-        from planner.model.system import check_wrench_matrix, contact_points_from_wrench
+        from planner.model.geometry import check_wrench_matrix, contact_points_from_wrench
 
         Wm = check_wrench_matrix(W)
         n_c = Wm.shape[1] // 2
@@ -255,7 +255,7 @@ def _chain_jacobian(manip: Mapping[str, Any], pts: Any, nrm: Any, env: list[bool
 
 def system_to_dict(system: System) -> dict[str, Any]:
     """The system as a system-file object (geometric contacts when points are known)."""
-    from planner.model.system import wrench_matrix
+    from planner.model.geometry import wrench_matrix
 
     out: dict[str, Any]
     env = system.environment

@@ -37,7 +37,8 @@ from typing import Any
 import numpy as np
 
 from planner.errors import DegenerateError, InputError
-from planner.model.system import System, rot90
+from planner.model.geometry import rot90
+from planner.model.system import System
 from planner.model.validation import as_array
 
 CONTACT_KINDS = ("palm", "side", "tip")

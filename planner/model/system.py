@@ -15,6 +15,7 @@ Body*, 1994. Equations (1)-(5).
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from enum import Enum
@@ -23,27 +24,20 @@ from typing import Any
 import numpy as np
 
 from planner.errors import InputError
+from planner.model.geometry import (
+    check_wrench_matrix,
+    contact_points_from_wrench,
+    rot90,
+    wrench_matrix,
+)
 from planner.model.validation import (
-    WRENCH_COLUMN_TOL,
     as_array,
     as_friction,
     describe_value,
+    is_numeric,
     unit_normal,
 )
 from planner.model.workpiece import WorkpieceGeometry, check_environment
-
-
-def cross2(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """The paper's planar cross product ``a (x) b = a_1 b_2 - a_2 b_1`` (eq. 1), broadcasting."""
-    a = np.asarray(a, dtype=float)
-    b = np.asarray(b, dtype=float)
-    return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
-
-
-def rot90(n: np.ndarray) -> np.ndarray:
-    """Rotate 2-vectors by +90 degrees: ``(x, y) -> (-y, x)``; gives ``t`` from ``n``."""
-    n = np.asarray(n, dtype=float)
-    return np.stack([-n[..., 1], n[..., 0]], axis=-1)
 
 
 class JointControl(str, Enum):
@@ -83,87 +77,6 @@ class Contact:
     def tangent(self) -> tuple[float, float]:
         """``t_i = rot90(n_i)``, so that ``n_i x t_i = +1`` (eq. 1)."""
         return (-self.normal[1], self.normal[0])
-
-
-def wrench_matrix(points: Any, normals: Any) -> np.ndarray:
-    """Global wrench matrix ``W = [w_1n w_1t ... w_nn w_nt]`` of eq. (1)-(2).
-
-    Parameters
-    ----------
-    points : (n_c, 2) [m]
-        Contact points ``r_i``, world frame.
-    normals : (n_c, 2)
-        Unit inward normals ``n_i``, world frame.
-
-    Returns
-    -------
-    W : (3, 2 n_c)
-        Column ``2i`` is ``[n_i; r_i (x) n_i]``, column ``2i+1`` is ``[t_i; r_i (x) t_i]``.
-    """
-    r = as_array(points, (None, 2), "points")
-    n = as_array(normals, (r.shape[0], 2), "normals")
-    t = rot90(n)
-    W = np.empty((3, 2 * r.shape[0]))
-    W[0:2, 0::2] = n.T
-    W[0:2, 1::2] = t.T
-    W[2, 0::2] = cross2(r, n)
-    W[2, 1::2] = cross2(r, t)
-    return W
-
-
-def check_wrench_matrix(W: Any, tol: float = WRENCH_COLUMN_TOL) -> np.ndarray:
-    """Validate a wrench matrix given as data (eq. 1); returns it as a float array.
-
-    Each column pair must be a unit normal ``n`` and the tangent ``t = rot90(n)`` to ``tol``
-    (default 2e-3, because the paper prints eqs. 37 and 42 rounded to three digits).  The matrix
-    is used exactly as given; it is not re-normalised.
-    """
-    arr = np.asarray(W, dtype=float) if _is_numeric(W) else None
-    if arr is None or arr.ndim != 2 or arr.shape[0] != 3 or arr.shape[1] % 2 or arr.shape[1] == 0:
-        shape = None if arr is None else arr.shape
-        raise InputError(
-            f"wrench_matrix: expected shape (3, 2*n_c) with columns [w_1n w_1t ...], got {shape}"
-        )
-    W = as_array(arr, (3, None), "wrench_matrix")
-    for i in range(W.shape[1] // 2):
-        n = W[0:2, 2 * i]
-        t = W[0:2, 2 * i + 1]
-        norm = float(np.hypot(*n))
-        if abs(norm - 1.0) > tol:
-            raise InputError(
-                f"wrench_matrix: contact {i + 1}: expected a unit normal in column {2 * i + 1} "
-                f"(|n| = 1 within {tol:g}), got |n| = {norm:.6g}"
-            )
-        if float(np.max(np.abs(t - rot90(n)))) > tol:
-            raise InputError(
-                f"wrench_matrix: contact {i + 1}: expected tangent t = n rotated by +90 deg "
-                f"= {rot90(n).round(4).tolist()} in column {2 * i + 2}, got {t.round(4).tolist()}"
-            )
-    return W
-
-
-def _is_numeric(value: Any) -> bool:
-    try:
-        np.asarray(value, dtype=float)
-    except (TypeError, ValueError, OverflowError, RecursionError):
-        return False
-    return True
-
-
-def contact_points_from_wrench(W: np.ndarray) -> np.ndarray:
-    """Contact points implied by a wrench matrix: ``r_i = m_it n_i - m_in t_i``.
-
-    With ``t = rot90(n)``: ``r x n = m_in`` and ``r x t = r . n = m_it``, hence the formula.
-
-    Returns
-    -------
-    points : (n_c, 2) [m], world frame.
-    """
-    n = W[0:2, 0::2].T
-    t = W[0:2, 1::2].T
-    m_n = W[2, 0::2]
-    m_t = W[2, 1::2]
-    return m_t[:, None] * n - m_n[:, None] * t
 
 
 @dataclass(frozen=True, eq=False)
@@ -279,12 +192,12 @@ class System:
 
     def with_mu(self, mu: Any) -> System:
         """A copy with other friction coefficients (scalar or ``(n_c,)``)."""
-        return _replace(self, mu=as_friction(mu, self.n_contacts))
+        return dataclasses.replace(self, mu=as_friction(mu, self.n_contacts))
 
     def with_joint_inputs(self, joint_inputs: Any) -> System:
         """A copy with other joint commands (velocities / efforts per :attr:`control`)."""
         arr = as_array(joint_inputs, (self.n_joints,), "joint_inputs")
-        return _replace(self, joint_inputs=arr)
+        return dataclasses.replace(self, joint_inputs=arr)
 
     # -- constructors --------------------------------------------------------------------
     @classmethod
@@ -404,7 +317,7 @@ class System:
             )
             virtual = True
         else:
-            Jarr = np.asarray(jacobian, dtype=float) if _is_numeric(jacobian) else None
+            Jarr = np.asarray(jacobian, dtype=float) if is_numeric(jacobian) else None
             if Jarr is None or Jarr.ndim != 3 or Jarr.shape[:2] != (n_c, 2):
                 got = None if Jarr is None else Jarr.shape
                 raise InputError(
@@ -469,15 +382,3 @@ def parse_joint(spec: Any, index: int) -> tuple[JointControl, float]:
     if not np.isfinite(val):
         raise InputError(f"joint {index + 1}: expected a finite '{key}', got {str(value)[:40]}")
     return (JointControl.VELOCITY if has_v else JointControl.EFFORT), val
-
-
-def _replace(system: System, **changes: Any) -> System:
-    fields: dict[str, Any] = {
-        "W": system.W, "mu": system.mu, "g_obj": system.g_obj, "J": system.J,
-        "control": system.control, "joint_inputs": system.joint_inputs, "g_man": system.g_man,
-        "points": system.points, "normals": system.normals,
-        "virtual_joints": system.virtual_joints, "workpiece": system.workpiece,
-        "environment": system.environment,
-    }
-    fields.update(changes)
-    return System(**fields)
