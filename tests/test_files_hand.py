@@ -142,3 +142,13 @@ def test_hand_from_plan_is_the_typed_boundary():
     assert hand.n_fingers == 2 and q0.shape == (5,)
     with pytest.raises(FileFormatError, match="plan.hand: fingers\\[0\\]: expected a single"):
         hand_from_plan(_hand(lambda d: d["fingers"][0].update(type="prismatic")))
+
+
+@pytest.mark.parametrize("finger,key,value", [(0, "width", 1e308), (1, "pivot", [1e308, 0.0])])
+def test_extreme_geometry_is_a_documented_error(finger, key, value, recwarn):
+    """Found by benchmarks/robustness_table.py (plan campaign): Newton left the float range and
+    math.cos raised a bare ValueError. Now a FileFormatError, and no numpy warning printed."""
+    d = _hand(lambda d: d["fingers"][finger].update({key: value}))
+    with pytest.raises(FileFormatError, match="initial configuration: close: Newton diverged"):
+        hand_from_dict(d)
+    assert not [w for w in recwarn if issubclass(w.category, RuntimeWarning)]

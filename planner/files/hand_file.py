@@ -120,7 +120,8 @@ def hand_file_from_dict(data: Any, source: str = "<dict>") -> HandFile:
     """:class:`HandFile` from parsed content; errors are :class:`FileFormatError` naming
     ``source`` and the field."""
     try:
-        return _hand_file(data)
+        with np.errstate(all="ignore"):  # extreme inputs: non-finite results are caught below
+            return _hand_file(data)
     except InputError as exc:  # FileFormatError included
         raise FileFormatError(f"{source}: {exc}") from None
 
