@@ -33,7 +33,7 @@ def _nested(depth: int) -> str:
     ('{"a": NaN}', "expected finite numbers .*got the constant NaN"),
     ('{"a": Infinity}', "got the constant Infinity"),
     ('{"a": -Infinity}', "got the constant -Infinity"),
-    ('{"a": 1e999}', r"expected finite numbers, got 1e999 \(beyond the float range\)"),
+    ('{"a": 1e999}', "expected finite numbers, got a number beyond the float range"),
     ('{"a": 1, "a": 2}', "expected each key once per object, got 'a' twice"),
     ('{"o": {"b": [], "b": {}}}', "got 'b' twice"),
     (_nested(MAX_JSON_DEPTH + 1), f"expected JSON nested at most {MAX_JSON_DEPTH} deep, got depth"),

@@ -36,6 +36,7 @@ from planner.files.fields import (
 from planner.files.reader import read_json
 from planner.model.geometry import rot90
 from planner.model.hand import CONTACT_KINDS, ContactSpec, Finger, Hand, rotation
+from planner.model.validation import friction_interval
 from planner.model.workpiece import check_convex_ccw
 
 HAND_FORMAT = "qsplan-hand"
@@ -119,7 +120,8 @@ def hand_file_from_dict(data: Any, source: str = "<dict>") -> HandFile:
     """:class:`HandFile` from parsed content; errors are :class:`FileFormatError` naming
     ``source`` and the field."""
     try:
-        return _hand_file(data)
+        with np.errstate(all="ignore"):  # extreme inputs: non-finite results are caught below
+            return _hand_file(data)
     except InputError as exc:  # FileFormatError included
         raise FileFormatError(f"{source}: {exc}") from None
 
@@ -227,13 +229,8 @@ def _mu_section(mu: Any, n_c: int) -> tuple[tuple[tuple[float, float], ...] | No
                 f"mu.interval: expected [lo, hi] or {n_c} such pairs (one per contact), "
                 f"got {short(raw)}"
             )
-        out = []
-        for p in pairs:
-            lo = number(p[0], "mu.interval", minimum=0.0)
-            hi = number(p[1], "mu.interval", minimum=0.0)
-            if lo > hi:
-                raise FileFormatError(f"mu.interval: expected lo <= hi, got {short(p)}")
-            out.append((lo, hi))
+        out = [(number(p[0], "mu.interval"), number(p[1], "mu.interval")) for p in pairs]
+        friction_interval(out if len(out) > 1 else out[0], n_c, "mu.interval")  # signs, order
         interval = tuple(out)
     val = mu.get("validate", [])
     if not isinstance(val, list):

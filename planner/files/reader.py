@@ -108,14 +108,6 @@ def parse_json(text: str | bytes, source: str) -> Any:
             f"{source}: expected finite numbers (strict JSON), got the constant {literal}"
         )
 
-    def finite_float(literal: str) -> float:
-        value = float(literal)
-        if not math.isfinite(value):
-            raise FileFormatError(
-                f"{source}: expected finite numbers, got {literal[:40]} (beyond the float range)"
-            )
-        return value
-
     def unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
         out: dict[str, Any] = {}
         for key, value in pairs:
@@ -127,8 +119,7 @@ def parse_json(text: str | bytes, source: str) -> Any:
         return out
 
     try:
-        data = json.loads(text, parse_constant=bad_constant, parse_float=finite_float,
-                          object_pairs_hook=unique_keys)
+        data = json.loads(text, parse_constant=bad_constant, object_pairs_hook=unique_keys)
     except json.JSONDecodeError as exc:
         raise FileFormatError(
             f"{source}: expected valid JSON, got a syntax error at line {exc.lineno} column "
@@ -142,28 +133,47 @@ def parse_json(text: str | bytes, source: str) -> Any:
         if isinstance(exc, FileFormatError):
             raise
         raise FileFormatError(f"{source}: expected JSON numbers Python can read ({exc})") from None
-    depth = json_depth(data)
+    depth, finite = _depth_and_finite(data)
     if depth > MAX_JSON_DEPTH:
         raise FileFormatError(
             f"{source}: expected JSON nested at most {MAX_JSON_DEPTH} deep, got depth {depth}"
+        )
+    if not finite:  # a literal such as 1e999 parses to infinity
+        raise FileFormatError(
+            f"{source}: expected finite numbers, got a number beyond the float range "
+            "(such as 1e999)"
         )
     return data
 
 
 def json_depth(value: Any) -> int:
     """Nesting depth of a parsed JSON value (a scalar is 0, ``[]`` is 1); iterative."""
+    return _depth_and_finite(value)[0]
+
+
+def _depth_and_finite(value: Any) -> tuple[int, bool]:
+    """``(depth, every float finite)`` of a parsed JSON value, iteratively; stops descending
+    below :data:`MAX_JSON_DEPTH` (the answer is then already "too deep")."""
     deepest = 0
+    finite = True
+    isinf = math.isinf
     stack: list[tuple[Any, int]] = [(value, 0)]
     while stack:
         node, depth = stack.pop()
         if isinstance(node, dict):
-            children: Any = node.values()
+            children: Any = list(node.values())
         elif isinstance(node, list):
             children = node
         else:
+            if isinstance(node, float) and isinf(node):
+                finite = False
             continue
         depth += 1
         deepest = max(deepest, depth)
-        if depth <= MAX_JSON_DEPTH:  # deeper: the answer is already "too deep"
-            stack.extend((c, depth) for c in children)
-    return deepest
+        if depth > MAX_JSON_DEPTH:
+            continue
+        containers = [c for c in children if isinstance(c, (list, dict))]
+        if len(containers) != len(children):
+            finite = finite and not any(isinstance(c, float) and isinf(c) for c in children)
+        stack.extend((c, depth) for c in containers)
+    return deepest, finite

@@ -272,6 +272,11 @@ class Hand:
                     f"(gap Jacobian det {np.linalg.det(G):.3g})"
                 )
             q[free] -= np.linalg.solve(G, g)
+            if not np.all(np.isfinite(q)):
+                raise DegenerateError(
+                    "close: Newton diverged (a coordinate left the float range); expected a "
+                    "configuration near one where every contact touches"
+                )
         raise DegenerateError(
             f"close: contacts did not close within {max_iter} Newton steps "
             f"(largest gap {np.max(np.abs(self.gaps(q))):.3g} m)"

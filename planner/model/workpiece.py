@@ -39,7 +39,8 @@ def check_convex_ccw(vertices: Any, name: str) -> np.ndarray:
                 f"{name}: expected a convex polygon listed counter-clockwise, "
                 f"got a clockwise or flat turn at vertex {(i + 1) % n}"
             )
-        turning += float(np.arctan2(cross, u @ w))
+        with np.errstate(over="ignore", invalid="ignore"):
+            turning += float(np.arctan2(cross, u @ w))
     if abs(turning - 2 * np.pi) > 1e-6:
         raise InputError(
             f"{name}: expected a simple convex polygon (turning once around), "

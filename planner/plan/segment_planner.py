@@ -43,10 +43,7 @@ POLICIES = ("midband", "constant")
 
 
 def _hand_path(path: str | os.PathLike[str]) -> Path:
-    p = Path(path)
-    if not p.is_file():
-        raise InputError(f"hand file: expected an existing file, got {str(path)!r}")
-    return p
+    return Path(path)  # existence and kind are checked by the one JSON reader (load_hand)
 
 
 @dataclass(frozen=True, eq=False)
