@@ -44,7 +44,8 @@ from test_fuzz_cli import (  # noqa: E402
 )
 
 COLUMNS = ("inputs", "exit 0", "exit 1", "exit 2", "exit 3", "tracebacks",
-           "bad input not exit 2", "partial output sets", "exit 2 lacking expected/got")
+           "bad input not exit 2", "partial output sets", "internal faults",
+           "exit 2 lacking expected/got")
 
 
 def run_subprocess(case, fx) -> Outcome:  # type: ignore[no-untyped-def]
@@ -139,6 +140,9 @@ def main() -> int:
           f"{', '.join(FILE_LAYER_GAPS)})")
     for p in found[:20]:
         print("  " + p[:400])
+    for o in outcomes:
+        if "internal fault:" in o.stderr:
+            print(f"  internal fault: {o.case.argv}: {o.stderr.strip()[:300]}")
     if args.out:
         from planner.files.atomic import atomic_write_json
 

@@ -533,6 +533,7 @@ def summarize(outcomes: list[Outcome]) -> dict[str, dict[str, int]]:
                                                 "exit 2": 0, "exit 3": 0, "other": 0,
                                                 "tracebacks": 0, "bad input not exit 2": 0,
                                                 "partial output sets": 0,
+                                                "internal faults": 0,
                                                 "exit 2 lacking expected/got": 0})
         row["inputs"] += 1
         key = f"exit {o.code}" if o.code in (0, 1, 2, 3) else "other"
@@ -540,6 +541,7 @@ def summarize(outcomes: list[Outcome]) -> dict[str, dict[str, int]]:
         row["tracebacks"] += o.traceback
         row["bad input not exit 2"] += o.bad_not_2
         row["partial output sets"] += bool(o.partial)
+        row["internal faults"] += "internal fault:" in o.stderr
         row["exit 2 lacking expected/got"] += o.lacking_message
     return table
 
