@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import stat
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -28,8 +29,22 @@ def current_umask() -> int:
 
 
 def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> Path:
-    """Write ``data`` to ``path`` atomically; creates parent folders. Returns the path."""
+    """Write ``data`` to ``path`` atomically; creates parent folders. Returns the path.
+
+    A ``path`` that exists and is not a regular file (a directory, FIFO, device, socket, or a
+    symlink to one) raises :class:`planner.errors.InputError` and is left as it is: the rename
+    would replace it (``/dev/null`` as root) with a regular file."""
     target = Path(path)
+    try:
+        mode = os.stat(target).st_mode
+    except OSError:
+        mode = None
+    if mode is not None and not stat.S_ISREG(mode):
+        from planner.errors import InputError
+
+        raise InputError(f"output {str(target)!r}: expected a regular file or a new path, got "
+                         f"{'a directory' if stat.S_ISDIR(mode) else 'a special file'}; it is "
+                         "not replaced")
     target.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
     try:
