@@ -19,8 +19,9 @@ from pathlib import Path
 import numpy as np
 
 from planner.files.atomic import atomic_write_json
-from planner.model.hand import load_hand
-from planner.plan.bounds import guarantee, intervals, mode_rows
+from planner.files.hand_file import load_hand
+from planner.plan.bounds import intervals, mode_rows
+from planner.plan.guarantee import guarantee
 from planner.plan.segment_planner import plan_hand
 from planner.plan.trajectory import integrate_segment
 from scenarios.registry import DATA_DIR

@@ -510,7 +510,7 @@ def fault_campaign(workdir: Path) -> Campaign:
     import test_sim_faults as tsf
 
     from sim.backends import make_backend
-    from sim.classify import Outcome
+    from sim.compare import Outcome
     from sim.run import FaultKind, run_scene
     from sim.scene import Load
     from sim.scenes.paper import FingertipSpec

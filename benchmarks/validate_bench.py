@@ -46,19 +46,22 @@ def main() -> None:
             t = time.perf_counter()
             res = run_plan(plan, engine, mu, render=False)
             wall = time.perf_counter() - t
-            c = res.comparison
+            v = res.verdict
+            pm = v.plan
+            claim_fraction = pm.claim_fraction if pm else float("nan")
+            final_error = pm.final_error_of_travel if pm else float("nan")
             runs.append({
                 "engine": engine, "mu": mu, "wall_s": wall,
                 "sim_wall_s": res.summary["settings"]["wall_time_s"],
                 "simulated_s": plan.waypoints[-1].t,
                 "realtime_factor": plan.waypoints[-1].t / wall,
-                "steps": res.summary["settings"]["steps"], "status": c.status.value,
-                "claim_fraction": c.claim_fraction,
-                "final_error_of_travel": c.final_error_of_travel,
+                "steps": res.summary["settings"]["steps"], "status": v.outcome.value,
+                "claim_fraction": claim_fraction,
+                "final_error_of_travel": final_error,
             })
             print(f"{engine:7s} mu={mu:<4g} {wall:6.2f} s  ({runs[-1]['realtime_factor']:.1f}x "
-                  f"real time)  {c.status.value}  4S {c.claim_fraction:.1%}  final error "
-                  f"{c.final_error_of_travel:.2%} of travel", flush=True)
+                  f"real time)  {v.outcome.value}  4S {claim_fraction:.1%}  final error "
+                  f"{final_error:.2%} of travel", flush=True)
     both = {m: sum(r["wall_s"] for r in runs if r["mu"] == m) for m in mus}
     result = {
         "machine": {"python": platform.python_version(), "cpus": __import__("os").cpu_count()},

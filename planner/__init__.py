@@ -4,8 +4,9 @@ NumPy/SciPy only; imports no simulator and no plotting library.
 """
 
 from planner.errors import DegenerateError, FileFormatError, InputError, QsplanError
+from planner.model.geometry import wrench_matrix
 from planner.model.modes import Mode, candidate_count, enumerate_modes
-from planner.model.system import Contact, JointControl, System, wrench_matrix
+from planner.model.system import Contact, JointControl, System
 from planner.predict.feasibility import Prediction, Status, feasible_modes
 from planner.predict.stages import FeasibleMode
 

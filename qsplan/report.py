@@ -17,12 +17,12 @@ from __future__ import annotations
 
 import base64
 import html
-import json
 from dataclasses import dataclass
 from pathlib import Path
 
-from planner.errors import InputError
+from planner.errors import InputError, QsplanError
 from planner.files.atomic import atomic_write_text
+from planner.files.reader import read_json
 
 _MIME = {".png": "image/png", ".gif": "image/gif"}
 SUMMARY_FIELDS = ("scenario", "engine", "expect", "status", "agreement", "passed", "reason")
@@ -56,8 +56,8 @@ def scan_run(run_dir: str | Path) -> ReportContents:
 
 def _load(path: Path) -> dict | None:
     try:
-        data = json.loads(path.read_text())
-    except (OSError, ValueError):
+        data = read_json(path, "run file")
+    except QsplanError:
         return None
     return data if isinstance(data, dict) else None
 

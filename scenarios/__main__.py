@@ -24,12 +24,13 @@ def build_parser(parser: argparse.ArgumentParser | None = None) -> argparse.Argu
 
 
 def execute(args: argparse.Namespace) -> int:
-    """Run the parsed action; exit code 0 passed, 1 failed validation, 2 bad input, 3 fault."""
-    from scenarios.registry import all_scenarios, get
+    """Run the parsed action; exit code 0 the expectation held, 1 it did not (a disagreement
+    where agreement was expected, or an inconclusive run), 2 bad input, 3 simulator fault."""
+    from scenarios.registry import Expect, all_scenarios, get
 
     if args.action == "list":
         for name, sc in all_scenarios().items():
-            print(f"{name:24s} {sc.expect:8s} {','.join(sc.engines):14s} {sc.summary}")
+            print(f"{name:24s} {sc.expect.value:8s} {','.join(sc.engines):14s} {sc.summary}")
         return 0
     if args.action != "run":
         raise InputError(f"action: expected 'list' or 'run', got {args.action!r}")
@@ -41,7 +42,7 @@ def execute(args: argparse.Namespace) -> int:
     print(json.dumps({k: summary[k] for k in keys if k in summary} or summary, default=str))
     if summary.get("status") == "fault":
         return 3
-    if sc.expect == "info" and "passed" not in summary:
+    if sc.expect is Expect.INFO and "passed" not in summary:
         return 0
     return 0 if summary.get("passed") else 1
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from scenarios.registry import Scenario, register, shipped_file
+from scenarios.registry import Expect, Scenario, register, shipped_file
 
 
 def _plan(out_dir: Path, policy: str, **options: Any) -> dict[str, Any]:
@@ -14,8 +14,8 @@ def _plan(out_dir: Path, policy: str, **options: Any) -> dict[str, Any]:
     from planner.plan.segment_planner import plan_hand
     from planner.plots.bounds import margin_summary, plot_bounds
 
-    plan = plan_hand(shipped_file("two_finger_hand"), mu=tuple(options.get("mu", (0.0, 0.2))), policy=policy,
-                     waypoints=options.get("waypoints"))
+    plan = plan_hand(shipped_file("two_finger_hand"), mu=tuple(options.get("mu", (0.0, 0.2))),
+                     policy=policy, waypoints=options.get("waypoints"))
     out_dir = Path(out_dir)
     path = save_plan(plan, out_dir / "plan.json")
     figs = plot_bounds(plan, out_dir)
@@ -25,7 +25,7 @@ def _plan(out_dir: Path, policy: str, **options: Any) -> dict[str, Any]:
     last = max((i for i, x in enumerate(r2s) if x is not None), default=None)
     summary = {
         "scenario": "hand_plan" if policy == "midband" else "hand_plan_r2s",
-        "status": "ok", "plan": str(path), "figures": [str(f) for f in figs], "claim": plan.claim,
+        "status": "info", "plan": str(path), "figures": [str(f) for f in figs], "claim": plan.claim,
         "control": list(plan.control), "policy": plan.policy, "event": dict(plan.event),
         "travel_mm": 1e3 * plan.travel(), "exact": plan.exact,
         "r2s_feasible_until_fraction_of_travel": (travel[last] / travel[-1]
@@ -48,8 +48,8 @@ def run_hand_plan_negative(out_dir: Path, **options: Any) -> dict[str, Any]:
 
 
 register(Scenario(name="hand_plan", summary="two-finger hand: 4S torque bands for mu in [0, 0.2]",
-                  reference="Sec. 5.2, Figs. 9-13", expect="info", run=run_hand_plan,
+                  reference="Sec. 5.2, Figs. 9-13", expect=Expect.INFO, run=run_hand_plan,
                   tags=("plan",)))
 register(Scenario(name="hand_plan_r2s", summary="negative-control plan: R2S-band torque, claims 4S",
-                  reference="Sec. 5.2, Fig. 12", expect="info", run=run_hand_plan_negative,
+                  reference="Sec. 5.2, Fig. 12", expect=Expect.INFO, run=run_hand_plan_negative,
                   tags=("plan", "negative-control")))

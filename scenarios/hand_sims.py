@@ -19,20 +19,21 @@ from pathlib import Path
 from typing import Any
 
 from planner.files.atomic import atomic_write_json
-from scenarios.registry import Scenario, register, shipped_file
+from planner.plan.plan_file import Plan
+from scenarios.registry import Expect, Scenario, register, shipped_file
+from sim.backends import ENGINES
 
-ENGINES = ("pymunk", "mujoco")
 HAND = "two_finger_hand"
 
 
 @lru_cache(maxsize=4)
-def _plan(policy: str) -> Any:
+def _plan(policy: str) -> Plan:
     from planner.plan.segment_planner import plan_hand
 
     return plan_hand(shipped_file(HAND), mu=(0.0, 0.2), policy=policy)
 
 
-def run_hand(out_dir: Path, *, name: str, expect: str, policy: str, mu: float,
+def run_hand(out_dir: Path, *, name: str, expect: Expect, policy: str, mu: float,
              engine: str = "pymunk", waypoints: int | None = 6, render: bool = True,
              **_: Any) -> dict[str, Any]:
     from sim.hand_run import run_plan
@@ -40,20 +41,16 @@ def run_hand(out_dir: Path, *, name: str, expect: str, policy: str, mu: float,
     plan = _plan(policy)
     res = run_plan(plan, engine, mu, out_dir, waypoints=waypoints, render=render, name=name,
                    expect=expect)
-    c = res.comparison
     n = waypoints or len(plan.waypoints)
-    status = {"passed": "agreed", "failed": "disagreed"}.get(c.status.value, "fault")
     summary = dict(res.summary)
     summary.update({
         "scenario": name,
-        "status": status,
-        "agreement": c.claim_fraction,
         "parameters": {"hand": HAND, "policy": policy, "mu": mu, "waypoints": n,
                        "mu_interval": list(plan.mu_intervals[0])},
         "predicted": {"claim": plan.claim,
                       "modes": sorted({lab for w in plan.waypoints[:n] for lab in w.predicted}),
                       "scale": 1.0, "scale_invariant": True},
-        "observed": dict(c.observed_counts),
+        "observed": dict(res.verdict.observed_counts),
     })
     out_dir.mkdir(parents=True, exist_ok=True)
     atomic_write_json(out_dir / "summary.json", summary)
@@ -65,8 +62,8 @@ register(Scenario(
     summary="two-finger hand: planned 4S segment, torque in the band guaranteed for mu in "
             "[0, 0.2], run at mu = 0.1",
     reference="Sec. 5.2, Figs. 9-13",
-    expect="agree",
-    run=lambda out, **kw: run_hand(out, name="hand_4s_plan", expect="agree", policy="midband",
+    expect=Expect.AGREE,
+    run=lambda out, **kw: run_hand(out, name="hand_4s_plan", expect=Expect.AGREE, policy="midband",
                                    mu=0.1, **kw),
     engines=ENGINES, tags=("sim", "paper", "hand")))
 
@@ -75,7 +72,7 @@ register(Scenario(
     summary="negative control: torque in the R2S band while the plan claims 4S, mu = 0.2 "
             "(validation must fail)",
     reference="Sec. 5.2, Figs. 11-12",
-    expect="disagree",
-    run=lambda out, **kw: run_hand(out, name="neg_hand_r2s_torque", expect="disagree",
+    expect=Expect.DISAGREE,
+    run=lambda out, **kw: run_hand(out, name="neg_hand_r2s_torque", expect=Expect.DISAGREE,
                                    policy="rival:R2S", mu=0.2, **kw),
     engines=ENGINES, tags=("sim", "paper", "hand", "negative")))

@@ -1,7 +1,7 @@
 """Friction-space maps: Examples 4.1 and 4.3 (Figs. 3, 6) and the rod of Sec. 5.1 (Fig. 8).
 
-Each scenario writes ``<name>_muspace.json`` (a :class:`planner.friction.muspace.MuSpaceMap`: labelled
-grids plus closed-form inequalities), ``<name>_muspace.png`` (slice maps with closed-form
+Each scenario writes ``<name>_muspace.json`` (a :class:`planner.friction.muspace.MuSpaceMap`:
+labelled grids plus closed-form inequalities), ``<name>_muspace.png`` (slice maps with closed-form
 boundaries) and ``summary.json`` (Examples 4.1 and 4.3 also ``<name>_muspace3d.json``, the
 3-D decomposition of the unit cube), and checks what the paper says about its figure
 (``passed``/``reason``).  Options: ``n`` (grid points per axis of a slice, default 150), ``n3``
@@ -19,7 +19,7 @@ from planner.files.atomic import atomic_write_json
 from planner.files.system_file import load_system
 from planner.friction.muspace import JAM, MuSpaceMap, muspace_map
 from planner.model.system import System
-from scenarios.registry import Scenario, register
+from scenarios.registry import Expect, Scenario, register
 
 DATA = Path(__file__).resolve().parent / "data"
 SLICES = (0.0, 0.2, 0.4, 0.6)
@@ -135,8 +135,8 @@ def run_rod(out_dir: Path, n: int = 150, l1: float = 0.3, l2: float = 0.7,
 
 
 register(Scenario(name="muspace_ex41", summary="mu-space map of Example 4.1 (3S, RS, jam)",
-                  reference="Sec. 4.1, eq. 37, Fig. 3", expect="info", run=run_example_41))
+                  reference="Sec. 4.1, eq. 37, Fig. 3", expect=Expect.INFO, run=run_example_41))
 register(Scenario(name="muspace_ex43", summary="mu-space map of Example 4.3 (four modes)",
-                  reference="Sec. 4.3, eq. 42, Fig. 6", expect="info", run=run_example_43))
+                  reference="Sec. 4.3, eq. 42, Fig. 6", expect=Expect.INFO, run=run_example_43))
 register(Scenario(name="muspace_rod", summary="rod: R1 S2 / S1 R2 split at l1 mu2 = l2 mu1",
-                  reference="Sec. 5.1, Fig. 8", expect="info", run=run_rod))
+                  reference="Sec. 5.1, Fig. 8", expect=Expect.INFO, run=run_rod))

@@ -1,8 +1,8 @@
 """Simulator scenarios of the paper's examples (Sec. 4.1 eq. 37, Sec. 4.3 eq. 42) and the ruler
 (Sec. 5.1), each on pymunk and MuJoCo, plus negative controls.
 
-Predictions come from :func:`planner.predict.feasibility.feasible_modes` on the *scaled* system at the
-scenario's mu (and are checked equal to the unscaled prediction); observations only from the
+Predictions come from :func:`planner.predict.feasibility.feasible_modes` on the *scaled* system
+at the scenario's mu (and are checked equal to the unscaled prediction); observations only from the
 simulator's contact data (:mod:`sim.classify`).
 """
 
@@ -15,10 +15,11 @@ import numpy as np
 
 from planner.files.atomic import atomic_write_json
 from planner.files.system_file import load_system
-from scenarios.registry import Scenario, register
+from scenarios.registry import DATA_DIR, Scenario, register
+from sim.backends import ENGINES
+from sim.compare import JAM, Expect, ObservedMode, Verdict, fault_verdict
 
-DATA = Path(__file__).parent / "data"
-ENGINES = ("pymunk", "mujoco")
+DATA = DATA_DIR
 #: Per engine (examples): time step [s], creep floor [m/s] of a sticking contact (SIM-NOTES),
 #: drive speed [m/s], workpiece mass [kg], run duration and settling window [s]. MuJoCo's soft
 #: contacts need a lighter workpiece and slower fingers to stay quasistatic (docs/simulation.md).
@@ -35,20 +36,14 @@ RULER_DT = {"pymunk": 2e-3, "mujoco": 1e-3}
 RULER_SPEED = {"pymunk": 3e-4, "mujoco": 1.5e-4}
 
 
-def _status(outcome: str, expect: str) -> bool:
-    if outcome == "fault":
-        return False
-    return (outcome == "agreed") == (expect == "agree")
-
-
-def run_example(out_dir: Path, *, name: str, expect: str, data: str, scale: float,
+def run_example(out_dir: Path, *, name: str, expect: Expect, data: str, scale: float,
                 mu: tuple[float, ...], predict_mu: tuple[float, ...] | None = None,
                 engine: str = "pymunk", render: bool = True, **_: Any) -> dict[str, Any]:
     """Simulate Example 4.1 / 4.3 at ``mu``; predict at ``predict_mu`` (default ``mu``; a
     different value makes a negative control)."""
     from planner.predict.feasibility import feasible_modes
     from sim.backends import make_backend
-    from sim.classify import JAM, Thresholds, compare, observed_modes
+    from sim.classify import Thresholds, judge_run
     from sim.run import RunSettings, run_scene
     from sim.scenes.paper import example_scene, scaled_system
 
@@ -59,7 +54,7 @@ def run_example(out_dir: Path, *, name: str, expect: str, data: str, scale: floa
     scaled = scaled_system(base, scale, speed)
     pred = feasible_modes(scaled, pmu)
     pred_unscaled = feasible_modes(base, pmu)
-    predicted = pred.labels if pred.labels else [JAM]
+    predicted: list[ObservedMode] = [m.mode for m in pred.all_modes] or [JAM]
     scene = example_scene(scaled.with_mu(mu), speed=speed, mass=es["mass"])
     load = float(np.linalg.norm(base.g_obj[:2]))
     jam_force = 20.0 * load
@@ -67,8 +62,7 @@ def run_example(out_dir: Path, *, name: str, expect: str, data: str, scale: floa
                            penetration_tol=0.02 * scene.length_scale, jam_force=jam_force)
     rec = run_scene(scene, make_backend(engine), settings)
     th = Thresholds.for_drive(speed, load, creep_floor=es["creep"], settle=es["settle"])
-    observed = observed_modes(rec, th, jam_force=jam_force)
-    cmp = compare(rec, observed, predicted, th)
+    verdict, observed = judge_run(rec, th, predicted, jam_force=jam_force)
     out_dir.mkdir(parents=True, exist_ok=True)
     files = {}
     if render and len(rec.times):
@@ -81,11 +75,9 @@ def run_example(out_dir: Path, *, name: str, expect: str, data: str, scale: floa
     summary = {
         "scenario": name,
         "engine": engine,
-        "expect": expect,
-        "status": cmp.outcome.value,
-        "passed": _status(cmp.outcome.value, expect),
-        "agreement": cmp.agreement,
-        "reason": cmp.reason,
+        "expect": expect.value,
+        **verdict.to_dict(),
+        "passed": verdict.held(expect),
         "parameters": {
             "data": data, "mu": list(mu), "predict_mu": list(pmu), "scale": scale,
             "speed_m_per_s": speed, "duration_s": duration, "dt_s": es["dt"],
@@ -94,12 +86,13 @@ def run_example(out_dir: Path, *, name: str, expect: str, data: str, scale: floa
             "slip_speed_m_per_s": th.slip_speed, "force_floor_N": th.force_floor,
             "debounce_s": th.debounce, "settle_s": th.settle, "jam_force_N": jam_force,
         },
-        "predicted": {"labels": predicted, "status": pred.status.value,
+        "predicted": {"labels": [str(m) for m in predicted], "status": pred.status.value,
                       "unscaled_labels": pred_unscaled.labels,
                       "scale_invariant": sorted(pred.labels) == sorted(pred_unscaled.labels),
                       "certificate": pred.to_dict()},
-        "observed": {"counts": cmp.observed_counts, "settled_steps": cmp.settled_steps,
-                     "final": observed[-1] if observed else None,
+        "observed": {"counts": dict(verdict.observed_counts),
+                     "judged_steps": verdict.judged_steps,
+                     "final": str(observed[-1]) if observed else None,
                      "jammed_at_s": rec.jammed_at,
                      "fault": rec.fault.reason if rec.fault else None},
         "files": files,
@@ -108,13 +101,14 @@ def run_example(out_dir: Path, *, name: str, expect: str, data: str, scale: floa
     return summary
 
 
-def run_ruler(out_dir: Path, *, name: str, expect: str, mu_s: float, mu_k: float,
+def run_ruler(out_dir: Path, *, name: str, expect: Expect, mu_s: float, mu_k: float,
               predict_mu_k: float | None = None, engine: str = "pymunk",
               speed: float | None = None, length: float = 0.1, required: int = 5,
               tolerance: float = 0.02, render: bool = True, **_: Any) -> dict[str, Any]:
     """Ruler on two approaching fingers (Sec. 5.1); compares switch positions."""
     from sim.backends import make_backend
-    from sim.classify import Thresholds, debounce, raw_tokens
+    from sim.classify import Thresholds, debounce, mode_of, raw_tokens
+    from sim.compare import compare_switches
     from sim.run import RunSettings, run_scene
     from sim.scenes.ruler import THICKNESS_RATIO, observed_switches, predicted_switches, ruler_scene
 
@@ -137,23 +131,18 @@ def run_ruler(out_dir: Path, *, name: str, expect: str, mu_s: float, mu_k: float
     th = Thresholds.for_drive(speed, weight, creep_floor=es["creep"])
     tokens = debounce(raw_tokens(rec, th), rec.times, th.debounce)
     obs_pos, obs_sl = observed_switches(rec, tokens, rec.body_names)
-    n = min(len(pred_pos), len(obs_pos))
-    errors = [abs(o - p) / p for o, p in zip(obs_pos[:n], pred_pos[:n])]
-    matched = sum(1 for e, a, b in zip(errors, obs_sl, pred_sl) if e <= tolerance and a == b)
     need = min(required, len(pred_pos))
+    verdict: Verdict
     if rec.fault is not None:
-        status, reason = "fault", rec.fault.reason
-    elif matched >= need and need > 0:
-        status, reason = "agreed", f"{matched} switches within {tolerance:.0%}"
+        verdict, errors = fault_verdict(rec.fault), list[float | None]()
     else:
-        status, reason = "disagreed", (f"{matched} of {need} required switches within "
-                                       f"{tolerance:.0%} (errors {np.round(errors, 4).tolist()})")
+        verdict, errors = compare_switches(pred_pos, pred_sl, obs_pos, obs_sl,
+                                           tolerance=tolerance, required=need)
     labels = ["S+1 R2" if s == 0 else "R1 S-2" for s in pred_sl]
     summary = {
-        "scenario": name, "engine": engine, "expect": expect, "status": status,
-        "passed": _status(status, expect),
-        "agreement": matched / need if need else 0.0,
-        "reason": reason,
+        "scenario": name, "engine": engine, "expect": expect.value,
+        **verdict.to_dict(),
+        "passed": verdict.held(expect),
         "parameters": {"mu_static": mu_s, "mu_kinetic": mu_k, "predict_mu_kinetic": pk,
                        "length_m": length, "weight_N": weight, "mass_kg": mass,
                        "finger_x_m": [x_left, x_right], "speed_m_per_s": speed,
@@ -168,21 +157,22 @@ def run_ruler(out_dir: Path, *, name: str, expect: str, mu_s: float, mu_k: float
     if render and len(rec.times):
         from sim.render import timeline_plot
 
-        obs_labels = [" ".join(f"{t}{i + 1}" for i, t in enumerate(r)) for r in tokens]
-        summary["files"] = {"timeline": str(timeline_plot(rec, obs_labels, sorted(set(labels)),
+        obs_modes: list[ObservedMode] = [mode_of(tuple(r)) for r in tokens]
+        pred_modes: list[ObservedMode] = [mode_of(("S+", "R")), mode_of(("R", "S-"))]
+        summary["files"] = {"timeline": str(timeline_plot(rec, obs_modes, pred_modes,
                                                           out_dir / "timeline.png"))}
     atomic_write_json(out_dir / "summary.json", summary)
     return summary
 
 
-def _example(name: str, summary: str, reference: str, expect: str, **kw: Any) -> None:
+def _example(name: str, summary: str, reference: str, expect: Expect, **kw: Any) -> None:
     register(Scenario(name=name, summary=summary, reference=reference, expect=expect,
                       run=lambda out_dir, _n=name, _e=expect, _kw=kw, **opt: run_example(
                           Path(out_dir), name=_n, expect=_e, **{**_kw, **opt}),
                       engines=ENGINES, tags=("sim", "paper")))
 
 
-def _ruler(name: str, summary: str, expect: str, **kw: Any) -> None:
+def _ruler(name: str, summary: str, expect: Expect, **kw: Any) -> None:
     register(Scenario(name=name, summary=summary, reference="Sec. 5.1 (ruler on two fingers)",
                       expect=expect,
                       run=lambda out_dir, _n=name, _e=expect, _kw=kw, **opt: run_ruler(
@@ -193,25 +183,26 @@ def _ruler(name: str, summary: str, expect: str, **kw: Any) -> None:
 E41 = {"data": "example_4_1", "scale": 0.01}
 E43 = {"data": "example_4_3", "scale": 0.1}
 _example("ex41_3s", "Example 4.1 inside the 3S region (S+1 S-2 S-3)", "Sec. 4.1, eq. 37, Fig. 3",
-         "agree", mu=(0.2, 0.3, 0.1), **E41)
+         Expect.AGREE, mu=(0.2, 0.3, 0.1), **E41)
 _example("ex41_rs", "Example 4.1 inside the RS region (R1 S-2 B3)", "Sec. 4.1, eq. 37, Fig. 3",
-         "agree", mu=(0.75, 0.45, 0.55), **E41)
+         Expect.AGREE, mu=(0.75, 0.45, 0.55), **E41)
 _example("ex41_jam", "Example 4.1 in a jam region: growing force", "Sec. 4.1, eq. 37, Fig. 3",
-         "agree", mu=(0.75, 0.95, 0.25), **E41)
+         Expect.AGREE, mu=(0.75, 0.95, 0.25), **E41)
 _example("ex43_one", "Example 4.3 where one mode is feasible (S-1 R2 B3)",
-         "Sec. 4.3, eq. 42, Figs. 5-6", "agree", mu=(0.15, 0.65, 0.05), **E43)
+         "Sec. 4.3, eq. 42, Figs. 5-6", Expect.AGREE, mu=(0.15, 0.65, 0.05), **E43)
 _example("ex43_two", "Example 4.3 where two modes are feasible", "Sec. 4.3, eq. 42, Figs. 5-6",
-         "agree", mu=(0.05, 0.15, 0.85), **E43)
+         Expect.AGREE, mu=(0.05, 0.15, 0.85), **E43)
 _example("ex43_three", "Example 4.3 where three modes are feasible",
-         "Sec. 4.3, eq. 42, Figs. 5-6", "agree", mu=(0.65, 0.15, 0.05), **E43)
+         "Sec. 4.3, eq. 42, Figs. 5-6", Expect.AGREE, mu=(0.65, 0.15, 0.05), **E43)
 _example("neg_ex41_wrong_region", "Negative control: 3S run judged by the RS region's prediction",
-         "Sec. 4.1, eq. 37", "disagree", mu=(0.2, 0.3, 0.1), predict_mu=(0.75, 0.45, 0.55), **E41)
+         "Sec. 4.1, eq. 37", Expect.DISAGREE, mu=(0.2, 0.3, 0.1), predict_mu=(0.75, 0.45, 0.55),
+         **E41)
 _example("neg_ex43_wrong_mu", "Negative control: two-mode run judged at the one-mode mu",
-         "Sec. 4.3, eq. 42", "disagree", mu=(0.05, 0.15, 0.85), predict_mu=(0.15, 0.65, 0.05),
+         "Sec. 4.3, eq. 42", Expect.DISAGREE, mu=(0.05, 0.15, 0.85), predict_mu=(0.15, 0.65, 0.05),
          **E43)
-_ruler("ruler_single_mu", "Ruler, one mu = 0.5: far finger slides until equidistant", "agree",
+_ruler("ruler_single_mu", "Ruler, one mu = 0.5: far finger slides until equidistant", Expect.AGREE,
        mu_s=0.5, mu_k=0.5, required=1)
-_ruler("ruler_static_kinetic", "Ruler, static 0.5 / kinetic 0.3: alternating slides", "agree",
+_ruler("ruler_static_kinetic", "Ruler, static 0.5 / kinetic 0.3: alternating slides", Expect.AGREE,
        mu_s=0.5, mu_k=0.3)
 _ruler("neg_ruler_wrong_mu", "Negative control: static/kinetic run judged with kinetic 0.4",
-       "disagree", mu_s=0.5, mu_k=0.3, predict_mu_k=0.4)
+       Expect.DISAGREE, mu_s=0.5, mu_k=0.3, predict_mu_k=0.4)

@@ -16,6 +16,9 @@ from pathlib import Path
 from typing import Any
 
 from planner.errors import InputError
+from sim.compare import Expect
+
+__all__ = ["DATA_DIR", "Expect", "Scenario", "all_scenarios", "get", "register", "shipped_file"]
 
 #: The shipped system and hand files (``example_4_1``, ``two_finger_hand``, ...).
 DATA_DIR = Path(__file__).resolve().parent / "data"
@@ -47,12 +50,13 @@ class Scenario:
         One line: what it shows.
     reference : str
         The paper figure/section it reproduces, e.g. ``"Sec. 4.1, eq. 37, Fig. 3"``.
-    expect : str
-        ``"agree"`` or ``"disagree"`` (negative control) for simulator scenarios; ``"info"``
-        for scenarios that only produce figures or tables.
+    expect : Expect
+        ``AGREE`` or ``DISAGREE`` (negative control) for simulator scenarios; ``INFO`` for
+        scenarios that only produce figures or tables.
     run : callable
         ``run(out_dir: pathlib.Path, **options) -> dict`` writes its outputs into ``out_dir``
-        and returns a JSON-ready summary.
+        and returns a JSON-ready summary (``status``: a :class:`sim.compare.Outcome` value, or
+        ``"info"`` for ``INFO`` scenarios; ``passed``: the expectation held).
     engines : tuple of str
         Engines it runs on (empty when it does not simulate).
     tags : tuple of str
@@ -61,7 +65,7 @@ class Scenario:
     name: str
     summary: str
     reference: str
-    expect: str
+    expect: Expect
     run: Callable[..., dict[str, Any]]
     engines: tuple[str, ...] = ()
     tags: tuple[str, ...] = field(default_factory=tuple)

@@ -29,7 +29,7 @@ from planner.files.atomic import atomic_write_json
 from planner.friction.muspace import muspace_map
 from planner.predict.feasibility import feasible_modes
 from scenarios.muspace_maps import rod
-from scenarios.registry import Scenario, register
+from scenarios.registry import Expect, Scenario, register
 
 #: Friction while sticking (R) and sliding (S) at each contact; support distances from the
 #: centre of mass [m] (the same numbers as the simulated ruler in scenarios/paper_sims.py).
@@ -145,4 +145,4 @@ def run(out_dir: Path, n: int = 120, switches: int = 4, **_: Any) -> dict[str, A
 register(Scenario(name="ruler_muspace",
                   summary="Fig. 8: rod line l1 mu2 = l2 mu1 bouncing between the corners of the "
                           "static/kinetic rectangle",
-                  reference="Sec. 5.1, Figs. 7-8", expect="info", run=run))
+                  reference="Sec. 5.1, Figs. 7-8", expect=Expect.INFO, run=run))

@@ -1,4 +1,4 @@
-"""Observed contact modes from simulator contact data only, and their comparison with predictions.
+"""Observed contact modes from simulator contact data only (compared in :mod:`sim.compare`).
 
 Per contact and recorded step (``docs/conventions.md`` mode tokens):
 
@@ -26,14 +26,24 @@ force (single depths may see-saw when the workpiece rocks between two fingers).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from enum import Enum
 
 import numpy as np
 
+from planner.model.modes import BREAK, ROLL, SLIDE, Mode
+from sim.compare import (
+    JAM,
+    MODE_FRACTION_REQUIRED,
+    ObservedMode,
+    Verdict,
+    compare_modes,
+    fault_verdict,
+)
 from sim.run import Recording
 
-JAM = "JAM"
+#: Per-contact token -> (mode code, sliding direction xi) of :class:`planner.model.modes.Mode`.
+TOKEN_CODES = {"R": (ROLL, 0), "S+": (SLIDE, 1), "S-": (SLIDE, -1), "B": (BREAK, 0)}
 
 
 @dataclass(frozen=True)
@@ -109,50 +119,47 @@ def debounce(tokens: np.ndarray, times: np.ndarray, window: float) -> np.ndarray
     return out
 
 
-def observed_modes(rec: Recording, th: Thresholds, jam_force: float | None = None) -> list[str]:
-    """Mode string per recorded step, e.g. ``"R1 S-2 B3"``, or ``"JAM"``."""
+def mode_of(tokens: tuple[str, ...]) -> Mode:
+    """The :class:`Mode` of one row of per-contact tokens (``R``, ``S+``, ``S-``, ``B``)."""
+    pairs = [TOKEN_CODES[t] for t in tokens]
+    return Mode(tuple(c for c, _ in pairs), tuple(x for _, x in pairs))
+
+
+def observed_modes(rec: Recording, th: Thresholds,
+                   jam_force: float | None = None) -> list[ObservedMode]:
+    """Observed :class:`Mode` per recorded step, or :data:`sim.compare.JAM`."""
     tok = debounce(raw_tokens(rec, th), rec.times, th.debounce)
-    labels = [" ".join(f"{t}{i + 1}" for i, t in enumerate(row)) for row in tok]
+    cache: dict[tuple[str, ...], Mode] = {}
+    modes = []
+    for row in tok:
+        key = tuple(row)
+        if key not in cache:
+            cache[key] = mode_of(key)
+        modes.append(cache[key])
     jam = jam_steps(rec, th, jam_force)
     if rec.jammed_at is not None and np.any(jam):
         jam[int(np.flatnonzero(jam)[0]):] = True  # the run stopped on a sustained jam
-    return [JAM if j else lab for j, lab in zip(jam, labels)]
+    return [JAM if j else m for j, m in zip(jam, modes)]
 
 
-class Outcome(str, Enum):
-    """``AGREED``: agreement >= threshold; ``DISAGREED``: below; ``FAULT``: simulator trouble
-    (the run says nothing about the prediction)."""
-
-    AGREED = "agreed"
-    DISAGREED = "disagreed"
-    FAULT = "fault"
-
-
-@dataclass(frozen=True)
-class Comparison:
-    outcome: Outcome
-    agreement: float
-    settled_steps: int
-    observed_counts: dict[str, int]
-    reason: str
-
-
-def compare(rec: Recording, observed: list[str], predicted: list[str], th: Thresholds,
-            required: float = 0.95) -> Comparison:
-    """Fraction of settled steps whose observed mode is in ``predicted`` (``["JAM"]`` for a
-    predicted jam). A fault, or a run without settled steps, is ``FAULT``."""
+def judged_steps(rec: Recording, observed: list[ObservedMode],
+                 th: Thresholds) -> list[ObservedMode]:
+    """The observed modes of the steps a comparison judges: those after ``th.settle``; a run
+    that stopped on a jam before settling is judged on its jam steps."""
     settled = np.flatnonzero(rec.times >= th.settle)
     obs = [observed[k] for k in settled]
-    if rec.jammed_at is not None and observed and observed[-1] == JAM:
-        obs = [o for o in observed if o == JAM] if not obs else obs
-    counts: dict[str, int] = {}
-    for o in obs:
-        counts[o] = counts.get(o, 0) + 1
+    if not obs and rec.jammed_at is not None and observed and observed[-1] == JAM:
+        obs = [o for o in observed if o == JAM]
+    return obs
+
+
+def judge_run(rec: Recording, th: Thresholds, predicted: Sequence[ObservedMode],
+              jam_force: float | None = None,
+              required: float = MODE_FRACTION_REQUIRED) -> tuple[Verdict, list[ObservedMode]]:
+    """Classify ``rec`` and judge it against the ``predicted`` modes (``[JAM]`` for a predicted
+    jam): a fault verdict when the run faulted, else :func:`sim.compare.compare_modes` on the
+    judged steps. Returns ``(verdict, observed mode per recorded step)``."""
+    observed = observed_modes(rec, th, jam_force=jam_force)
     if rec.fault is not None:
-        return Comparison(Outcome.FAULT, 0.0, len(obs), counts, rec.fault.reason)
-    if not obs:
-        return Comparison(Outcome.FAULT, 0.0, 0, counts, "no settled steps recorded")
-    agree = float(np.mean([o in predicted for o in obs]))
-    outcome = Outcome.AGREED if agree >= required else Outcome.DISAGREED
-    return Comparison(outcome, agree, len(obs), counts,
-                      f"{agree:.1%} of {len(obs)} settled steps in the predicted set")
+        return fault_verdict(rec.fault), observed
+    return compare_modes(judged_steps(rec, observed, th), predicted, required), observed

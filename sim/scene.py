@@ -1,12 +1,13 @@
 """Engine-neutral scene description and the backend interface.
 
-A :class:`Scene` is plain frozen data: rigid bodies (polygon / circle / segment shapes, mass,
+A :class:`Scene` is plain frozen data: rigid bodies (polygon / circle / capsule shapes, mass,
 centre of mass), joints of single bodies to the fixed base (revolute or prismatic, each
 velocity- or effort-controlled with a per-step command callback), bodies driven at a prescribed
 planar twist (fingertips of the paper's Section 4 examples), named contact pairs with static and
 kinetic friction, and constant external loads (the paper's ``g_obj``, eq. 2).
 
-Backends (:mod:`sim.backends.pymunk_engine`, :mod:`sim.backends.mujoco_engine`) implement :class:`Backend`:
+Backends (:mod:`sim.backends.pymunk_engine`, :mod:`sim.backends.mujoco_engine`) implement
+:class:`Backend`:
 
 ``build(scene)``
     create the engine model;
@@ -37,7 +38,7 @@ at the start) and records a :class:`sim.run.Recording`.
 Example (a hand scene, issue 5)::
 
     palm = Body("palm", (Polygon(((-.1, -.02), (.1, -.02), (.1, 0), (-.1, 0))),), kind="static")
-    link = Body("f1", (Segment((0, 0), (0, .1), .005),), mass=.05, com=(0, .05))
+    link = Body("f1", (Capsule((0, 0), (0, .1), .005),), mass=.05, com=(0, .05))
     joint = Joint("q1", body="f1", kind=JointKind.REVOLUTE, anchor=(-.05, 0),
                   control=Control.VELOCITY, command=lambda t, s: 0.01)
     scene = Scene(bodies=(palm, link, work), joints=(joint,),
@@ -105,7 +106,7 @@ class Circle:
 
 
 @dataclass(frozen=True)
-class Segment:
+class Capsule:
     """Capsule from ``a`` to ``b`` (body frame, [m]) with rounding ``radius`` [m] (a link)."""
 
     a: tuple[float, float]
@@ -114,10 +115,10 @@ class Segment:
 
     def __post_init__(self) -> None:
         if not self.radius > 0:
-            raise InputError(f"segment radius: expected > 0, got {self.radius}")
+            raise InputError(f"capsule radius: expected > 0, got {self.radius}")
 
 
-Shape = Polygon | Circle | Segment
+Shape = Polygon | Circle | Capsule
 #: ``command(t, states) -> value``: joint velocity [rad/s or m/s] or effort [N m or N];
 #: for a driven body a twist ``(v_x, v_y, omega)`` of the body-frame origin, world frame.
 Command = Callable[[float, Mapping[str, "BodyState"]], Any]
@@ -130,7 +131,7 @@ class Body:
     Attributes
     ----------
     name : str
-    shapes : tuple of Polygon | Circle | Segment (body frame)
+    shapes : tuple of Polygon | Circle | Capsule (body frame)
     mass : float [kg] (ignored for static and driven bodies)
     com : (2,) [m] centre of mass in the body frame
     inertia : float [kg m^2] about the COM; None = from the shapes (uniform density)

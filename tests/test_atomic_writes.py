@@ -26,6 +26,7 @@ import numpy as np
 import pytest
 
 import planner.files.atomic as fileio
+from planner.errors import QsplanError
 from planner.files.atomic import (
     atomic_write_bytes,
     atomic_write_json,
@@ -291,10 +292,14 @@ def test_system_loader_ignores_code_in_extra_keys(tmp_path, data_dir):
     marker = tmp_path / "executed"
     d = json.loads((data_dir / "example_4_1.json").read_text())
     d["name"] = f"__import__('pathlib').Path({str(marker)!r}).touch()"
-    d["__reduce__"] = "os.system"
     (tmp_path / "s.json").write_text(json.dumps(d))
     s = load_system(tmp_path / "s.json")
     assert s.n_contacts == 3 and not marker.exists()
+    d["__reduce__"] = "os.system"  # an unknown key is refused by name, never interpreted
+    (tmp_path / "s.json").write_text(json.dumps(d))
+    with pytest.raises(QsplanError, match="unknown key '__reduce__'"):
+        load_system(tmp_path / "s.json")
+    assert not marker.exists()
 
 
 @pytest.mark.parametrize("mask", [0o022, 0o077])

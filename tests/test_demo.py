@@ -29,7 +29,7 @@ def _stub(negative_passes: bool):
         agree = j["expect"] == "agree"
         ok = agree or negative_passes
         s = {"scenario": j["name"], "engine": j["engine"], "expect": j["expect"],
-             "status": "passed" if ok else "failed", "claim_fraction": 1.0 if ok else 0.3,
+             "status": "agreed" if ok else "disagreed", "claim_fraction": 1.0 if ok else 0.3,
              "predicted_fraction": 1.0, "final_error_of_travel": 0.001, "travel_m": 0.015,
              "final_angle_error_rad": 0.0, "observed_counts": {CLAIM if ok else R2S: 10},
              "observed_segments": [{"mode": R2S, "start_s": 0.0, "end_s": 1.0}],

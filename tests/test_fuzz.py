@@ -395,8 +395,8 @@ def test_seed_files_are_valid_and_mutations_are_rejected():
 @pytest.mark.parametrize("blob,match", [
     (b"", "expected valid JSON"),
     (b"\xff\xfe{}", "expected UTF-8 text"),
-    (b"[" * 200_000 + b"]" * 200_000, "nested too deeply"),
-    (b'{"contacts": [], "mu": NaN}', "expected finite numbers, got NaN"),
+    (b"[" * 200_000 + b"]" * 200_000, "expected JSON nested at most 64 deep"),
+    (b'{"contacts": [], "mu": NaN}', "got the constant NaN"),
     (b"[1, 2", "expected valid JSON"),
 ])
 def test_file_level_garbage_messages(tmp_path, blob, match):
@@ -410,7 +410,7 @@ def test_file_level_garbage_messages(tmp_path, blob, match):
     ("external_wrench", [0.0, float("nan"), 0.0], "external_wrench"),
     ("external_wrench", [0.0, 1e308, 1e308], None),
     ("mu", [0.2, -0.3, 0.1], "mu"),
-    ("mu", [0.2, True, 0.1], "expected numbers, got True"),
+    ("mu", [0.2, True, 0.1], "mu: expected numbers, got a boolean"),
     ("wrench_matrix", _deep(500), "wrench_matrix: expected shape (3, 2*n_c)"),
 ])
 def test_mutations_of_example_41_are_rejected(data_dir, key, value, match):

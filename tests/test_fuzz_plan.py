@@ -204,10 +204,10 @@ def test_targeted_plan_edits(plan_dict, tmp_path, edit, sign, match):
 
 
 @pytest.mark.parametrize("blob,match", [
-    (b"", "expected JSON"),
-    (b"\xff\xfe{}", "expected UTF-8 JSON"),
-    (b"[" * 200_000 + b"]" * 200_000, "too deeply nested"),
-    (b'{"format": "qsplan-plan", "version": NaN}', "JSON constant NaN"),
+    (b"", "expected valid JSON"),
+    (b"\xff\xfe{}", "expected UTF-8 text"),
+    (b"[" * 200_000 + b"]" * 200_000, "expected JSON nested at most 64 deep"),
+    (b'{"format": "qsplan-plan", "version": NaN}', "got the constant NaN"),
     (b"[]", "expected a JSON object, got list"),
 ])
 def test_plan_file_level_garbage(tmp_path, blob, match):
@@ -222,12 +222,12 @@ def test_truncated_plan_is_rejected(plan_path, tmp_path):
     for cut in (1, len(raw) // 3, len(raw) // 2, len(raw) - 3):
         path = tmp_path / "cut.json"
         path.write_bytes(raw[:cut])
-        with pytest.raises(FileFormatError, match="expected JSON, got a syntax error"):
+        with pytest.raises(FileFormatError, match="expected valid JSON, got a syntax error"):
             load_plan(path)
 
 
 def test_missing_plan_file(tmp_path):
-    with pytest.raises(QsplanError, match="expected an existing plan file"):
+    with pytest.raises(QsplanError, match="plan file .*: expected an existing file"):
         load_plan(tmp_path / "nope.json")
 
 

@@ -6,8 +6,8 @@ import pytest
 from planner.errors import InputError
 from planner.friction.closed_form import closed_form_region
 from planner.friction.graphical import GraphicalVerdict, corollary1_3s
+from planner.model.geometry import wrench_matrix
 from planner.model.modes import SLIDE
-from planner.model.system import wrench_matrix
 
 
 def test_graphical_matches_algebraic_on_random_configurations():

@@ -9,8 +9,10 @@ import numpy as np
 import pytest
 
 from planner.errors import DegenerateError, FileFormatError, InputError
-from planner.model.hand import hand_from_dict, load_hand
-from planner.plan.bounds import guarantee, intervals, mode_bands, mode_rows, parse_mu_interval
+from planner.files.hand_file import hand_from_dict, load_hand
+from planner.model.validation import friction_interval
+from planner.plan.bounds import intervals, mode_bands, mode_rows
+from planner.plan.guarantee import guarantee
 from planner.plan.trajectory import integrate_segment
 from planner.predict.feasibility import Status, feasible_modes
 from scenarios.registry import DATA_DIR, shipped_file
@@ -278,7 +280,7 @@ def test_r2s_is_feasible_only_in_the_first_half(hand, segment):
 ])
 def test_mu_interval_errors(mu, match):
     with pytest.raises(InputError, match=match):
-        parse_mu_interval(mu, 4)
+        friction_interval(mu, 4)
 
 
 def test_independent_box_is_at_least_as_conservative_as_common(hand, segment):

@@ -1,5 +1,5 @@
-"""sim.hand_run: comparison, shortened plan runs in both engines, the negative control, and
-`qsplan validate` exit codes (issue 5)."""
+"""sim.hand_run and sim.compare.compare_plan: comparison, shortened plan runs in both engines,
+the negative control, and `qsplan validate` exit codes."""
 
 from __future__ import annotations
 
@@ -10,13 +10,16 @@ import numpy as np
 import pytest
 
 from planner.errors import InputError
+from planner.model.modes import Mode
 from qsplan.cli import main
 from scenarios.registry import DATA_DIR
+from sim.compare import Outcome, compare_plan
 
 HAND_FILE = DATA_DIR / "two_finger_hand.json"
 
-CLAIM = "S+1 S+2 S-3 S-4"
-R2S = "R1 B2 S-3 S-4"
+CLAIM = Mode.parse("S+1 S+2 S-3 S-4")
+R2S = Mode.parse("R1 B2 S-3 S-4")
+OTHER = Mode.parse("R1 S+2 S-3 S-4")
 SHORT = 4  # waypoints of the shortened runs (~1 s of the 13.3 s segment)
 
 
@@ -25,45 +28,43 @@ def _poses(n, dx=-0.001):
 
 
 # ---- pure comparison ----------------------------------------------------------------------------
-def test_agreeing_run_passes():
-    from sim.hand_run import ExecStatus, compare
+ONLY_CLAIM = frozenset({CLAIM})
 
-    obs = [CLAIM] * 39 + ["R1 S+2 S-3 S-4"]
-    c = compare(CLAIM, obs, [(CLAIM,)] * 40, _poses(10), _poses(10))
-    assert c.status is ExecStatus.PASSED and c.claim_fraction == pytest.approx(39 / 40)
-    assert c.reasons == ()
+
+def test_agreeing_run_passes():
+    obs = [CLAIM] * 39 + [OTHER]
+    v = compare_plan(CLAIM, obs, [ONLY_CLAIM] * 40, _poses(10), _poses(10))
+    assert v.outcome is Outcome.AGREED and v.agreement == pytest.approx(39 / 40)
+    assert v.plan is not None and v.plan.claim_fraction == pytest.approx(39 / 40)
+    assert v.judged_steps == 40 and "of the segment in the claimed mode" in v.reason
 
 
 def test_rival_mode_fails_but_matches_its_prediction():
-    from sim.hand_run import ExecStatus, compare
-
     obs = [R2S] * 20 + [CLAIM] * 20
-    pred = [(R2S,)] * 20 + [(CLAIM,)] * 20
-    c = compare(CLAIM, obs, pred, _poses(3), _poses(3), interval=[0] * 20 + [1] * 20)
-    assert c.status is ExecStatus.FAILED
-    assert "observed on 50.0% of the segment" in c.reasons[0] and R2S in c.reasons[0]
-    assert c.predicted_fraction == 1.0 and c.waypoint_observed == (R2S, CLAIM)
+    pred = [frozenset({R2S})] * 20 + [ONLY_CLAIM] * 20
+    v = compare_plan(CLAIM, obs, pred, _poses(3), _poses(3), interval=[0] * 20 + [1] * 20)
+    assert v.outcome is Outcome.DISAGREED and v.plan is not None
+    assert "observed on 50.0% of the segment" in v.reasons[0] and R2S.label in v.reasons[0]
+    assert v.plan.predicted_fraction == 1.0
+    assert v.plan.waypoint_observed == (R2S.label, CLAIM.label)
 
 
 def test_pose_drift_fails():
-    from sim.hand_run import ExecStatus, compare
-
     sim = _poses(40)
     sim[-1, 0] += 0.05 * 0.039  # 5 % of the 39 mm travel
-    c = compare(CLAIM, [CLAIM] * 5, [(CLAIM,)] * 5, _poses(40), sim)
-    assert c.status is ExecStatus.FAILED and c.final_error_of_travel == pytest.approx(0.05)
-    assert "of travel" in c.reasons[0]
+    v = compare_plan(CLAIM, [CLAIM] * 5, [ONLY_CLAIM] * 5, _poses(40), sim)
+    assert v.outcome is Outcome.DISAGREED and v.plan is not None
+    assert v.plan.final_error_of_travel == pytest.approx(0.05)
+    assert "of travel" in v.reasons[0]
 
 
 def test_bad_shapes_rejected():
-    from sim.hand_run import compare
-
     with pytest.raises(InputError, match=r"expected shape \(3, 3\).*got \(3, 2\)"):
-        compare(CLAIM, [CLAIM], [(CLAIM,)], np.zeros((3, 3)), np.zeros((3, 2)))
+        compare_plan(CLAIM, [CLAIM], [ONLY_CLAIM], np.zeros((3, 3)), np.zeros((3, 2)))
     with pytest.raises(InputError, match="positive travel, got 0"):
-        compare(CLAIM, [CLAIM], [(CLAIM,)], np.zeros((3, 3)), np.zeros((3, 3)))
-    with pytest.raises(InputError, match="expected 2 label sets .one per step., got 1"):
-        compare(CLAIM, [CLAIM] * 2, [(CLAIM,)], _poses(3), _poses(3))
+        compare_plan(CLAIM, [CLAIM], [ONLY_CLAIM], np.zeros((3, 3)), np.zeros((3, 3)))
+    with pytest.raises(InputError, match="expected 2 mode sets .one per step., got 1"):
+        compare_plan(CLAIM, [CLAIM] * 2, [ONLY_CLAIM], _poses(3), _poses(3))
 
 
 # ---- plans ---------------------------------------------------------------------------------------
@@ -81,15 +82,17 @@ def _short(plan, n=SHORT):
 
 @pytest.mark.parametrize("engine", ["pymunk", "mujoco"])
 def test_short_midband_plan_passes(plans, engine, tmp_path):
-    from sim.hand_run import ExecStatus, run_plan
+    from sim.hand_run import run_plan
 
     render = engine == "pymunk"  # drawing is engine-independent; once is enough
     res = run_plan(plans["midband"], engine, 0.1, tmp_path, waypoints=SHORT, render=render)
-    c = res.comparison
-    assert c.status is ExecStatus.PASSED, c.reasons
-    assert c.claim_fraction >= 0.95 and c.final_error_of_travel < 0.02
+    v = res.verdict
+    assert v.outcome is Outcome.AGREED, v.reasons
+    assert v.plan is not None
+    assert v.plan.claim_fraction >= 0.95 and v.plan.final_error_of_travel < 0.02
     s = json.loads((tmp_path / "summary.json").read_text())
-    assert s["passed"] is True and s["claim"] == CLAIM and s["engine"] == engine
+    assert s["passed"] is True and s["claim"] == CLAIM.label and s["engine"] == engine
+    assert s["status"] == "agreed" and s["judged_steps"] == v.judged_steps > 0
     if render:
         assert (tmp_path / "timeline.png").stat().st_size > 0
         assert (tmp_path / "animation.gif").read_bytes()[:3] == b"GIF"
@@ -99,23 +102,23 @@ def test_short_midband_plan_passes(plans, engine, tmp_path):
 def test_negative_control_fails_and_shows_r2s(plans, engine):
     """Torque in the R2S band while claiming 4S (mu = 0.2): the validator must disagree, and what
     it sees at the start is the rival the planner predicted there."""
-    from sim.hand_run import ExecStatus, run_plan
+    from sim.hand_run import run_plan
 
     plan = plans["rival:R2S"]
-    assert plan.claim == CLAIM and R2S in plan.waypoints[0].predicted
+    assert plan.claim == CLAIM.label and R2S.label in plan.waypoints[0].predicted
     res = run_plan(plan, engine, 0.2, waypoints=SHORT, render=False)
-    c = res.comparison
-    assert c.status is ExecStatus.FAILED
-    assert c.claim_fraction < 0.5 and c.waypoint_observed[0] == R2S
-    assert c.predicted_fraction > c.claim_fraction
+    v = res.verdict
+    assert v.outcome is Outcome.DISAGREED and v.plan is not None
+    assert v.plan.claim_fraction < 0.5 and v.plan.waypoint_observed[0] == R2S.label
+    assert v.plan.predicted_fraction > v.plan.claim_fraction
 
 
 def test_run_plan_input_errors(plans):
     from sim.hand_run import run_plan
 
-    with pytest.raises(InputError, match=r"engine: expected one of \['mujoco', 'pymunk'\], got 'bullet'"):
+    with pytest.raises(InputError, match=r"engine: expected one of pymunk, mujoco, got 'bullet'"):
         run_plan(plans["midband"], "bullet", 0.1, waypoints=2, render=False)
-    with pytest.raises(InputError, match=r"mu: expected a coefficient >= 0 or 4 of them"):
+    with pytest.raises(InputError, match=r"mu: expected 4 friction coefficients .one per contact"):
         run_plan(plans["midband"], "pymunk", [0.1, 0.2], waypoints=2, render=False)
     with pytest.raises(InputError, match=r"truncated: expected 2 <= n <= 41, got 1"):
         run_plan(plans["midband"], "pymunk", 0.1, waypoints=1, render=False)
@@ -134,10 +137,10 @@ def plan_files(plans, tmp_path_factory):
 def test_validate_exit_codes(plan_files, tmp_path, capsys):
     assert main(["validate", str(plan_files["good"]), "--mu", "0.1", "--no-render",
                  "--out", str(tmp_path / "v")]) == 0
-    assert "PASSED" in capsys.readouterr().out
+    assert "AGREED" in capsys.readouterr().out
     assert (tmp_path / "v" / "summary.json").is_file()
     assert main(["validate", str(plan_files["neg"]), "--mu", "0.2", "--no-render"]) == 1
-    assert "FAILED" in capsys.readouterr().out
+    assert "DISAGREED" in capsys.readouterr().out
 
 
 def test_validate_bad_input(plan_files, tmp_path, capsys):
@@ -146,7 +149,7 @@ def test_validate_bad_input(plan_files, tmp_path, capsys):
     assert main(["validate", str(plan_files["good"]), "--engine", "bullet"]) == 2
     assert "expected one of pymunk, mujoco, got 'bullet'" in capsys.readouterr().err
     assert main(["validate", str(plan_files["good"]), "--mu", "abc"]) == 2
-    assert "--mu: expected numbers separated by commas" in capsys.readouterr().err
+    assert "--mu: expected comma-separated numbers, got 'abc'" in capsys.readouterr().err
     assert main(["validate", str(plan_files["good"]), "--mu", "-0.1"]) == 2
     # tampered: one torque changed by hand -> digest mismatch
     data = json.loads(plan_files["good"].read_text())
@@ -157,17 +160,18 @@ def test_validate_bad_input(plan_files, tmp_path, capsys):
     assert "digest mismatch" in capsys.readouterr().err
     bad.write_text("{not json")
     assert main(["validate", str(bad)]) == 2
-    assert "expected JSON" in capsys.readouterr().err
+    assert "expected valid JSON" in capsys.readouterr().err
 
 
 def test_validate_fault_exit_code(plan_files, monkeypatch):
     """A simulator fault is exit 3, never a pass (run_plan replaced by a faulting stub)."""
     import sim.hand_run as pe
+    from sim.compare import fault_verdict
+    from sim.run import Fault, FaultKind
 
     def faulty(plan, engine, mu, out=None, **kw):
-        comp = pe.Comparison(pe.ExecStatus.FAULT, plan.claim, 0.0, 0.0, 0, np.nan, np.nan,
-                             np.nan, np.nan, np.nan, (), (), ("nan at t=0.1 s: injected",))
-        return pe.PlanRun(comp, None, (), {"settings": {"wall_time_s": 0.0}})
+        verdict = fault_verdict(Fault(FaultKind.NAN, 0.1, "injected"))
+        return pe.PlanRun(verdict, None, (), {"settings": {"wall_time_s": 0.0}})
 
     monkeypatch.setattr(pe, "run_plan", faulty)
     assert main(["validate", str(plan_files["good"]), "--mu", "0.1"]) == 3
@@ -178,11 +182,12 @@ def test_validate_fault_exit_code(plan_files, monkeypatch):
 def test_acceptance_full_segment(plans, engine):
     """Issue 5 acceptance: the full 13.3 s segment with the midband torque passes at mu = 0,
     0.1, 0.2 (4S >= 95 %, final position within 2 % of travel); the negative control fails."""
-    from sim.hand_run import ExecStatus, run_plan
+    from sim.hand_run import run_plan
 
     for mu in (0.0, 0.1, 0.2):
-        c = run_plan(plans["midband"], engine, mu, render=False).comparison
-        assert c.status is ExecStatus.PASSED, (mu, c.reasons)
-        assert c.claim_fraction >= 0.95 and c.final_error_of_travel <= 0.02
-    c = run_plan(plans["rival:R2S"], engine, 0.2, render=False).comparison
-    assert c.status is ExecStatus.FAILED and c.waypoint_observed[0] == R2S
+        v = run_plan(plans["midband"], engine, mu, render=False).verdict
+        assert v.outcome is Outcome.AGREED and v.plan is not None, (mu, v.reasons)
+        assert v.plan.claim_fraction >= 0.95 and v.plan.final_error_of_travel <= 0.02
+    v = run_plan(plans["rival:R2S"], engine, 0.2, render=False).verdict
+    assert v.outcome is Outcome.DISAGREED and v.plan is not None
+    assert v.plan.waypoint_observed[0] == R2S.label

@@ -115,21 +115,21 @@ def test_paper_files_load_and_round_trip(tmp_path, example_41, example_43):
 
 @pytest.mark.parametrize("text,match", [
     ("{", "expected valid JSON, got a syntax error at line 1"),
-    ("[]", "expected a JSON object at top level, got list"),
+    ("[]", "expected a JSON object at top level, got an array"),
     ('{"manipulator": {}}', "expected exactly one of 'contacts' or 'wrench_matrix'"),
     ('{"contacts": [], "manipulator": {"contact_velocities": []}}', "contacts: expected a non-empty list"),
     ('{"contacts": [{"point": [0, 0]}], "manipulator": {"contact_velocities": [[0, 1]]}}',
-     "contact 1: expected an object with 'point', 'normal' and 'mu'"),
+     "contact 1: expected key 'normal', got keys \\['point'\\]"),
     ('{"wrench_matrix": [[1, 0], [0, 1], [0, 0]], "manipulator": {"contact_velocities": [[0, 1]]}}',
      "'wrench_matrix' needs 'mu'"),
     ('{"contacts": [{"point": [0, 0], "normal": [0, 1], "mu": 0.1}], "manipulator": []}',
-     "expected a 'manipulator' object, got list"),
+     "expected a 'manipulator' object, got an array"),
     ('{"contacts": [{"point": [0, 0], "normal": [0, 1], "mu": 0.1}], "manipulator": {}}',
      "manipulator: expected exactly one of 'contact_velocities', 'jacobian' or 'chain', got none"),
     ('{"contacts": [{"point": [0, 0], "normal": [0, 1], "mu": true}], '
-     '"manipulator": {"contact_velocities": [[0, 1]]}}', "contact 1 mu: expected numbers, got True"),
+     '"manipulator": {"contact_velocities": [[0, 1]]}}', "contact 1 mu: expected numbers, got a boolean"),
     ('{"contacts": [{"point": [0, 0], "normal": [0, 1], "mu": NaN}], '
-     '"manipulator": {"contact_velocities": [[0, 1]]}}', "expected finite numbers, got NaN"),
+     '"manipulator": {"contact_velocities": [[0, 1]]}}', "expected finite numbers .*got the constant NaN"),
     ('{"contacts": [{"point": [0, 0], "normal": [0, 1], "mu": -1}], '
      '"manipulator": {"contact_velocities": [[0, 1]]}}', "expected friction coefficients >= 0"),
 ])

@@ -100,7 +100,7 @@ def test_malformed_plans_name_the_problem(saved, mutate, match):
 
 
 @pytest.mark.parametrize("text, match", [
-    ("", "expected JSON"),
+    ("", "expected valid JSON"),
     ('{"format": "qsplan-plan", "version": 1, "x": NaN}', "NaN"),
     ("[" * 50000, "nested|JSON"),
     ("[1, 2]", "JSON object"),
@@ -115,12 +115,12 @@ def test_garbage_files(tmp_path, text, match):
 def test_truncated_and_binary_files(saved):
     raw = saved.read_bytes()
     saved.write_bytes(raw[: len(raw) // 2])
-    with pytest.raises(FileFormatError, match="expected JSON"):
+    with pytest.raises(FileFormatError, match="expected valid JSON"):
         load_plan(saved)
     saved.write_bytes(b"\xff\xfe\x00garbage")
     with pytest.raises(FileFormatError, match="UTF-8"):
         load_plan(saved)
-    with pytest.raises(InputError, match="existing plan file"):
+    with pytest.raises(InputError, match="plan file .*: expected an existing file"):
         load_plan(saved.with_name("missing.json"))
 
 
@@ -152,8 +152,9 @@ def test_cli_plan_writes_plan_and_figures(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("args, match", [
-    (["--mu", "0.3:0.1"], "lo <= hi"),
-    (["--mu", "a:b"], "LO:HI"),
+    (["--mu", "0.3:0.1"], "expected LO <= HI, got '0.3:0.1'"),
+    (["--mu", "a:b"], "--mu: expected a number, got 'a'"),
+    (["--mu", "0.1,0.2"], "expected one (lo, hi) interval or 4 of them"),
     (["--policy", "random"], "policy"),
     (["--control", "x"], "integer or 'auto'"),
 ])
@@ -185,3 +186,44 @@ def test_cli_plan_per_contact_intervals(tmp_path, capsys):
     rc = main(["plan", "two_finger_hand", "--mu", "0:0.2,0:0.1,0:0.3,0:0.2", "--waypoints", "3",
                "--out", str(tmp_path / "q.json")])
     assert rc == 2 and "independent" in capsys.readouterr().err
+
+
+# ---- strict keys and the embedded hand (one file layer) -------------------------------------
+@pytest.mark.parametrize("mutate, match", [
+    (lambda d: d.update(author="me"), "plan: unknown key 'author'"),
+    (lambda d: d["waypoints"][2].update(force=1.0), r"waypoints\[2\]: unknown key 'force'"),
+    (lambda d: d["waypoints"][2].pop("rivals"), r"waypoints\[2\]: expected key 'rivals'"),
+    (lambda d: d["mu"].update(grid=5), "mu: unknown key 'grid'"),
+    (lambda d: d["event"].pop("t"), "event: expected key 't'"),
+    (lambda d: d["event"].update(t="late"), "event.t: expected a finite number"),
+    (lambda d: d["hand"]["fingers"][0].update(type="prismatic"),
+     r"plan.hand: fingers\[0\]: expected a single revolute link per finger"),
+    (lambda d: d["hand"].update(tabel=1), "plan.hand: hand: unknown key 'tabel'"),
+    (lambda d: d["mu"]["intervals"].pop(), r"hand: expected 2 fingers \(one per control entry\) "
+                                           r"and 3 contacts \(one per mu interval\), got 2 "
+                                           "fingers and 4 contacts"),
+])
+def test_unknown_and_missing_plan_keys_are_named(saved, mutate, match):
+    _rewrite(saved, mutate, redigest=True)
+    with pytest.raises(FileFormatError, match=match) as info:
+        load_plan(saved)
+    assert str(info.value).startswith(f"plan file '{saved}': ")
+
+
+def test_the_plan_hand_is_parsed_once(saved, monkeypatch):
+    import planner.files.hand_file as hf
+
+    calls = []
+    real = hf.hand_file_from_dict
+
+    def counting(data, source="<dict>"):
+        calls.append(source)
+        return real(data, source)
+
+    monkeypatch.setattr(hf, "hand_file_from_dict", counting)
+    plan = load_plan(saved)
+    assert calls == ["plan.hand"]  # checked while loading
+    hand, q0 = plan.hand_model
+    assert plan.hand_model is plan.hand_model and calls == ["plan.hand"]  # cached
+    assert hand.n_fingers == len(plan.control) and hand.n_contacts == len(plan.mu_intervals)
+    np.testing.assert_allclose(q0[3:], plan.waypoints[0].angles, atol=1e-12)

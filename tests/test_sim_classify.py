@@ -3,17 +3,19 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
+from planner.errors import InputError
+from planner.model.modes import Mode
 from sim.classify import (
-    JAM,
-    Outcome,
     Thresholds,
-    compare,
     debounce,
     jam_steps,
+    judge_run,
     observed_modes,
     raw_tokens,
 )
+from sim.compare import JAM, Expect, Outcome, Verdict, compare_modes
 from sim.run import Fault, FaultKind, Recording
 
 
@@ -52,7 +54,9 @@ def test_debounce_ignores_blips_and_backfills_real_changes():
 
 def test_observed_mode_strings():
     rec = _rec([[2e-4, 0.0, 0.0]] * 3, [[1.0, 1.0, 0.0]] * 3)
-    assert observed_modes(rec, TH) == ["S+1 R2 B3"] * 3
+    modes = observed_modes(rec, TH)
+    assert modes == [Mode.parse("S+1 R2 B3")] * 3
+    assert all(isinstance(m, Mode) for m in modes)  # the planner's Mode, not a string
 
 
 def test_jam_from_force_blow_up_and_from_depth_growth():
@@ -73,11 +77,28 @@ def test_jam_from_force_blow_up_and_from_depth_growth():
 
 def test_compare_outcomes():
     rec = _rec([[2e-4]] * 100, [[1.0]] * 100)
-    obs = observed_modes(rec, TH)
-    assert compare(rec, obs, ["S+1"], TH).outcome == Outcome.AGREED
-    assert compare(rec, obs, ["R1", "S-1"], TH).outcome == Outcome.DISAGREED
-    assert compare(rec, obs, [JAM], TH).agreement == 0.0
+    S, R, Sm = Mode.parse("S+1"), Mode.parse("R1"), Mode.parse("S-1")
+    assert judge_run(rec, TH, [S])[0].outcome == Outcome.AGREED
+    v = judge_run(rec, TH, [R, Sm])[0]
+    assert v.outcome == Outcome.DISAGREED and v.agreement == 0.0 and v.judged_steps == 100
+    assert judge_run(rec, TH, [JAM])[0].agreement == 0.0
     bad = _rec([[2e-4]] * 100, [[1.0]] * 100,
                fault=Fault(FaultKind.PENETRATION, 0.5, "pair 'c1' too deep"))
-    cmp = compare(bad, obs, ["S+1"], TH)
+    cmp = judge_run(bad, TH, [S])[0]
     assert cmp.outcome == Outcome.FAULT and "penetration at t=0.5000" in cmp.reason
+    assert cmp.fault is not None and cmp.fault.kind is FaultKind.PENETRATION
+    assert compare_modes([], [S]).outcome == Outcome.INCONCLUSIVE
+
+
+def test_verdict_held_and_bounds():
+    agreed = Verdict(Outcome.AGREED, ("ok",), agreement=1.0)
+    disagreed = Verdict(Outcome.DISAGREED, ("no",))
+    assert agreed.held(Expect.AGREE) and not agreed.held(Expect.DISAGREE)
+    assert disagreed.held(Expect.DISAGREE) and not disagreed.held(Expect.AGREE)
+    for out in (Outcome.FAULT, Outcome.INCONCLUSIVE):
+        v = Verdict(out, ("x",))
+        assert not v.held(Expect.AGREE) and not v.held(Expect.DISAGREE)
+    with pytest.raises(InputError, match=r"agreement: expected a fraction in \[0, 1\], got 1.5"):
+        Verdict(Outcome.AGREED, (), agreement=1.5)
+    with pytest.raises(InputError, match="expect: expected one of agree, disagree, info"):
+        Expect.parse("maybe")

@@ -16,10 +16,12 @@ import pytest
 
 import sim.backends.mujoco_engine as mujoco_backend
 from planner.files.system_file import load_system
-from scenarios.paper_sims import DATA, _status
+from planner.model.modes import Mode
+from scenarios.paper_sims import DATA
 from sim.backends import make_backend
 from sim.backends.pymunk_engine import PymunkBackend
-from sim.classify import Outcome, Thresholds, compare, observed_modes
+from sim.classify import Thresholds, judge_run
+from sim.compare import Expect, Outcome
 from sim.run import EngineWatch, FaultKind, RunSettings, run_scene
 from sim.scene import Load
 from sim.scenes.paper import FingertipSpec, example_scene, scaled_system
@@ -41,7 +43,7 @@ def _settings(**kw):
 
 def _judge(rec):
     th = Thresholds.for_drive(SPEED, 1.0, settle=0.0)
-    return compare(rec, observed_modes(rec, th), ["S+1 S-2 S-3"], th)
+    return judge_run(rec, th, [Mode.parse("S+1 S-2 S-3")])[0]
 
 
 @pytest.mark.parametrize("engine", ENGINES)
@@ -53,8 +55,8 @@ def test_nan_load_is_a_fault(engine, tmp_path, monkeypatch):
     assert rec.fault is not None and rec.fault.kind == FaultKind.NAN
     cmp = _judge(rec)
     assert cmp.outcome == Outcome.FAULT and "nan" in cmp.reason
-    assert not _status(cmp.outcome.value, "agree")
-    assert not _status(cmp.outcome.value, "disagree")
+    assert cmp.fault is not None and cmp.fault.kind == FaultKind.NAN
+    assert not cmp.held(Expect.AGREE) and not cmp.held(Expect.DISAGREE)
 
 
 @pytest.mark.parametrize("engine", ENGINES)

@@ -7,7 +7,7 @@ import pytest
 
 from planner.errors import InputError
 from planner.files.system_file import load_system
-from planner.model.system import cross2, rot90
+from planner.model.geometry import cross2, rot90
 from planner.predict.feasibility import feasible_modes
 from scenarios.paper_sims import DATA
 from sim.backends import make_backend
@@ -15,6 +15,7 @@ from sim.run import RunSettings, run_scene
 from sim.scene import (
     Body,
     BodyKind,
+    Capsule,
     Circle,
     ContactPair,
     Control,
@@ -23,7 +24,6 @@ from sim.scene import (
     Load,
     Polygon,
     Scene,
-    Segment,
 )
 from sim.scenes.paper import scaled_system, workpiece_polygon
 from sim.scenes.ruler import predicted_switches
@@ -84,7 +84,7 @@ def test_ruler_predicted_switches_follow_the_kinetic_static_ratio():
 
 
 def _link_scene(control, command, kind=JointKind.REVOLUTE):
-    link = Body("link", (Segment((0.0, 0.0), (0.1, 0.0), 0.005),), mass=0.05, com=(0.05, 0.0),
+    link = Body("link", (Capsule((0.0, 0.0), (0.1, 0.0), 0.005),), mass=0.05, com=(0.05, 0.0),
                 inertia=0.05 * 0.1 ** 2 / 12)
     joint = Joint("q", body="link", kind=kind, anchor=(0.0, 0.0), control=control,
                   command=lambda t, s: command, axis=(0.0, 1.0))

@@ -247,7 +247,8 @@ NOTATION_MODULES = ("model.system", "model.modes", "predict.stages", "predict.fe
                     "model.kinematics", "friction.muspace", "friction.closed_form",
                     "friction.graphical", "predict.search", "sweeps.executor",
                     "predict.indeterminate", "model.hand", "plan.trajectory", "plan.bounds",
-                    "plan.segment_planner", "plan.plan_file", "files.system_file")
+                    "plan.segment_planner", "plan.plan_file", "files.system_file",
+                    "plan.guarantee", "plan.intervals", "model.geometry", "files.hand_file")
 
 
 def _member(obj, name):

@@ -101,20 +101,3 @@ def save_figure(fig: Any, path: str | os.PathLike[str], **kwargs: Any) -> Path:
     target = Path(path)
     fig.savefig(buf, format=target.suffix.lstrip(".") or "png", **kwargs)
     return atomic_write_bytes(target, buf.getvalue())
-
-
-def parse_json(text: str, source: str, what: str) -> Any:
-    """Parse JSON strictly for a loader: the constants NaN/Infinity, syntax errors and absurd
-    nesting become :class:`planner.errors.FileFormatError` naming ``source`` (e.g. a path) and
-    ``what`` was expected (e.g. ``"a plan"``).  Plain ``json``: nothing is executed."""
-    from planner.errors import FileFormatError
-
-    def bad_constant(name: str) -> Any:
-        raise FileFormatError(f"{source}: expected finite numbers, got the JSON constant {name}")
-
-    try:
-        return json.loads(text, parse_constant=bad_constant)
-    except json.JSONDecodeError as exc:
-        raise FileFormatError(f"{source}: expected JSON, got a syntax error ({exc})") from None
-    except RecursionError:
-        raise FileFormatError(f"{source}: expected {what}, got too deeply nested JSON") from None

@@ -1,33 +1,40 @@
 """System files: JSON in, :class:`planner.model.system.System` out (and back).
 
-Format (keys exactly these; extra keys are allowed and ignored)::
+Format (documented key by key in ``docs/file-formats.md``; JSON Schema
+``planner/files/schemas/system.schema.json``)::
 
     {
       "format": "qsplan-system", "version": 1,           -- optional; checked when present
-      "contacts": [{"point": [x, y], "normal": [nx, ny], "mu": 0.3}, ...],
+      "contacts": [{"point": [x, y], "normal": [nx, ny], "mu": 0.3,
+                    "environment": false}, ...],          -- environment optional, default false
           -- or instead of "contacts":
       "wrench_matrix": [[...2n_c...], [...], [...]],  "mu": [mu_1, ..., mu_nc],
-      "external_wrench": [fx, fy, m],
+      "environment": [false, ...],                       -- optional with wrench_matrix
+      "external_wrench": [fx, fy, m],                    -- default zeros
       "manipulator": {
           "contact_velocities": [[v_n, v_t], ...]        -- J_i thetadot per contact; or
           "jacobian": [[[row_n...], [row_t...]], ...],   -- per contact, 2 x n_theta; or
           "chain": {"joints": [{"type": "revolute"|"prismatic", "parent": -1, "origin": [x, y],
                                 "angle": a}, ...], "base_pose": [x, y, phi]},
-          "q": [...], "contact_links": [body index per contact],   -- Jacobian from geometry
+          "q": [...], "contact_links": [body index per contact, null = environment],
           "joints": [{"velocity": 0.1}, {"effort": 2.0}, ...],     -- one per column/joint
           "joint_loads": [...]                                      -- g_man, default zeros
-      }
+      },
+      "workpiece": {"polygon": [[x, y], ...], "mass": kg, "com": [x, y]}   -- optional
     }
 
-Units: SI (m, N, N m, rad, s). The loader never executes content: it is plain ``json`` plus
-explicit checks, and every problem raises :class:`planner.errors.FileFormatError` or
-:class:`planner.errors.InputError` naming the key, what was expected and what came.
+A missing key is an error unless a default is listed above; a key the format does not know is an
+error naming it, except the free-text keys :data:`planner.files.fields.FREE_KEYS` (``name``,
+``description``, ``reference``, ``units``, ``note``, ``notes``, ``comment``), allowed in every
+object and ignored.  Units: SI (m, N, N m, rad, s, kg).  Files are read by
+:func:`planner.files.reader.read_json` (nothing executed); every problem raises
+:class:`planner.errors.FileFormatError` naming the file, the key, what was expected and what came.
 """
 
 from __future__ import annotations
 
-import json
 import os
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -35,181 +42,242 @@ import numpy as np
 
 from planner.errors import FileFormatError, InputError
 from planner.files.atomic import atomic_write_json
+from planner.files.fields import (
+    FREE_KEYS,
+    as_object,
+    boolean,
+    check_keys,
+    number,
+    short,
+    type_name,
+)
+from planner.files.reader import parse_json, read_json
 from planner.model.kinematics import chain_from_dict
 from planner.model.system import JointControl, System
-from planner.model.validation import describe_value
-
-#: Largest system file accepted (bytes); larger files are refused before parsing.
-MAX_FILE_BYTES = 20_000_000
-
+from planner.model.workpiece import WorkpieceGeometry
 
 #: Optional format tag of system files; files without it are read as version 1.
 SYSTEM_FORMAT = "qsplan-system"
 SYSTEM_VERSION = 1
 
+_TOP = ("format", "version", "contacts", "wrench_matrix", "mu", "environment",
+        "external_wrench", "manipulator", "workpiece")
+_FORMS = ("contact_velocities", "jacobian", "chain")
+_FORM_KEYS = {
+    "contact_velocities": ("contact_velocities", "joint_loads"),
+    "jacobian": ("jacobian", "joints", "joint_loads"),
+    "chain": ("chain", "q", "contact_links", "joints", "joint_loads"),
+}
+
 
 def load_system(path: str | os.PathLike[str]) -> System:
     """Read a system file (format in the module docstring)."""
-    p = Path(path)
-    if not p.is_file():
-        raise FileFormatError(f"system file {str(p)!r}: expected an existing file, got none there")
-    size = p.stat().st_size
-    if size > MAX_FILE_BYTES:
-        raise FileFormatError(
-            f"system file {str(p)!r}: expected at most {MAX_FILE_BYTES} bytes, got {size}"
-        )
-    try:
-        text = p.read_text(encoding="utf-8")
-    except UnicodeDecodeError as exc:
-        raise FileFormatError(f"system file {str(p)!r}: expected UTF-8 text ({exc})") from exc
-    return system_from_json(text, source=str(p))
+    data = read_json(path, "system file")
+    return system_from_dict(data, source=f"system file {str(path)!r}")
 
 
-def system_from_json(text: str, source: str = "<string>") -> System:
-    """Parse system-file text."""
-    try:
-        data = json.loads(text, parse_constant=_reject_constant)
-    except json.JSONDecodeError as exc:
-        raise FileFormatError(
-            f"system file {source}: expected valid JSON, got a syntax error at line {exc.lineno} "
-            f"column {exc.colno}: {exc.msg}"
-        ) from exc
-    except RecursionError as exc:
-        raise FileFormatError(f"system file {source}: JSON nested too deeply") from exc
-    return system_from_dict(data, source=source)
-
-
-def _reject_constant(name: str) -> Any:
-    raise FileFormatError(f"expected finite numbers, got {name}")
+def system_from_json(text: str | bytes, source: str = "<string>") -> System:
+    """Parse system-file text (same rules as a file, :func:`planner.files.reader.parse_json`)."""
+    return system_from_dict(parse_json(text, f"system file {source}"),
+                            source=f"system file {source}")
 
 
 def _numbers(value: Any, key: str) -> Any:
-    """Reject bools and strings hiding in numeric fields (json gives them as Python types)."""
-
+    """Reject bools, strings, nulls and objects hiding in numeric fields (json gives them as
+    Python types that numpy would convert)."""
     stack = [value]  # iterative: no RecursionError on absurdly deep nesting
     while stack:
         v = stack.pop()
-        if isinstance(v, bool) or isinstance(v, str) or v is None or isinstance(v, dict):
-            text = repr(v) if not isinstance(v, dict) else "an object"
-            raise InputError(f"{key}: expected numbers, got {text[:60]}")
+        if isinstance(v, (bool, str, dict)) or v is None:
+            raise FileFormatError(f"{key}: expected numbers, got {type_name(v)}")
         if isinstance(v, list):
             stack.extend(v)
     return value
 
 
-def system_from_dict(data: Any, source: str = "<dict>") -> System:
-    """Build a :class:`System` from the parsed JSON object (format in the module docstring)."""
-    if not isinstance(data, dict):
-        raise FileFormatError(
-            f"system file {source}: expected a JSON object at top level, got {type(data).__name__}"
-        )
+def system_from_dict(data: Any, source: str = "system") -> System:
+    """Build a :class:`System` from the parsed JSON object (format in the module docstring).
+
+    Errors are :class:`FileFormatError` whose message starts with ``source``."""
+    try:
+        return _system(data)
+    except InputError as exc:  # FileFormatError included
+        raise FileFormatError(f"{source}: {exc}") from None
+
+
+def _system(data: Any) -> System:
+    if not isinstance(data, Mapping):
+        raise FileFormatError(f"expected a JSON object at top level, got {type_name(data)}")
+    check_keys(data, "top level", required=("manipulator",), optional=_TOP, free=FREE_KEYS)
     fmt, ver = data.get("format", SYSTEM_FORMAT), data.get("version", SYSTEM_VERSION)
-    if fmt != SYSTEM_FORMAT or ver != SYSTEM_VERSION:
+    if fmt != SYSTEM_FORMAT or ver != SYSTEM_VERSION or isinstance(ver, bool):
         raise FileFormatError(
-            f"system file {source}: expected format {SYSTEM_FORMAT!r} version {SYSTEM_VERSION}, "
-            f"got {describe_value(fmt)} version {describe_value(ver)}"
+            f"expected format {SYSTEM_FORMAT!r} version {SYSTEM_VERSION}, "
+            f"got {short(fmt)} version {short(ver)}"
         )
-    has_contacts = "contacts" in data
-    has_w = "wrench_matrix" in data
-    if has_contacts == has_w:
+    if ("contacts" in data) == ("wrench_matrix" in data):
+        raise FileFormatError("expected exactly one of 'contacts' or 'wrench_matrix'")
+    if not isinstance(data["manipulator"], Mapping):
         raise FileFormatError(
-            f"system file {source}: expected exactly one of 'contacts' or 'wrench_matrix'"
+            f"expected a 'manipulator' object, got {type_name(data['manipulator'])}"
         )
-    manip = data.get("manipulator")
-    if not isinstance(manip, dict):
-        raise FileFormatError(
-            f"system file {source}: expected a 'manipulator' object, got {type(manip).__name__}"
-        )
-    g = _numbers(data.get("external_wrench", [0.0, 0.0, 0.0]), "external_wrench")
-    kwargs: dict[str, Any] = {"external_wrench": g}
-    forms = [k for k in ("contact_velocities", "jacobian", "chain") if k in manip]
+    manip = data["manipulator"]
+    forms = [k for k in _FORMS if k in manip]
     if len(forms) != 1:
         raise FileFormatError(
-            f"system file {source}: manipulator: expected exactly one of 'contact_velocities', "
-            f"'jacobian' or 'chain', got {forms or 'none'}"
+            "manipulator: expected exactly one of 'contact_velocities', 'jacobian' or 'chain', "
+            f"got {forms or 'none'}"
         )
+    form = forms[0]
+    check_keys(manip, f"manipulator ({form} form)", required=(form,),
+               optional=_FORM_KEYS[form], free=FREE_KEYS)
     if "joints" in manip and not isinstance(manip["joints"], list):
-        raise FileFormatError(f"system file {source}: manipulator.joints: expected a list")
-    if "contact_velocities" in manip:
-        kwargs["contact_velocities"] = _numbers(manip["contact_velocities"], "contact_velocities")
-    elif "jacobian" in manip:
-        kwargs["jacobian"] = _numbers(manip["jacobian"], "jacobian")
-        kwargs["joints"] = manip.get("joints")
+        raise FileFormatError(
+            f"manipulator.joints: expected a list, got {type_name(manip['joints'])}"
+        )
+    for j, spec in enumerate(manip.get("joints") or []):
+        if isinstance(spec, Mapping):
+            check_keys(spec, f"joint {j + 1}", optional=("velocity", "effort"), free=FREE_KEYS)
+    kwargs: dict[str, Any] = {
+        "external_wrench": _numbers(data.get("external_wrench", [0.0, 0.0, 0.0]),
+                                    "external_wrench"),
+    }
     if "joint_loads" in manip:
-        kwargs["joint_loads"] = _numbers(manip["joint_loads"], "joint_loads")
+        kwargs["joint_loads"] = _numbers(manip["joint_loads"], "manipulator.joint_loads")
+    if form == "contact_velocities":
+        kwargs["contact_velocities"] = _numbers(manip[form], "contact_velocities")
+    elif form == "jacobian":
+        kwargs["jacobian"] = _numbers(manip[form], "jacobian")
+        kwargs["joints"] = manip.get("joints")
+    if "workpiece" in data:
+        kwargs["workpiece"] = _workpiece(data["workpiece"])
 
-    if has_contacts:
-        contacts = data["contacts"]
-        if not isinstance(contacts, list) or not contacts:
-            raise FileFormatError(
-                f"system file {source}: contacts: expected a non-empty list of "
-                "{'point', 'normal', 'mu'} objects"
-            )
-        pts, nrm, mu = [], [], []
-        for i, c in enumerate(contacts):
-            if not isinstance(c, dict) or not {"point", "normal"} <= set(c):
+    if "contacts" in data:
+        for key in ("mu", "environment"):
+            if key in data:
                 raise FileFormatError(
-                    f"system file {source}: contact {i + 1}: expected an object with 'point', "
-                    f"'normal' and 'mu', got {describe_value(c)}"[:300]
+                    f"top-level {key!r}: expected it only with 'wrench_matrix'; with 'contacts' "
+                    f"each contact carries its own {key!r}, got a top-level {key!r} as well"
                 )
-            pts.append(_numbers(c["point"], f"contact {i + 1} point"))
-            nrm.append(_numbers(c["normal"], f"contact {i + 1} normal"))
-            mu.append(_numbers(c.get("mu", 0.0), f"contact {i + 1} mu"))
-        if "chain" in manip:
-            kwargs["jacobian"] = _chain_jacobian(manip, pts, nrm, source)
+        pts, nrm, mu, env = _contacts(data["contacts"])
+        if form == "chain":
+            kwargs["jacobian"] = _chain_jacobian(manip, pts, nrm, env)
             kwargs["joints"] = manip.get("joints")
-        return System.from_contacts(points=pts, normals=nrm, mu=mu, **kwargs)
+        return System.from_contacts(points=pts, normals=nrm, mu=mu, environment=env, **kwargs)
     if "mu" not in data:
-        raise FileFormatError(f"system file {source}: 'wrench_matrix' needs 'mu' (one per contact)")
+        raise FileFormatError("'wrench_matrix' needs 'mu' (one per contact)")
     W = _numbers(data["wrench_matrix"], "wrench_matrix")
-    if "chain" in manip:
-        from planner.model.system import check_wrench_matrix, contact_points_from_wrench
+    env_raw = data.get("environment")
+    if env_raw is not None and (not isinstance(env_raw, list)
+                                or not all(isinstance(e, bool) for e in env_raw)):
+        raise FileFormatError(
+            f"environment: expected a list of true/false, one per contact, got {short(env_raw)}"
+        )
+    if form == "chain":
+        from planner.model.geometry import check_wrench_matrix, contact_points_from_wrench
 
         Wm = check_wrench_matrix(W)
+        n_c = Wm.shape[1] // 2
+        env = list(env_raw) if env_raw is not None else [False] * n_c
+        if len(env) != n_c:
+            raise FileFormatError(
+                f"environment: expected {n_c} flags (one per contact), got {len(env)}"
+            )
         kwargs["jacobian"] = _chain_jacobian(
-            manip, contact_points_from_wrench(Wm).tolist(), Wm[0:2, 0::2].T.tolist(), source
+            manip, contact_points_from_wrench(Wm).tolist(), Wm[0:2, 0::2].T.tolist(), env
         )
         kwargs["joints"] = manip.get("joints")
-    return System.from_wrench_matrix(W, _numbers(data["mu"], "mu"), **kwargs)
+    return System.from_wrench_matrix(W, _numbers(data["mu"], "mu"), environment=env_raw,
+                                     **kwargs)
 
 
-def _chain_jacobian(manip: dict[str, Any], pts: Any, nrm: Any, source: str) -> np.ndarray:
-    chain = chain_from_dict(manip["chain"])
+def _contacts(contacts: Any) -> tuple[list[Any], list[Any], list[Any], list[bool]]:
+    if not isinstance(contacts, list) or not contacts:
+        raise FileFormatError(
+            "contacts: expected a non-empty list of {'point', 'normal', 'mu'} objects, "
+            f"got {short(contacts)}"
+        )
+    pts, nrm, mu, env = [], [], [], []
+    for i, c in enumerate(contacts):
+        where = f"contact {i + 1}"
+        c = as_object(c, where)
+        check_keys(c, where, required=("point", "normal", "mu"), optional=("environment",),
+                   free=FREE_KEYS)
+        pts.append(_numbers(c["point"], f"{where} point"))
+        nrm.append(_numbers(c["normal"], f"{where} normal"))
+        mu.append(_numbers(c["mu"], f"{where} mu"))
+        env.append(boolean(c.get("environment", False), f"{where} environment"))
+    return pts, nrm, mu, env
+
+
+def _workpiece(raw: Any) -> WorkpieceGeometry:
+    wp = as_object(raw, "workpiece")
+    check_keys(wp, "workpiece", required=("polygon", "mass"), optional=("com",), free=FREE_KEYS)
+    mass = number(wp["mass"], "workpiece.mass", positive=True)
+    com = _numbers(wp["com"], "workpiece.com") if "com" in wp else None
+    return WorkpieceGeometry(_numbers(wp["polygon"], "workpiece.polygon"), mass, com)
+
+
+def _chain_jacobian(manip: Mapping[str, Any], pts: Any, nrm: Any, env: list[bool]) -> np.ndarray:
+    chain_raw = as_object(manip["chain"], "manipulator.chain")
+    check_keys(chain_raw, "manipulator.chain", required=("joints",), optional=("base_pose",),
+               free=FREE_KEYS)
+    if isinstance(chain_raw["joints"], list):
+        for j, item in enumerate(chain_raw["joints"]):
+            check_keys(as_object(item, f"chain joint {j + 1}"), f"chain joint {j + 1}",
+                       optional=("type", "kind", "parent", "origin", "angle"), free=FREE_KEYS)
+    chain = chain_from_dict(dict(chain_raw))
     links = manip.get("contact_links")
     if not isinstance(links, list) or len(links) != len(pts):
         raise FileFormatError(
-            f"system file {source}: manipulator.contact_links: expected one link index per "
-            f"contact ({len(pts)}), got {describe_value(links)}"[:300]
+            f"manipulator.contact_links: expected one link index per contact ({len(pts)}), "
+            f"got {short(links)}"
         )
     for i, b in enumerate(links):
-        if isinstance(b, bool) or not isinstance(b, int):
+        if env[i]:
+            if b is not None:
+                raise FileFormatError(
+                    f"contact_links[{i}]: expected null for contact {i + 1} (a contact with the "
+                    f"fixed environment touches no link), got {short(b)}"
+                )
+        elif isinstance(b, bool) or not isinstance(b, int):
             raise FileFormatError(
-                f"system file {source}: contact_links[{i}]: expected an integer, "
-                f"got {describe_value(b)}"
+                f"contact_links[{i}]: expected an integer, got {type_name(b)}"
             )
     q = _numbers(manip.get("q", [0.0] * chain.n_joints), "manipulator.q")
-    return chain.contact_jacobian(q, links, pts, nrm)
+    moving = [i for i in range(len(pts)) if not env[i]]
+    out = np.zeros((len(pts), 2, chain.n_joints))
+    if moving:
+        out[moving] = chain.contact_jacobian(q, [links[i] for i in moving],
+                                             [pts[i] for i in moving], [nrm[i] for i in moving])
+    return out
 
 
 def system_to_dict(system: System) -> dict[str, Any]:
     """The system as a system-file object (geometric contacts when points are known)."""
-    from planner.model.system import wrench_matrix
+    from planner.model.geometry import wrench_matrix
 
     out: dict[str, Any]
+    env = system.environment
     if np.allclose(wrench_matrix(system.points, system.normals), system.W, rtol=0, atol=1e-12):
         out = {
             "contacts": [
-                {"point": p.tolist(), "normal": n.tolist(), "mu": float(m)}
-                for p, n, m in zip(system.points, system.normals, system.mu)
+                {"point": p.tolist(), "normal": n.tolist(), "mu": float(m),
+                 **({"environment": True} if e else {})}
+                for p, n, m, e in zip(system.points, system.normals, system.mu, env)
             ],
         }
     else:  # given as a (rounded) wrench matrix: keep it exactly
         out = {"wrench_matrix": system.W.tolist(), "mu": system.mu.tolist()}
+        if any(env):
+            out["environment"] = list(env)
     out["external_wrench"] = system.g_obj.tolist()
     if system.virtual_joints:
         out["manipulator"] = {
             "contact_velocities": system.joint_inputs.reshape(-1, 2).tolist(),
         }
+        if np.any(system.g_man != 0):
+            out["manipulator"]["joint_loads"] = system.g_man.tolist()
     else:
         out["manipulator"] = {
             "jacobian": system.J.reshape(system.n_contacts, 2, -1).tolist(),
@@ -219,6 +287,8 @@ def system_to_dict(system: System) -> dict[str, Any]:
             ],
             "joint_loads": system.g_man.tolist(),
         }
+    if system.workpiece is not None:
+        out["workpiece"] = system.workpiece.to_dict()
     return out
 
 

@@ -178,7 +178,9 @@ def closed_form_region(W: np.ndarray, g_obj: np.ndarray, codes, xi) -> ClosedFor
     n_s = sum(c == SLIDE for c in codes)
     if 2 * n_r + n_s != 3:
         raise InputError(f"closed form: expected a 3S or RS mode (2 n_R + n_S = 3), got {codes}")
-    cols, slide_of, unknowns = [], [], []
+    cols: list[np.ndarray] = []
+    slide_of: list[int | None] = []
+    unknowns: list[tuple[int, str]] = []
     for i, c in enumerate(codes):
         if c == ROLL:
             cols += [W[:, 2 * i], W[:, 2 * i + 1]]
@@ -188,19 +190,19 @@ def closed_form_region(W: np.ndarray, g_obj: np.ndarray, codes, xi) -> ClosedFor
             cols.append(W[:, 2 * i])
             slide_of.append(i)
             unknowns.append((i, "n"))
-    sliding = [i for i in slide_of if i is not None]
+    sliding: list[int] = [i for i in slide_of if i is not None]
     rhs = -np.asarray(g_obj, float)
 
     def poly(replace: int | None) -> MultilinearPoly:
-        terms = []
+        terms: list[tuple[tuple[int, ...], float]] = []
         for r in range(len(sliding) + 1):
             for subset in itertools.combinations(sliding, r):
                 M = []
                 for j, col in enumerate(cols):
                     if j == replace:
                         M.append(rhs)
-                    elif slide_of[j] in subset:
-                        M.append(-xi[slide_of[j]] * W[:, 2 * slide_of[j] + 1])
+                    elif (k := slide_of[j]) is not None and k in subset:
+                        M.append(-xi[k] * W[:, 2 * k + 1])
                     else:
                         M.append(col)
                 if replace is not None and slide_of[replace] in subset:

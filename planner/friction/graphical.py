@@ -40,8 +40,8 @@ from enum import Enum
 import numpy as np
 
 from planner.errors import InputError
+from planner.model.geometry import cross2, rot90
 from planner.model.modes import BREAK, ROLL, SLIDE
-from planner.model.system import cross2, rot90
 
 
 class GraphicalVerdict(str, Enum):

@@ -1,10 +1,10 @@
-"""Palm-and-fingers hands: geometry file -> :class:`planner.model.system.System` at any configuration.
+"""Palm-and-fingers hands: geometry -> :class:`planner.model.system.System` at any configuration.
 
 The Section 5.2 system (Figure 9): a fixed straight palm, single-link fingers on revolute
 joints, and a convex polygonal workpiece that touches the palm and the fingers at point
 contacts.  Everything about a particular hand lives in a data file (e.g.
-``scenarios/data/two_finger_hand.json``, format in ``docs/two-finger-task.md``); this module
-works for any such hand.
+``scenarios/data/two_finger_hand.json``, format in ``docs/two-finger-task.md``, read by
+:mod:`planner.files.hand_file`); this module holds the geometry and works for any such hand.
 
 Configuration ``q = (x, y, phi, theta_1, ..., theta_F)``: workpiece pose (position of the
 workpiece body-frame origin, orientation; world frame, docs/conventions.md) and finger joint
@@ -36,42 +36,18 @@ from typing import Any
 
 import numpy as np
 
-from planner.errors import DegenerateError, FileFormatError, InputError
-from planner.model.system import System, rot90
+from planner.errors import DegenerateError, InputError
+from planner.model.geometry import rot90
+from planner.model.system import System
 from planner.model.validation import as_array
 
 CONTACT_KINDS = ("palm", "side", "tip")
 
 
-def _rot(phi: float) -> np.ndarray:
+def rotation(phi: float) -> np.ndarray:
+    """(2, 2) rotation matrix by ``phi`` [rad], counter-clockwise."""
     c, s = math.cos(phi), math.sin(phi)
     return np.array([[c, -s], [s, c]])
-
-
-def _key(d: Mapping[str, Any], key: str, where: str) -> Any:
-    if not isinstance(d, Mapping):
-        raise FileFormatError(f"{where}: expected an object, got {type(d).__name__}")
-    if key not in d:
-        raise FileFormatError(f"{where}: expected key {key!r}, got keys {sorted(d)}")
-    return d[key]
-
-
-def _number(value: Any, where: str, *, positive: bool = False) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise FileFormatError(f"{where}: expected a number, got {value!r}")
-    x = float(value)
-    if not math.isfinite(x):
-        raise FileFormatError(f"{where}: expected a finite number, got {value!r}")
-    if positive and x <= 0:
-        raise FileFormatError(f"{where}: expected a positive number, got {value!r}")
-    return x
-
-
-def _points(value: Any, where: str, n: int | None = None) -> np.ndarray:
-    try:
-        return as_array(value, (n, 2), where)
-    except InputError as exc:
-        raise FileFormatError(str(exc)) from None
 
 
 @dataclass(frozen=True)
@@ -148,7 +124,7 @@ class Hand:
 
     def world_vertices(self, q: np.ndarray) -> np.ndarray:
         """(V, 2) workpiece vertices in the world at configuration ``q``."""
-        return self.vertices @ _rot(q[2]).T + q[:2]
+        return self.vertices @ rotation(q[2]).T + q[:2]
 
     def axis(self, q: np.ndarray, k: int) -> np.ndarray:
         return np.array([math.cos(q[3 + k]), math.sin(q[3 + k])])
@@ -229,9 +205,26 @@ class Hand:
         """External wrench on the workpiece about the world origin (eq. 2): the constant force
         ``load_force`` (N) acting at the centre of mass at pose ``q``."""
         q = np.asarray(q, dtype=float)
-        r = _rot(q[2]) @ self.com + q[:2]
+        r = rotation(q[2]) @ self.com + q[:2]
         f = self.load_force
         return np.array([f[0], f[1], r[0] * f[1] - r[1] * f[0]])
+
+    def default_fixed(self) -> list[int]:
+        """Coordinates kept when closing the initial configuration (:meth:`close`): the
+        workpiece ``x`` and, if there are more free coordinates than contacts, the first
+        fingers' angles.  Raises :class:`InputError` when there are too many contacts."""
+        n_free = 3 + self.n_fingers
+        fixed = [0]
+        k = 0
+        while n_free - len(fixed) > self.n_contacts and k < self.n_fingers:
+            fixed.append(3 + k)
+            k += 1
+        if n_free - len(fixed) < self.n_contacts:
+            raise InputError(
+                f"contacts: expected at most {n_free - 1} contacts for {self.n_fingers} fingers, "
+                f"got {self.n_contacts}"
+            )
+        return fixed
 
     def system(
         self,
@@ -366,162 +359,3 @@ def _polygon_distance(p: np.ndarray, V: np.ndarray) -> float:
         t = float(np.clip((p - a) @ ab / (ab @ ab), 0.0, 1.0))
         best = min(best, float(np.linalg.norm(p - (a + t * ab))))
     return -best if inside else best
-
-
-# ---- loading ---------------------------------------------------------------------------------
-def _contact_spec(d: Any, i: int, n_v: int, n_f: int) -> ContactSpec:
-    where = f"contacts[{i}]"
-    kind = _key(d, "kind", where)
-    if kind not in CONTACT_KINDS:
-        raise FileFormatError(f"{where}.kind: expected one of {CONTACT_KINDS}, got {kind!r}")
-
-    def index(key: str, n: int) -> int:
-        v = _key(d, key, where)
-        if isinstance(v, bool) or not isinstance(v, int) or not 0 <= v < n:
-            raise FileFormatError(f"{where}.{key}: expected an integer in [0, {n - 1}], got {v!r}")
-        return v
-
-    if kind == "palm":
-        return ContactSpec("palm", vertex=index("vertex", n_v))
-    if kind == "side":
-        side = d.get("side", 1)
-        if side not in (1, -1):
-            raise FileFormatError(f"{where}.side: expected +1 or -1, got {side!r}")
-        return ContactSpec("side", vertex=index("vertex", n_v), finger=index("finger", n_f),
-                           side=int(side))
-    return ContactSpec("tip", edge=index("edge", n_v), finger=index("finger", n_f))
-
-
-def _convex_ccw(V: np.ndarray) -> None:
-    n = len(V)
-    if n < 3:
-        raise FileFormatError(f"workpiece.vertices: expected at least 3 vertices, got {n}")
-    for i in range(n):
-        a, b, c = V[i], V[(i + 1) % n], V[(i + 2) % n]
-        cross = (b - a)[0] * (c - b)[1] - (b - a)[1] * (c - b)[0]
-        if cross <= 0:
-            raise FileFormatError(
-                "workpiece.vertices: expected a convex polygon listed counter-clockwise, "
-                f"got a clockwise or flat turn at vertex {(i + 1) % n}"
-            )
-
-
-def hand_from_dict(data: Any, source: str = "<dict>") -> tuple[Hand, np.ndarray]:
-    """Build a :class:`Hand` and its initial configuration from a hand file's content.
-
-    Returns ``(hand, q0)`` with ``q0`` closed so every declared contact touches (:meth:`Hand.close`
-    with the workpiece ``x`` fixed).  Errors are :class:`FileFormatError` naming ``source``.
-    """
-    try:
-        return _hand_from_dict(data)
-    except FileFormatError as exc:
-        raise FileFormatError(f"{source}: {exc}") from None
-
-
-HAND_FORMAT = "qsplan-hand"
-HAND_VERSION = 1
-
-
-def load_hand(path: Any) -> tuple[Hand, np.ndarray, dict[str, Any]]:
-    """Read a hand file: ``(hand, q0, data)`` where ``data`` is the parsed JSON (kept for the
-    ``segment`` and ``mu`` sections and for embedding in plans).  JSON only: nothing in the
-    file is executed; NaN/Infinity constants are rejected."""
-    from pathlib import Path
-
-    from planner.files.atomic import parse_json
-
-    p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise InputError(f"hand file: expected an existing file, got {str(p)!r}") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise FileFormatError(f"{p}: expected a UTF-8 JSON hand file ({exc})") from None
-
-    data = parse_json(text, str(p), "a hand file")
-    hand, q0 = hand_from_dict(data, source=str(p))
-    return hand, q0, data
-
-
-def _hand_from_dict(data: Any) -> tuple[Hand, np.ndarray]:
-    if not isinstance(data, dict):
-        raise FileFormatError(f"expected a JSON object, got {type(data).__name__}")
-    fmt, ver = data.get("format", HAND_FORMAT), data.get("version", HAND_VERSION)
-    if fmt != HAND_FORMAT or ver != HAND_VERSION:
-        raise FileFormatError(
-            f"expected format {HAND_FORMAT!r} version {HAND_VERSION}, got {fmt!r} version {ver!r}"
-        )
-    palm = _points(_key(_key(data, "palm", "hand"), "edge", "palm"), "palm.edge", 2)
-    if np.linalg.norm(palm[1] - palm[0]) <= 0:
-        raise FileFormatError("palm.edge: expected two distinct points, got equal points")
-    fingers_raw = _key(data, "fingers", "hand")
-    if not isinstance(fingers_raw, list) or not fingers_raw:
-        raise FileFormatError(f"fingers: expected a non-empty list, got {fingers_raw!r}")
-    fingers, angles = [], []
-    for k, f in enumerate(fingers_raw):
-        where = f"fingers[{k}]"
-        pivot = _points([_key(f, "pivot", where)], f"{where}.pivot", 1)[0]
-        fingers.append(Finger(
-            name=str(f.get("name", f"finger{k + 1}")),
-            pivot=(float(pivot[0]), float(pivot[1])),
-            length=_number(_key(f, "length", where), f"{where}.length", positive=True),
-            width=_number(_key(f, "width", where), f"{where}.width", positive=True),
-            mass=_number(f.get("mass", 0.05), f"{where}.mass", positive=True),
-        ))
-        angles.append(_number(_key(f, "angle", where), f"{where}.angle"))
-    wp = _key(data, "workpiece", "hand")
-    V = _points(_key(wp, "vertices", "workpiece"), "workpiece.vertices")
-    _convex_ccw(V)
-    com = _points([wp.get("com", [0.0, 0.0])], "workpiece.com", 1)[0]
-    pose = _points([_key(wp, "pose", "workpiece")[:2]], "workpiece.pose", 1)[0]
-    phi = _number(_key(wp, "pose", "workpiece")[2], "workpiece.pose[2]") \
-        if isinstance(wp["pose"], list) and len(wp["pose"]) == 3 else None
-    if phi is None:
-        raise FileFormatError(f"workpiece.pose: expected [x, y, theta], got {wp['pose']!r}")
-    contacts_raw = _key(data, "contacts", "hand")
-    if not isinstance(contacts_raw, list) or not contacts_raw:
-        raise FileFormatError(f"contacts: expected a non-empty list, got {contacts_raw!r}")
-    contacts = tuple(_contact_spec(c, i, len(V), len(fingers)) for i, c in enumerate(contacts_raw))
-    load = data.get("load", {"force": [0.0, 0.0]})
-    force = _points([_key(load, "force", "load")], "load.force", 1)[0]
-    hand = Hand(
-        palm=palm,
-        fingers=tuple(fingers),
-        vertices=V,
-        com=com,
-        mass=_number(wp.get("mass", 0.1), "workpiece.mass", positive=True),
-        contacts=contacts,
-        load_force=force,
-        name=str(data.get("name", "hand")),
-        meta={k: data[k] for k in ("description", "load") if k in data},
-    )
-    n = palm[1] - palm[0]
-    centroid = V.mean(axis=0) @ _rot(phi).T + pose
-    if rot90(n) @ (centroid - palm[0]) <= 0:
-        raise FileFormatError(
-            "palm.edge: expected the workpiece on the inward side (left of first->second point), "
-            "got it on the other side"
-        )
-    q0 = np.concatenate([pose, [phi], angles])
-    try:
-        q0 = hand.close(q0, fixed=_default_fixed(hand))
-    except (DegenerateError, InputError) as exc:
-        raise FileFormatError(f"initial configuration: {exc}") from None
-    return hand, q0
-
-
-def _default_fixed(hand: Hand) -> list[int]:
-    """Coordinates kept when closing the initial configuration: the workpiece ``x`` and, if
-    there are more free coordinates than contacts, the first fingers' angles."""
-    n_free = 3 + hand.n_fingers
-    fixed = [0]
-    k = 0
-    while n_free - len(fixed) > hand.n_contacts and k < hand.n_fingers:
-        fixed.append(3 + k)
-        k += 1
-    if n_free - len(fixed) < hand.n_contacts:
-        raise FileFormatError(
-            f"contacts: expected at most {n_free - 1} contacts for {hand.n_fingers} fingers, "
-            f"got {hand.n_contacts}"
-        )
-    return fixed

@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from planner.errors import InputError
-from planner.model.system import rot90
+from planner.model.geometry import rot90
 from planner.model.validation import as_array, describe_value, unit_normal
 
 REVOLUTE, PRISMATIC = "revolute", "prismatic"
@@ -208,6 +208,11 @@ def chain_from_dict(data: Any) -> Chain:
         if not isinstance(item, dict):
             raise InputError(f"chain joint {j + 1}: expected an object, got {describe_value(item)}")
         kind = item.get("type", item.get("kind"))
+        if not isinstance(kind, str):
+            raise InputError(
+                f"chain joint {j + 1}: expected a 'type' of 'revolute' or 'prismatic', "
+                f"got {describe_value(kind)}"
+            )
         parent = item.get("parent", -1)
         if isinstance(parent, bool) or not isinstance(parent, int):
             raise InputError(

@@ -15,6 +15,7 @@ Body*, 1994. Equations (1)-(5).
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from enum import Enum
@@ -23,26 +24,20 @@ from typing import Any
 import numpy as np
 
 from planner.errors import InputError
+from planner.model.geometry import (
+    check_wrench_matrix,
+    contact_points_from_wrench,
+    rot90,
+    wrench_matrix,
+)
 from planner.model.validation import (
-    WRENCH_COLUMN_TOL,
     as_array,
     as_friction,
     describe_value,
+    is_numeric,
     unit_normal,
 )
-
-
-def cross2(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """The paper's planar cross product ``a (x) b = a_1 b_2 - a_2 b_1`` (eq. 1), broadcasting."""
-    a = np.asarray(a, dtype=float)
-    b = np.asarray(b, dtype=float)
-    return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
-
-
-def rot90(n: np.ndarray) -> np.ndarray:
-    """Rotate 2-vectors by +90 degrees: ``(x, y) -> (-y, x)``; gives ``t`` from ``n``."""
-    n = np.asarray(n, dtype=float)
-    return np.stack([-n[..., 1], n[..., 0]], axis=-1)
+from planner.model.workpiece import WorkpieceGeometry, check_environment
 
 
 class JointControl(str, Enum):
@@ -84,87 +79,6 @@ class Contact:
         return (-self.normal[1], self.normal[0])
 
 
-def wrench_matrix(points: Any, normals: Any) -> np.ndarray:
-    """Global wrench matrix ``W = [w_1n w_1t ... w_nn w_nt]`` of eq. (1)-(2).
-
-    Parameters
-    ----------
-    points : (n_c, 2) [m]
-        Contact points ``r_i``, world frame.
-    normals : (n_c, 2)
-        Unit inward normals ``n_i``, world frame.
-
-    Returns
-    -------
-    W : (3, 2 n_c)
-        Column ``2i`` is ``[n_i; r_i (x) n_i]``, column ``2i+1`` is ``[t_i; r_i (x) t_i]``.
-    """
-    r = as_array(points, (None, 2), "points")
-    n = as_array(normals, (r.shape[0], 2), "normals")
-    t = rot90(n)
-    W = np.empty((3, 2 * r.shape[0]))
-    W[0:2, 0::2] = n.T
-    W[0:2, 1::2] = t.T
-    W[2, 0::2] = cross2(r, n)
-    W[2, 1::2] = cross2(r, t)
-    return W
-
-
-def check_wrench_matrix(W: Any, tol: float = WRENCH_COLUMN_TOL) -> np.ndarray:
-    """Validate a wrench matrix given as data (eq. 1); returns it as a float array.
-
-    Each column pair must be a unit normal ``n`` and the tangent ``t = rot90(n)`` to ``tol``
-    (default 2e-3, because the paper prints eqs. 37 and 42 rounded to three digits).  The matrix
-    is used exactly as given; it is not re-normalised.
-    """
-    arr = np.asarray(W, dtype=float) if _is_numeric(W) else None
-    if arr is None or arr.ndim != 2 or arr.shape[0] != 3 or arr.shape[1] % 2 or arr.shape[1] == 0:
-        shape = None if arr is None else arr.shape
-        raise InputError(
-            f"wrench_matrix: expected shape (3, 2*n_c) with columns [w_1n w_1t ...], got {shape}"
-        )
-    W = as_array(arr, (3, None), "wrench_matrix")
-    for i in range(W.shape[1] // 2):
-        n = W[0:2, 2 * i]
-        t = W[0:2, 2 * i + 1]
-        norm = float(np.hypot(*n))
-        if abs(norm - 1.0) > tol:
-            raise InputError(
-                f"wrench_matrix: contact {i + 1}: expected a unit normal in column {2 * i + 1} "
-                f"(|n| = 1 within {tol:g}), got |n| = {norm:.6g}"
-            )
-        if float(np.max(np.abs(t - rot90(n)))) > tol:
-            raise InputError(
-                f"wrench_matrix: contact {i + 1}: expected tangent t = n rotated by +90 deg "
-                f"= {rot90(n).round(4).tolist()} in column {2 * i + 2}, got {t.round(4).tolist()}"
-            )
-    return W
-
-
-def _is_numeric(value: Any) -> bool:
-    try:
-        np.asarray(value, dtype=float)
-    except (TypeError, ValueError, OverflowError, RecursionError):
-        return False
-    return True
-
-
-def contact_points_from_wrench(W: np.ndarray) -> np.ndarray:
-    """Contact points implied by a wrench matrix: ``r_i = m_it n_i - m_in t_i``.
-
-    With ``t = rot90(n)``: ``r x n = m_in`` and ``r x t = r . n = m_it``, hence the formula.
-
-    Returns
-    -------
-    points : (n_c, 2) [m], world frame.
-    """
-    n = W[0:2, 0::2].T
-    t = W[0:2, 1::2].T
-    m_n = W[2, 0::2]
-    m_t = W[2, 1::2]
-    return m_t[:, None] * n - m_n[:, None] * t
-
-
 @dataclass(frozen=True, eq=False)
 class System:
     """A planar workpiece in contact with a manipulator (Section 3).
@@ -192,6 +106,11 @@ class System:
     virtual_joints : bool
         True when the manipulator was given as contact-point velocities ``J_i thetadot``;
         then ``J`` is the identity and each contact point is a velocity-driven 2-DOF "joint".
+    workpiece : WorkpieceGeometry or None
+        Scene data for simulators (polygon, mass, centre of mass); changes no prediction.
+    environment : tuple of bool, length n_c
+        True for a contact with the fixed environment (its manipulator velocity is zero:
+        zero Jacobian rows, or a zero contact velocity); scene data, changes no prediction.
     """
 
     W: np.ndarray
@@ -204,6 +123,8 @@ class System:
     points: np.ndarray = field(repr=False)
     normals: np.ndarray = field(repr=False)
     virtual_joints: bool = False
+    workpiece: WorkpieceGeometry | None = None
+    environment: tuple[bool, ...] = ()
 
     def __post_init__(self) -> None:
         for name in ("W", "mu", "g_obj", "J", "joint_inputs", "g_man", "points", "normals"):
@@ -226,6 +147,13 @@ class System:
             )
         if self.g_man.shape != (n_t,):
             raise InputError(f"joint_loads: expected {n_t} values, got shape {self.g_man.shape}")
+        env = check_environment(self.environment, self.J, self.joint_inputs, self.virtual_joints)
+        object.__setattr__(self, "environment", env)
+        if self.workpiece is not None and not isinstance(self.workpiece, WorkpieceGeometry):
+            raise InputError(
+                "workpiece: expected a WorkpieceGeometry or None, "
+                f"got {describe_value(self.workpiece)}"
+            )
 
     # -- sizes and partitions ------------------------------------------------------------
     @property
@@ -264,12 +192,12 @@ class System:
 
     def with_mu(self, mu: Any) -> System:
         """A copy with other friction coefficients (scalar or ``(n_c,)``)."""
-        return _replace(self, mu=as_friction(mu, self.n_contacts))
+        return dataclasses.replace(self, mu=as_friction(mu, self.n_contacts))
 
     def with_joint_inputs(self, joint_inputs: Any) -> System:
         """A copy with other joint commands (velocities / efforts per :attr:`control`)."""
         arr = as_array(joint_inputs, (self.n_joints,), "joint_inputs")
-        return _replace(self, joint_inputs=arr)
+        return dataclasses.replace(self, joint_inputs=arr)
 
     # -- constructors --------------------------------------------------------------------
     @classmethod
@@ -285,6 +213,8 @@ class System:
         jacobian: Any = None,
         joints: Sequence[Any] | None = None,
         joint_loads: Any = None,
+        workpiece: WorkpieceGeometry | None = None,
+        environment: Sequence[bool] | None = None,
     ) -> System:
         """Build a system from geometric contacts (point, inward unit normal, mu).
 
@@ -292,7 +222,8 @@ class System:
         as ``contact_velocities`` ((n_c, 2): ``J_i thetadot`` in each contact frame, all
         velocity-controlled) or as ``jacobian`` ((n_c, 2, n_theta)) with ``joints`` (one
         ``{"velocity": v}`` or ``{"effort": tau}`` per column; or a :class:`JointControl`,
-        value pair) and optional ``joint_loads`` ``g_man``.
+        value pair) and optional ``joint_loads`` ``g_man``.  ``workpiece`` and ``environment``
+        (one flag per contact) are scene data (see the class docstring).
         """
         if contacts is not None:
             if points is not None or normals is not None:
@@ -317,7 +248,7 @@ class System:
         W = wrench_matrix(pts, nrm)
         return cls._assemble(
             W, mu_arr, external_wrench, contact_velocities, jacobian, joints, joint_loads,
-            pts, nrm,
+            pts, nrm, workpiece, environment,
         )
 
     @classmethod
@@ -331,6 +262,8 @@ class System:
         jacobian: Any = None,
         joints: Sequence[Any] | None = None,
         joint_loads: Any = None,
+        workpiece: WorkpieceGeometry | None = None,
+        environment: Sequence[bool] | None = None,
     ) -> System:
         """Build a system from the paper's wrench matrix ``W`` (eq. 1, as in eqs. 37 and 42).
 
@@ -344,7 +277,7 @@ class System:
         pts = contact_points_from_wrench(Wm)
         return cls._assemble(
             Wm, mu_arr, external_wrench, contact_velocities, jacobian, joints, joint_loads,
-            pts, nrm,
+            pts, nrm, workpiece, environment,
         )
 
     @classmethod
@@ -359,6 +292,8 @@ class System:
         joint_loads: Any,
         points: np.ndarray,
         normals: np.ndarray,
+        workpiece: WorkpieceGeometry | None = None,
+        environment: Sequence[bool] | None = None,
     ) -> System:
         n_c = W.shape[1] // 2
         g_obj = as_array(external_wrench, (3,), "external_wrench")
@@ -382,7 +317,7 @@ class System:
             )
             virtual = True
         else:
-            Jarr = np.asarray(jacobian, dtype=float) if _is_numeric(jacobian) else None
+            Jarr = np.asarray(jacobian, dtype=float) if is_numeric(jacobian) else None
             if Jarr is None or Jarr.ndim != 3 or Jarr.shape[:2] != (n_c, 2):
                 got = None if Jarr is None else Jarr.shape
                 raise InputError(
@@ -412,7 +347,8 @@ class System:
             virtual = False
         return cls(
             W=W, mu=mu, g_obj=g_obj, J=J, control=control, joint_inputs=inputs, g_man=g_man,
-            points=points, normals=normals, virtual_joints=virtual,
+            points=points, normals=normals, virtual_joints=virtual, workpiece=workpiece,
+            environment=() if environment is None else environment,  # type: ignore[arg-type]
         )
 
 
@@ -446,14 +382,3 @@ def parse_joint(spec: Any, index: int) -> tuple[JointControl, float]:
     if not np.isfinite(val):
         raise InputError(f"joint {index + 1}: expected a finite '{key}', got {str(value)[:40]}")
     return (JointControl.VELOCITY if has_v else JointControl.EFFORT), val
-
-
-def _replace(system: System, **changes: Any) -> System:
-    fields = {
-        "W": system.W, "mu": system.mu, "g_obj": system.g_obj, "J": system.J,
-        "control": system.control, "joint_inputs": system.joint_inputs, "g_man": system.g_man,
-        "points": system.points, "normals": system.normals,
-        "virtual_joints": system.virtual_joints,
-    }
-    fields.update(changes)
-    return System(**fields)

@@ -56,6 +56,15 @@ def _shape_text(shape: Sequence[int | None]) -> str:
     return "(" + inner + ("," if len(shape) == 1 else "") + ")"
 
 
+def is_numeric(value: Any) -> bool:
+    """True when ``value`` converts to a float array (nested lists of numbers)."""
+    try:
+        np.asarray(value, dtype=float)
+    except (TypeError, ValueError, OverflowError, RecursionError):
+        return False
+    return True
+
+
 def as_friction(value: Any, n_c: int, name: str = "mu") -> np.ndarray:
     """Friction coefficients: a scalar (broadcast) or ``(n_c,)``, each finite and ``>= 0``."""
     try:
@@ -77,6 +86,36 @@ def as_friction(value: Any, n_c: int, name: str = "mu") -> np.ndarray:
             f"{name}: expected friction coefficients >= 0, got {arr.tolist()}"
         )
     return arr
+
+
+def friction_interval(value: Any, n_c: int, name: str = "mu") -> tuple[np.ndarray, np.ndarray]:
+    """A friction box: ``(lo, hi)`` for every contact, ``[(lo, hi), ...]`` per contact, or one
+    number (a point).  Returns ``(mu_lo, mu_hi)``, each ``(n_c,)``, every end checked by
+    :func:`as_friction`; errors name what was expected and what came.
+    """
+    if isinstance(value, (str, bytes)):
+        raise InputError(
+            f"{name}: expected a number or (lo, hi) pairs, got {describe_value(value)}"
+        )
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise InputError(
+            f"{name}: expected a number or (lo, hi) pairs, got {describe_value(value)}"
+        ) from exc
+    if arr.ndim == 0:
+        arr = np.array([float(arr), float(arr)])
+    if arr.shape == (2,):
+        arr = np.broadcast_to(arr, (n_c, 2))
+    if arr.shape != (n_c, 2):
+        raise InputError(
+            f"{name}: expected one (lo, hi) interval or {n_c} of them, got shape {arr.shape}"
+        )
+    lo = as_friction(arr[:, 0], n_c, name)
+    hi = as_friction(arr[:, 1], n_c, name)
+    if np.any(lo > hi):
+        raise InputError(f"{name}: expected lo <= hi in every interval, got {arr.tolist()}")
+    return lo.copy(), hi.copy()
 
 
 def unit_normal(value: Any, name: str) -> np.ndarray:

@@ -44,6 +44,8 @@ from scipy.optimize import linprog
 from planner.errors import DegenerateError, InputError
 from planner.model.modes import BREAK, ROLL, SLIDE, Mode, enumerate_modes
 from planner.model.system import System
+from planner.model.validation import friction_interval
+from planner.plan.intervals import EMPTY, Interval
 from planner.predict.indeterminate import (
     IndeterminateKinematics,
     coulomb_rows,
@@ -52,35 +54,6 @@ from planner.predict.indeterminate import (
 from planner.predict.stages import DEFAULT_TOL, force_matrices, kinematic_stage
 
 MU_MODELS = ("common", "independent")
-
-
-@dataclass(frozen=True)
-class Interval:
-    """A closed torque interval ``[lower, upper]`` (N m); empty when ``lower > upper``."""
-
-    lower: float
-    upper: float
-
-    @property
-    def empty(self) -> bool:
-        return not self.lower <= self.upper
-
-    def contains(self, tau: float) -> bool:
-        return self.lower <= tau <= self.upper
-
-    def margin(self, tau: float) -> float:
-        """Distance from ``tau`` to the nearest bound (negative outside)."""
-        return float(min(tau - self.lower, self.upper - tau))
-
-    def to_list(self) -> list[float | None]:
-        return [_finite_or_none(self.lower), _finite_or_none(self.upper)]
-
-
-EMPTY = Interval(np.inf, -np.inf)
-
-
-def _finite_or_none(x: float) -> float | None:
-    return float(x) if np.isfinite(x) else None
 
 
 @dataclass(frozen=True, eq=False)
@@ -279,31 +252,6 @@ def _box_points(mu_lo: np.ndarray, mu_hi: np.ndarray, grid: int) -> tuple[np.nda
     return corners, g
 
 
-def parse_mu_interval(mu: Any, n_c: int) -> tuple[np.ndarray, np.ndarray]:
-    """``mu`` as ``(lo, hi)`` for every contact, ``[(lo, hi), ...]`` per contact, or a number.
-
-    Returns ``(mu_lo, mu_hi)`` each ``(n_c,)``; errors name what was expected.
-    """
-    arr = np.asarray(mu, dtype=float) if not isinstance(mu, str) else None
-    if arr is None:
-        raise InputError(f"mu: expected a number or (lo, hi) pairs, got {mu!r}")
-    if arr.ndim == 0:
-        arr = np.array([float(arr), float(arr)])
-    if arr.shape == (2,):
-        arr = np.broadcast_to(arr, (n_c, 2))
-    if arr.shape != (n_c, 2):
-        raise InputError(
-            f"mu: expected one (lo, hi) interval or {n_c} of them, got shape {arr.shape}"
-        )
-    if not np.all(np.isfinite(arr)):
-        raise InputError("mu: expected finite friction coefficients, got NaN or inf")
-    if np.any(arr < 0):
-        raise InputError(f"mu: expected friction coefficients >= 0, got {arr.min():g}")
-    if np.any(arr[:, 0] > arr[:, 1]):
-        raise InputError(f"mu: expected lo <= hi in every interval, got {arr.tolist()}")
-    return arr[:, 0].copy(), arr[:, 1].copy()
-
-
 def mode_bands(
     system: System,
     mu: Any,
@@ -321,7 +269,7 @@ def mode_bands(
     if model not in MU_MODELS:
         raise InputError(f"model: expected one of {MU_MODELS}, got {model!r}")
     n_c = system.n_contacts
-    mu_lo, mu_hi = parse_mu_interval(mu, n_c)
+    mu_lo, mu_hi = friction_interval(mu, n_c)
     stage, index = admissible_modes(system, tol=tol)
     exact = True
     if model == "common" or np.all(mu_lo == mu_hi):
@@ -413,80 +361,3 @@ def indeterminate_interval(system: System, kin: IndeterminateKinematics, mu: Any
             raise DegenerateError(f"torque range LP failed for mode {kin.mode.label}: "
                                   f"{res.message}")
     return Interval(ends[0], ends[1])
-
-
-def subtract(band: Interval, rivals: list[Interval]) -> list[Interval]:
-    """``band`` minus the union of closed ``rivals`` (the rivals' boundaries are excluded, so the
-    pieces are returned closed but callers keep a margin from them)."""
-    pieces = [] if band.empty else [band]
-    for r in rivals:
-        if r.empty:
-            continue
-        nxt = []
-        for p in pieces:
-            if r.upper < p.lower or r.lower > p.upper:
-                nxt.append(p)
-                continue
-            if r.lower > p.lower:
-                nxt.append(Interval(p.lower, r.lower))
-            if r.upper < p.upper:
-                nxt.append(Interval(r.upper, p.upper))
-        pieces = nxt
-    return pieces
-
-
-@dataclass(frozen=True)
-class Guarantee:
-    """Torque set that guarantees ``claim`` and excludes every rival (eq. 28 over the friction
-    interval).  ``pieces``: disjoint intervals, ascending; ``bands``: every admissible mode's
-    :class:`ModeBand`; ``rivals``: labels of the modes that can occur for some ``tau``."""
-
-    claim: str
-    pieces: tuple[Interval, ...]
-    bands: tuple[ModeBand, ...]
-    exact: bool
-
-    @property
-    def claim_band(self) -> ModeBand | None:
-        return next((b for b in self.bands if b.label == self.claim), None)
-
-    @property
-    def rivals(self) -> tuple[str, ...]:
-        return tuple(b.label for b in self.bands if b.label != self.claim and not b.possible.empty)
-
-    def best(self) -> Interval:
-        """The widest piece (infinite pieces first); EMPTY when none."""
-        if not self.pieces:
-            return EMPTY
-        return max(self.pieces, key=lambda p: (p.upper - p.lower, -abs(p.lower)))
-
-    def rivals_at(self, tau: float) -> tuple[str, ...]:
-        return tuple(b.label for b in self.bands
-                     if b.label != self.claim and b.possible.contains(tau))
-
-
-def guarantee(
-    system: System, claim: str, mu: Any, *, model: str = "common", tol: float = DEFAULT_TOL,
-) -> Guarantee:
-    """Torques that make ``claim`` (a mode label, or a family such as ``"4S"``) the only
-    possible mode for every friction in ``mu`` (Section 5.2, Figures 11-13)."""
-    bands = mode_bands(system, mu, model=model, tol=tol)
-    label = resolve_claim(claim, [b.label for b in bands], [b.mode.family for b in bands])
-    own = next((b for b in bands if b.label == label), None)
-    if own is None:
-        return Guarantee(claim, (), bands, all(b.exact for b in bands))
-    rivals = [b.possible for b in bands if b.label != label]
-    pieces = subtract(own.guaranteed, rivals)
-    return Guarantee(label, tuple(pieces), bands, all(b.exact for b in bands))
-
-
-def resolve_claim(claim: str, labels: list[str], families: list[str]) -> str:
-    """A full mode label, or a family (``"4S"``) that names exactly one admissible mode."""
-    if claim in labels:
-        return claim
-    hits = [lab for lab, fam in zip(labels, families) if fam == claim]
-    if len(hits) == 1:
-        return hits[0]
-    if not hits:
-        return claim  # not admissible here: the caller sees an empty guarantee
-    raise InputError(f"claim {claim!r}: expected one mode, got several admissible: {hits}")

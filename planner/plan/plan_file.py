@@ -5,11 +5,13 @@ command of the velocity-controlled joint, the torque of the effort-controlled jo
 guaranteed band (eq. 28 over the friction interval, Figure 13) and margin, the predicted mode and
 the rival modes.  It embeds the hand description it was made for, so a plan is self-contained.
 
-Safety: files are written atomically (:mod:`planner.files.atomic`); loading parses JSON only (no
-pickle, no eval), rejects the constants NaN/Infinity, checks ``format`` and ``version``, every
-field's type and shape, and a SHA-256 digest of the canonical content, so a hand-edited or
-truncated plan is rejected with :class:`planner.errors.FileFormatError` naming the problem.
-Infinite band ends are stored as ``null``.
+Safety: files are written atomically (:mod:`planner.files.atomic`); loading goes through the one
+JSON reader (:func:`planner.files.reader.read_json`: size and depth caps, strict JSON, no pickle,
+no eval), checks ``format`` and ``version``, every field's type and shape, unknown keys, the
+embedded hand (:func:`planner.files.hand_file.hand_from_plan`) and a SHA-256 digest of the
+canonical content, so a hand-edited or truncated plan is rejected with
+:class:`planner.errors.FileFormatError` naming the problem.  Infinite band ends are stored as
+``null``.  JSON Schema: ``planner/files/schemas/plan.schema.json``.
 """
 
 from __future__ import annotations
@@ -20,18 +22,26 @@ import math
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from planner.errors import FileFormatError, InputError
-from planner.files.atomic import atomic_write_text, parse_json
+from planner.files.atomic import atomic_write_text
+from planner.files.fields import check_keys
+from planner.files.hand_file import HandSetup, hand_from_plan
+from planner.files.reader import parse_json, read_json
 
 PLAN_FORMAT = "qsplan-plan"
 PLAN_VERSION = 1
-#: Plans larger than this are refused before parsing (bytes).
-MAX_PLAN_BYTES = 64 * 1024 * 1024
+
+#: Keys of a plan file (docs/plan-format.md); any other key is an error naming it.
+PLAN_KEYS = ("format", "version", "claim", "control", "mu", "policy", "event", "exact", "notes",
+             "extra", "hand", "waypoints", "digest")
+WAYPOINT_KEYS = ("t", "pose", "angles", "velocity_command", "torque_command", "band", "margin",
+                 "predicted", "rivals")
 
 
 @dataclass(frozen=True)
@@ -103,6 +113,12 @@ class Plan:
     @property
     def effort_joint(self) -> int:
         return self.control.index("effort")
+
+    @cached_property
+    def hand_model(self) -> HandSetup:
+        """The typed hand and its initial configuration, ``(hand, q0)``, parsed once per plan
+        from :attr:`hand` (:func:`planner.files.hand_file.hand_from_plan`)."""
+        return hand_from_plan(self.hand)
 
     def times(self) -> np.ndarray:
         return np.array([w.t for w in self.waypoints])
@@ -176,26 +192,19 @@ def save_plan(plan: Plan, path: str | os.PathLike[str]) -> Path:
 
 
 def load_plan(path: str | os.PathLike[str]) -> Plan:
-    """Read and verify a plan file.  Raises :class:`FileFormatError` (malformed, wrong version,
-    tampered) or :class:`InputError` (missing file)."""
-    p = Path(path)
-    try:
-        size = p.stat().st_size
-    except FileNotFoundError:
-        raise InputError(f"plan: expected an existing plan file, got {str(p)!r}") from None
-    except OSError as exc:
-        raise InputError(f"plan: cannot read {str(p)!r} ({exc})") from None
-    if size > MAX_PLAN_BYTES:
-        raise FileFormatError(f"{p}: expected a plan under {MAX_PLAN_BYTES} bytes, got {size}")
-    try:
-        text = p.read_bytes().decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise FileFormatError(f"{p}: expected UTF-8 JSON, got undecodable bytes ({exc})") from None
-    return plan_from_json(text, source=str(p))
+    """Read and verify a plan file (through :func:`planner.files.reader.read_json`).  Raises
+    :class:`FileFormatError` (missing, not a regular file, too large, malformed, wrong version,
+    tampered)."""
+    data = read_json(path, "plan file")
+    return _checked(data, f"plan file {str(path)!r}")
 
 
-def plan_from_json(text: str, source: str = "<string>") -> Plan:
-    data = parse_json(text, source, "a plan")
+def plan_from_json(text: str | bytes, source: str = "<string>") -> Plan:
+    """Parse and verify plan text (the rules of :func:`load_plan` minus the file checks)."""
+    return _checked(parse_json(text, f"plan file {source}"), f"plan file {source}")
+
+
+def _checked(data: Any, source: str) -> Plan:
     try:
         return plan_from_dict(data)
     except FileFormatError as exc:
@@ -266,6 +275,7 @@ def plan_from_dict(data: Any) -> Plan:
     """Verify parsed plan content (format, version, digest, fields) and build the :class:`Plan`."""
     if not isinstance(data, dict):
         raise FileFormatError(f"expected a JSON object, got {type(data).__name__}")
+    check_keys(data, "plan", optional=PLAN_KEYS)
     fmt, ver = data.get("format"), data.get("version")
     if fmt != PLAN_FORMAT:
         raise FileFormatError(f"expected format {PLAN_FORMAT!r}, got {_short(fmt)}")
@@ -273,6 +283,7 @@ def plan_from_dict(data: Any) -> Plan:
         raise FileFormatError(f"expected plan version {PLAN_VERSION}, got {_short(ver)}")
     dg = _get(data, "digest", "plan")
     value = _get(dg, "value", "digest")
+    check_keys(dg, "digest", required=("algorithm", "value"))
     if _get(dg, "algorithm", "digest") != "sha256" or not isinstance(value, str):
         raise FileFormatError(f"digest: expected a sha256 value, got {_short(dg)}")
     body = {k: v for k, v in data.items() if k != "digest"}
@@ -294,6 +305,7 @@ def plan_from_dict(data: Any) -> Plan:
         )
     mu = _get(data, "mu", "plan")
     model = _str(_get(mu, "model", "mu"), "mu.model")
+    check_keys(mu, "mu", required=("model", "intervals", "validate"))
     if model not in ("common", "independent"):
         raise FileFormatError(f"mu.model: expected 'common' or 'independent', got {model!r}")
     ivs_raw = _get(mu, "intervals", "mu")
@@ -311,6 +323,10 @@ def plan_from_dict(data: Any) -> Plan:
     event = _get(data, "event", "plan")
     if not isinstance(event, dict):
         raise FileFormatError(f"event: expected an object, got {_short(event)}")
+    check_keys(event, "event", required=("kind", "detail", "t"))
+    _str(event["kind"], "event.kind")
+    _str(event["detail"], "event.detail")
+    _num(event["t"], "event.t")
     wps_raw = _get(data, "waypoints", "plan")
     if not isinstance(wps_raw, list) or len(wps_raw) < 2:
         raise FileFormatError(
@@ -320,6 +336,8 @@ def plan_from_dict(data: Any) -> Plan:
     wps = []
     for i, w in enumerate(wps_raw):
         where = f"waypoints[{i}]"
+        if isinstance(w, dict):
+            check_keys(w, where, required=WAYPOINT_KEYS)
         band = _band(_get(w, "band", where), f"{where}.band")
         if band[0] > band[1]:
             raise FileFormatError(f"{where}.band: expected lower <= upper, got {list(band)}")
@@ -344,7 +362,7 @@ def plan_from_dict(data: Any) -> Plan:
     exact = data.get("exact", True)
     if not isinstance(exact, bool):
         raise FileFormatError(f"exact: expected true or false, got {_short(exact)}")
-    return Plan(
+    plan = Plan(
         hand=hand,
         claim=_str(_get(data, "claim", "plan"), "claim"),
         control=control,
@@ -358,6 +376,14 @@ def plan_from_dict(data: Any) -> Plan:
         notes=_str(data.get("notes", ""), "notes"),
         extra=extra,
     )
+    model_hand = plan.hand_model.hand  # checks the embedded hand once; cached on the plan
+    if model_hand.n_fingers != n_f or model_hand.n_contacts != len(ivs):
+        raise FileFormatError(
+            f"hand: expected {n_f} fingers (one per control entry) and {len(ivs)} contacts "
+            f"(one per mu interval), got {model_hand.n_fingers} fingers and "
+            f"{model_hand.n_contacts} contacts"
+        )
+    return plan
 
 
 def plans_equal(a: Plan, b: Plan) -> bool:

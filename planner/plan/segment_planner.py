@@ -30,8 +30,12 @@ from typing import Any
 import numpy as np
 
 from planner.errors import DegenerateError, InputError
-from planner.model.hand import Hand, load_hand
-from planner.plan.bounds import EMPTY, Guarantee, Interval, guarantee, mode_bands, subtract
+from planner.files.hand_file import load_hand
+from planner.model.hand import Hand
+from planner.model.validation import friction_interval
+from planner.plan.bounds import mode_bands
+from planner.plan.guarantee import Guarantee, guarantee
+from planner.plan.intervals import EMPTY, Interval, subtract
 from planner.plan.plan_file import Plan, Waypoint
 from planner.plan.trajectory import Segment, integrate_segment
 
@@ -91,7 +95,7 @@ def evaluate_partition(
     hand: Hand, seg: Segment, vel: int, mu: Any, model: str,
 ) -> PartitionReport:
     """Guarantees along ``seg`` with joint ``vel`` velocity-controlled (Section 3.2)."""
-    gs = []
+    gs: list[Guarantee] = []
     worst = math.inf
     for k in range(len(seg.t)):
         rate = float(seg.thetadot[k, vel])
@@ -188,7 +192,7 @@ def plan_hand(
     # Hold intervals: the command of waypoint k is held until k+1, so it must sit in both bands.
     hold = [_intersect(pieces[k], pieces[min(k + 1, len(pieces) - 1)]) for k in range(len(pieces))]
     hold = [h if not h.empty else p for h, p in zip(hold, pieces)]
-    mu_lo, mu_hi = _mu_ends(mu, hand.n_contacts)
+    mu_lo, mu_hi = friction_interval(mu, hand.n_contacts)
     at_lo, at_hi = _bands_at_ends(hand, seg, vel, mu_lo, mu_hi)
     taus, predicted = _choose(policy, hold, gs, scale, at_hi)
     wps = []
@@ -229,16 +233,16 @@ def plan_hand(
     )
 
 
-def _mu_ends(mu: Any, n_c: int) -> tuple[np.ndarray, np.ndarray]:
-    from planner.plan.bounds import parse_mu_interval
 
-    return parse_mu_interval(mu, n_c)
+BandsAt = list[dict[str, tuple[str, Interval]]]
 
 
-def _bands_at_ends(hand: Hand, seg: Segment, vel: int, mu_lo: np.ndarray, mu_hi: np.ndarray):
+def _bands_at_ends(hand: Hand, seg: Segment, vel: int, mu_lo: np.ndarray, mu_hi: np.ndarray
+                   ) -> tuple[BandsAt, BandsAt]:
     """Per waypoint, every mode's interval at the friction interval's two ends:
     ``(at_lo, at_hi)``, each a list of ``{label: (family, Interval)}``."""
-    at_lo, at_hi = [], []
+    at_lo: BandsAt = []
+    at_hi: BandsAt = []
     for k in range(len(seg.t)):
         system = hand.system(seg.q[k], 0.0,
                              _joints(hand.n_fingers, vel, float(seg.thetadot[k, vel])))
@@ -288,7 +292,7 @@ def _choose(
                 taus[k] = _command_in(max(only, key=lambda x: x.upper - x.lower), scale)
     else:
         raise InputError(f"policy: expected one of {POLICIES} or 'rival:FAMILY', got {policy!r}")
-    predicted = []
+    predicted: list[tuple[str, ...]] = []
     for k in range(n):
         g = gs[k]
         if any(p.contains(taus[k]) for p in g.pieces):

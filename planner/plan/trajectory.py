@@ -32,6 +32,8 @@ from planner.model.hand import Hand
 from planner.model.modes import Mode, enumerate_modes
 from planner.predict.stages import DEFAULT_TOL, kinematic_stage
 
+#: ``(d/dt of the hand state, workpiece twist, joint rates)`` at one state of a segment.
+Rate = tuple[np.ndarray, np.ndarray, np.ndarray]
 
 @dataclass(frozen=True)
 class Event:
@@ -74,7 +76,9 @@ class Segment:
         if n < 2:
             raise InputError(f"resample: expected n >= 2, got {n}")
         ts = np.linspace(0.0, self.duration, n)
-        qs, qd, td = [], [], []
+        qs: list[np.ndarray] = []
+        qd: list[np.ndarray] = []
+        td: list[np.ndarray] = []
         for t in ts:
             k = int(np.clip(np.searchsorted(self.t, t, side="right") - 1, 0, len(self.t) - 2))
             a = (t - self.t[k]) / (self.t[k + 1] - self.t[k])
@@ -152,7 +156,7 @@ def integrate_segment(
     h = max_time / steps
     fixed = [3 + drive]
 
-    def rate(qq: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    def rate(qq: np.ndarray) -> Rate | None:
         vel = mode_velocity(hand, qq, drive, speed, label)
         if vel is None:
             return None
@@ -164,8 +168,12 @@ def integrate_segment(
         if k1 is None:
             return None
         k2 = rate(qq + 0.5 * dt * k1[0])
-        k3 = rate(qq + 0.5 * dt * k2[0]) if k2 is not None else None
-        k4 = rate(qq + dt * k3[0]) if k3 is not None else None
+        if k2 is None:
+            return None
+        k3 = rate(qq + 0.5 * dt * k2[0])
+        if k3 is None:
+            return None
+        k4 = rate(qq + dt * k3[0])
         if k4 is None:
             return None
         nxt = qq + dt / 6.0 * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0])
@@ -175,7 +183,7 @@ def integrate_segment(
         except DegenerateError:
             return None
 
-    def event_at(qq: np.ndarray):
+    def event_at(qq: np.ndarray) -> tuple[Event | None, Rate | None]:
         """``(event or None, rate at qq)``; the rate is reused when the state is accepted."""
         _, _, s = hand.contact_geometry(qq)
         off = np.flatnonzero((s < 0.0) | (s > 1.0))
@@ -193,11 +201,12 @@ def integrate_segment(
         return None, r
 
     first, r0 = event_at(q)
-    if first is not None:
+    if first is not None or r0 is None:
+        first = first or Event("mode change", "no rate at the start", 0.0)
         raise DegenerateError(f"segment cannot start: {first.detail}")
     ts, qs, qds, tds = [0.0], [q], [r0[1]], [r0[2]]
 
-    def record(t_new: float, q_new: np.ndarray, r: tuple) -> None:
+    def record(t_new: float, q_new: np.ndarray, r: Rate) -> None:
         ts.append(t_new)
         qs.append(q_new)
         qds.append(r[1])
@@ -210,11 +219,13 @@ def integrate_segment(
         nxt = step(q, dt)
         ev, r = event_at(nxt) if nxt is not None else (Event("mode change", "step failed", 0.0),
                                                        None)
-        if ev is None:
+        if ev is None and nxt is not None and r is not None:
             t += dt
             q = nxt
             record(t, q, r)
             continue
+        if ev is None:  # unreachable: event_at returns a rate whenever it finds no event
+            raise DegenerateError("internal: step accepted without a rate")
         # Bisect on the step length for the first event.
         a, b = 0.0, dt
         q_ok, r_ok = q, None
@@ -222,11 +233,11 @@ def integrate_segment(
             mid = 0.5 * (a + b)
             qm = step(q, mid)
             ev_m, r_m = event_at(qm) if qm is not None else (ev, None)
-            if ev_m is None:
+            if ev_m is None and qm is not None:
                 a, q_ok, r_ok = mid, qm, r_m
             else:
                 b = mid
-        if a > 0:
+        if a > 0 and r_ok is not None:
             t += a
             q = q_ok
             record(t, q, r_ok)

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -20,6 +20,9 @@ from planner.errors import InputError
 from planner.files.atomic import save_figure
 from planner.friction.closed_form import ClosedFormRegion
 from planner.friction.muspace import JAM, MuGrid
+
+if TYPE_CHECKING:
+    from matplotlib.artist import Artist
 
 _LINESTYLES = ("-", "--", "-.", ":")
 _LINECOLOURS = ("black", "#b2182b", "#2166ac", "#1b7837", "#762a83", "#e08214")
@@ -88,8 +91,8 @@ def plot_slices(
              for i, lab in enumerate(shown)}
     # earlier modes drawn wider so that shared boundary curves stay visible under later ones
     width = {lab: max(1.2, 3.2 - 0.6 * i) for i, lab in enumerate(shown)}
-    handles = [Patch(color=colour[s], label=f"fill: {s}") for s in names]
-    handles += [Line2D([], [], color=style[lab][0], linestyle=style[lab][1], linewidth=2,
+    handles: list[Artist] = [Patch(color=colour[s], label=f"fill: {s}") for s in names]
+    handles += [Line2D([], [], color=style[lab][0], linestyle=cast(Any, style[lab][1]), linewidth=2,
                        label=f"boundary of {lab}" + (" (closed form, eqs. 35-36/40-41)"
                                                      if lab in with_closed_form
                                                      else " (grid edges)"))

@@ -97,7 +97,7 @@ def _rival_stats(plan: Any, res: Any, n_wp: int | None) -> dict[str, Any]:
     k = np.clip(np.searchsorted(t, times, side="right") - 1, 0, len(t) - 1)
     rival_wp = [j for j, w in enumerate(wps[:-1]) if plan.claim not in w.predicted]
     in_rival = np.isin(k, rival_wp) & (times >= res.summary["settings"]["settle_s"])
-    labels = np.array(res.observed, dtype=object)
+    labels = [str(o) for o in res.observed]
     hits = np.array([labels[i] in wps[k[i]].predicted for i in range(len(labels))], dtype=bool)
     shown = hits & in_rival
     first = float(times[np.flatnonzero(shown)[0]]) if shown.any() else None
@@ -110,8 +110,9 @@ def _rival_stats(plan: Any, res: Any, n_wp: int | None) -> dict[str, Any]:
         "rival_observed_s": float(shown.sum() * dt),
         "rival_observed_fraction": float(shown.sum() / max(in_rival.sum(), 1)),
         "rival_first_observed_s": first,
-        "rival_first_interval_majority": res.comparison.waypoint_observed[rival_wp[0]]
-        if rival_wp and res.comparison.waypoint_observed else None,
+        "rival_first_interval_majority": res.verdict.plan.waypoint_observed[rival_wp[0]]
+        if rival_wp and res.verdict.plan is not None and res.verdict.plan.waypoint_observed
+        else None,
     }
 
 
@@ -155,7 +156,9 @@ def _run(args: argparse.Namespace, engines: list[str], out: Path) -> int:
     same = plans_equal(load_plan(plan_path), plan)
     checks.append(_check("plan.json reloads to the same plan", "identical canonical content",
                          "identical" if same else "different", same))
-    tampered = json.loads(plan_path.read_text())
+    from planner.files.reader import read_json
+
+    tampered = read_json(plan_path, "plan file")
     tampered["waypoints"][1]["torque_command"] = neg.waypoints[1].torque_command
     tpath = out / "negative_control" / "tampered_copy.json"
     atomic_write_text(tpath, json.dumps(tampered))
@@ -199,6 +202,10 @@ def _run(args: argparse.Namespace, engines: list[str], out: Path) -> int:
     for r in results:
         r["folder"] = Path(r.get("folder", "")).relative_to(out).as_posix()
 
+    for r in results:  # a faulted or inconclusive run measured no plan quantities
+        for key in ("claim_fraction", "predicted_fraction", "final_error_of_travel", "travel_m",
+                    "final_angle_error_rad"):
+            r.setdefault(key, float("nan"))
     faults = [r for r in results if r["status"] == "fault"]
     for r in results:
         where = f"{r['engine']}, mu={r['settings']['mu'][0]:g}"
@@ -215,9 +222,9 @@ def _run(args: argparse.Namespace, engines: list[str], out: Path) -> int:
         else:
             checks.append(_check(
                 f"negative control in {where}: validation", "fails (claim not observed)",
-                f"{r['status']}: 4S on {r['claim_fraction']:.1%}", r["status"] == "failed"))
+                f"{r['status']}: 4S on {r['claim_fraction']:.1%}", r["status"] == "disagreed"))
             first = r.get("rival_first_observed_s")
-            ok = (r["status"] == "failed" and first is not None
+            ok = (r["status"] == "disagreed" and first is not None
                   and r.get("rival_first_interval_majority") in r.get("rival_predicted", []))
             stretch = r.get("rival_stretch_s") or [0, 0]
             checks.append(_check(

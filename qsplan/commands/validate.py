@@ -2,8 +2,9 @@
 simulator and compare observed with predicted modes and poses.
 
 Default friction: every value of the plan's ``mu.validate`` list (the plan passes only if every
-run passes). Exit codes: 0 passed, 1 failed, 2 bad input (missing, malformed or tampered plan,
-bad option), 3 simulator fault. The simulator is imported lazily inside :func:`run`.
+run agrees). Exit codes: 0 agreed, 1 disagreed or inconclusive, 2 bad input (missing, malformed
+or tampered plan, bad option), 3 simulator fault. The simulator is imported lazily inside
+:func:`run`.
 """
 
 from __future__ import annotations
@@ -78,7 +79,8 @@ def _run(args: argparse.Namespace, path: Path, mus: list[float] | None,
         mus = list(plan.validate_mu)
         if not mus:
             raise InputError("--mu: the plan lists no mu.validate values; expected --mu VALUE")
-    from sim.hand_run import ExecStatus, run_plan
+    from sim.compare import Outcome
+    from sim.hand_run import run_plan
 
     statuses = []
     for mu in mus:
@@ -86,17 +88,22 @@ def _run(args: argparse.Namespace, path: Path, mus: list[float] | None,
         if work is not None:
             out = work if len(mus) == 1 else work / f"mu_{fmt(mu)}"
         res = run_plan(plan, args.engine, mu, out, render=not args.no_render)
-        c = res.comparison
-        statuses.append(c.status)
-        line = (f"{args.engine} mu={fmt(mu)}: {c.status.value.upper()}  claim {c.claim!r} observed "
-                f"{c.claim_fraction:.1%} (predicted modes {c.predicted_fraction:.1%}), final "
-                f"position {c.final_error_of_travel:.2%} of travel "
-                f"[{res.summary['settings']['wall_time_s']:.1f} s]")
-        print(line)
-        for r in c.reasons:
-            print(f"    {r}")
-    if any(s is ExecStatus.FAULT for s in statuses):
+        v = res.verdict
+        statuses.append(v.outcome)
+        wall = f"[{res.summary['settings']['wall_time_s']:.1f} s]"
+        if v.plan is not None:
+            pm = v.plan
+            print(f"{args.engine} mu={fmt(mu)}: {v.outcome.value.upper()}  "
+                  f"claim {pm.claim.label!r} observed {pm.claim_fraction:.1%} (predicted modes "
+                  f"{pm.predicted_fraction:.1%}), final position "
+                  f"{pm.final_error_of_travel:.2%} of travel {wall}")
+        else:
+            print(f"{args.engine} mu={fmt(mu)}: {v.outcome.value.upper()} {wall}")
+        if v.outcome is not Outcome.AGREED:
+            for r in v.reasons:
+                print(f"    {r}")
+    if any(s is Outcome.FAULT for s in statuses):
         return 3
-    if any(s is ExecStatus.FAILED for s in statuses):
+    if any(s is not Outcome.AGREED for s in statuses):
         return 1
     return 0

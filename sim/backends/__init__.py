@@ -1,10 +1,13 @@
-"""Simulator backends behind the :class:`sim.scene.Backend` protocol, and their one factory.
+"""Simulator backends behind the :class:`sim.scene.Backend` protocol, their one settings type and
+their one factory.
 
 :mod:`sim.backends.pymunk_engine` (Chipmunk2D) and :mod:`sim.backends.mujoco_engine` are imported
 lazily, so importing :mod:`sim` costs neither engine.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 from planner.errors import InputError
 from sim.scene import Backend
@@ -13,15 +16,45 @@ from sim.scene import Backend
 ENGINES = ("pymunk", "mujoco")
 
 
-def make_backend(engine: str) -> Backend:
-    """``"pymunk"`` or ``"mujoco"`` backend (imported lazily)."""
-    if engine == "pymunk":
+@dataclass(frozen=True)
+class EngineSettings:
+    """How one engine runs one kind of scene (justified in docs/simulation.md).
+
+    ``dt`` [s] time step; ``creep`` [m/s] the engine's creep floor of a sticking contact (sets
+    the slip threshold's lower bound); ``settle`` [s] start transient excluded from the
+    comparison; ``mass_scale`` factor on the scene's masses (dynamics only: loads are explicit
+    forces, so the quasistatic prediction does not depend on mass); ``ramp`` [s] command ramp at
+    plan waypoints; ``record_every`` steps. Backend options: ``iterations`` (pymunk solver
+    iterations); ``solref`` (MuJoCo contact time constant [s], damping ratio) and
+    ``z_stiffness`` [N/m] (MuJoCo spring holding dynamic bodies in the plane; their
+    out-of-plane slide exists only for noslip).
+    """
+
+    dt: float = 1e-3
+    creep: float = 1e-9
+    settle: float = 0.2
+    mass_scale: float = 1.0
+    ramp: float = 0.05
+    record_every: int = 1
+    iterations: int = 60
+    solref: tuple[float, float] = (0.004, 1.0)
+    z_stiffness: float = 0.0
+
+
+def check_engine(engine: str) -> str:
+    """``engine`` if it is one of :data:`ENGINES`, else an :class:`InputError`."""
+    if engine not in ENGINES:
+        raise InputError(f"engine: expected one of {', '.join(ENGINES)}, got {engine!r}")
+    return engine
+
+
+def make_backend(engine: str, settings: EngineSettings | None = None) -> Backend:
+    """The ``"pymunk"`` or ``"mujoco"`` backend (imported lazily) with ``settings``' options."""
+    es = settings or EngineSettings()
+    if check_engine(engine) == "pymunk":
         from sim.backends.pymunk_engine import PymunkBackend
 
-        return PymunkBackend()
-    if engine == "mujoco":
-        from sim.backends.mujoco_engine import MujocoBackend
+        return PymunkBackend(iterations=es.iterations)
+    from sim.backends.mujoco_engine import MujocoBackend
 
-        return MujocoBackend()
-    raise InputError(f"engine: expected one of {', '.join(ENGINES)}, got {engine!r}")
-
+    return MujocoBackend(solref=es.solref, out_of_plane_stiffness=es.z_stiffness)

@@ -23,20 +23,20 @@ velocities of contact points with ``mj_jac``.
 
 from __future__ import annotations
 
-import mujoco
+import mujoco  # type: ignore[import-untyped]
 import numpy as np
 
 from sim.scene import (
     ABSENT,
     BodyKind,
     BodyState,
+    Capsule,
     Circle,
     ContactReading,
     Control,
     JointKind,
     Polygon,
     Scene,
-    Segment,
 )
 
 HEAVY_RATIO = 1e6
@@ -135,7 +135,7 @@ class MujocoBackend:
                     geom = body.add_geom(name=gname, type=mujoco.mjtGeom.mjGEOM_SPHERE,
                                          size=[shp.radius, 0, 0],
                                          pos=[shp.center[0], shp.center[1], 0.0])
-                elif isinstance(shp, Segment):
+                elif isinstance(shp, Capsule):
                     geom = body.add_geom(name=gname, type=mujoco.mjtGeom.mjGEOM_CAPSULE,
                                          size=[shp.radius, 0, 0],
                                          fromto=[shp.a[0], shp.a[1], 0, shp.b[0], shp.b[1], 0])

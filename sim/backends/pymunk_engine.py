@@ -11,7 +11,7 @@ groove + gear) with the effort applied as a body torque / force every step.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 import pymunk
@@ -22,13 +22,13 @@ from sim.scene import (
     Body,
     BodyKind,
     BodyState,
+    Capsule,
     Circle,
     ContactReading,
     Control,
     JointKind,
     Polygon,
     Scene,
-    Segment,
 )
 
 
@@ -46,6 +46,11 @@ def _moment(body: Body) -> float:
     a = tuple(np.asarray(shape.a) - com)
     b = tuple(np.asarray(shape.b) - com)
     return float(pymunk.moment_for_segment(body.mass, a, b, shape.radius))
+
+
+def _xy(v: Sequence[float] | np.ndarray) -> tuple[float, float]:
+    """A 2-vector as the ``(x, y)`` tuple pymunk takes."""
+    return (float(v[0]), float(v[1]))
 
 
 class PymunkBackend:
@@ -74,18 +79,18 @@ class PymunkBackend:
                 body = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
             else:
                 body = pymunk.Body(b.mass, _moment(b))
-                body.center_of_gravity = tuple(b.com)
+                body.center_of_gravity = _xy(b.com)
             # angle first: Chipmunk keeps the centre of gravity fixed when the angle is set
             body.angle = b.pose[2]
             body.position = (b.pose[0], b.pose[1])
             shapes: list[pymunk.Shape] = []
             for s in b.shapes:
                 if isinstance(s, Polygon):
-                    shp: pymunk.Shape = pymunk.Poly(body, [tuple(v) for v in s.vertices])
+                    shp: pymunk.Shape = pymunk.Poly(body, [_xy(v) for v in s.vertices])
                 elif isinstance(s, Circle):
-                    shp = pymunk.Circle(body, s.radius, tuple(s.center))
-                elif isinstance(s, Segment):
-                    shp = pymunk.Segment(body, tuple(s.a), tuple(s.b), s.radius)
+                    shp = pymunk.Circle(body, s.radius, _xy(s.center))
+                elif isinstance(s, Capsule):
+                    shp = pymunk.Segment(body, _xy(s.a), _xy(s.b), s.radius)
                 else:  # pragma: no cover - guarded by the Shape union
                     raise TypeError(type(s))
                 shp.friction = 0.0
@@ -100,7 +105,7 @@ class PymunkBackend:
         for j in scene.joints:
             body = self.bodies[j.body]
             if j.kind == JointKind.REVOLUTE:
-                space.add(pymunk.PivotJoint(static, body, tuple(j.anchor)))
+                space.add(pymunk.PivotJoint(static, body, _xy(j.anchor)))
                 if j.control == Control.VELOCITY:
                     motor = pymunk.SimpleMotor(static, body, 0.0)
                     motor.max_force = float("inf")
@@ -109,18 +114,18 @@ class PymunkBackend:
             else:
                 if j.control == Control.VELOCITY:
                     car = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
-                    car.position = tuple(j.anchor)
+                    car.position = _xy(j.anchor)
                     space.add(car)
-                    space.add(pymunk.PivotJoint(car, body, tuple(j.anchor)),
+                    space.add(pymunk.PivotJoint(car, body, _xy(j.anchor)),
                               pymunk.GearJoint(car, body, 0.0, 1.0))
                     self.carriages[j.name] = car
                 else:
                     axis = np.asarray(j.axis, dtype=float)
                     anchor = np.asarray(j.anchor, dtype=float)
-                    a = tuple(anchor - 100.0 * scene.length_scale * axis)
-                    bb = tuple(anchor + 100.0 * scene.length_scale * axis)
+                    a = _xy(anchor - 100.0 * scene.length_scale * axis)
+                    bb = _xy(anchor + 100.0 * scene.length_scale * axis)
                     space.add(pymunk.GrooveJoint(static, body, a, bb,
-                                                 body.world_to_local(tuple(anchor))),
+                                                 body.world_to_local(_xy(anchor))),
                               pymunk.GearJoint(static, body, 0.0, 1.0))
         # contact pairs: one collision type per manipulator shape, one per workpiece shape
         self._readings: dict[str, ContactReading] = {}
@@ -131,10 +136,10 @@ class PymunkBackend:
         for p in scene.pairs:
             sa = self.shapes[p.body_a][p.shape_a]
             sb = self.shapes[p.body_b][p.shape_b]
-            for s in (sa, sb):
-                if id(s) not in types:
-                    types[id(s)] = next_type
-                    s.collision_type = next_type
+            for shp in (sa, sb):
+                if id(shp) not in types:
+                    types[id(shp)] = next_type
+                    shp.collision_type = next_type
                     next_type += 1
             self._mu[p.name] = float(p.mu_static)
             self._by_shapes[(id(sa), id(sb))] = p.name
@@ -181,8 +186,11 @@ class PymunkBackend:
         imp = np.asarray(arbiter.total_impulse, dtype=float) / self._dt
         sign = 1.0 if float(imp @ n) >= 0 else -1.0  # total_impulse is the impulse on a or b
         f = sign * imp
-        va = np.asarray(sa.body.velocity_at_world_point(tuple(point)))
-        vb = np.asarray(sb.body.velocity_at_world_point(tuple(point)))
+        body_a, body_b = sa.body, sb.body
+        if body_a is None or body_b is None:  # pragma: no cover - every shape has a body
+            return
+        va = np.asarray(body_a.velocity_at_world_point(_xy(point)))
+        vb = np.asarray(body_b.velocity_at_world_point(_xy(point)))
         self._readings[name] = ContactReading(
             present=True,
             point=(float(point[0]), float(point[1])),
@@ -217,13 +225,13 @@ class PymunkBackend:
             else:
                 axis = np.asarray(j.axis, dtype=float)
                 if j.control == Control.VELOCITY:
-                    self.carriages[j.name].velocity = tuple(u * axis)
+                    self.carriages[j.name].velocity = _xy(u * axis)
                 else:
-                    body.apply_force_at_world_point(tuple(u * axis),
+                    body.apply_force_at_world_point(_xy(u * axis),
                                                     body.local_to_world(body.center_of_gravity))
         for ld in self.scene.loads:
             body = self.bodies[ld.body]
-            body.apply_force_at_world_point(tuple(ld.force),
+            body.apply_force_at_world_point(_xy(ld.force),
                                             body.local_to_world(body.center_of_gravity))
             body.torque = body.torque + ld.moment
         self._readings = {}

@@ -2,7 +2,8 @@
 
 Built from a hand file's content (format ``qsplan-hand``, read by :mod:`planner.model.hand`; e.g.
 ``scenarios/data/two_finger_hand.json``); the initial configuration is the file's, closed so
-every declared contact touches (:func:`planner.model.hand.hand_from_dict`).
+every declared contact touches (:func:`planner.files.hand_file.hand_from_dict`, called once by the
+caller: the scene takes the parsed :class:`~planner.model.hand.Hand`).
 
 Horizontal plane: no gravity; the file's ``load.force`` (support friction of the table) acts
 as a constant :class:`~sim.scene.Load` at the workpiece's centre of mass (``g_obj``, eq. 2).
@@ -28,16 +29,18 @@ polygon about the COM; finger links of the file's mass with the inertia of a uni
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
-from typing import Any
+from collections.abc import Sequence
 
 import numpy as np
 
 from planner.errors import InputError
-from planner.model.hand import Hand, hand_from_dict
+from planner.model.hand import Hand
+from planner.model.validation import as_friction
+from sim.run import Recording
 from sim.scene import (
     Body,
     BodyKind,
+    Capsule,
     Circle,
     Command,
     ContactPair,
@@ -47,7 +50,7 @@ from sim.scene import (
     Load,
     Polygon,
     Scene,
-    Segment,
+    Shape,
 )
 
 #: Radius [m] of the circles standing for sharp workpiece vertices.
@@ -82,38 +85,31 @@ def _rot(phi: float) -> np.ndarray:
     return np.array([[c, -s], [s, c]])
 
 
-def _mu(mu: Any, n: int) -> np.ndarray:
-    arr = np.asarray(mu, dtype=float)
-    if arr.ndim == 0:
-        arr = np.full(n, float(arr))
-    if arr.shape != (n,):
-        raise InputError(f"mu: expected a scalar or {n} coefficients (one per contact), "
-                         f"got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)) or np.any(arr < 0):
-        raise InputError(f"mu: expected finite coefficients >= 0, got {arr.tolist()}")
-    return arr
-
-
 def hand_scene(
-    hand_data: Mapping[str, Any],
-    mu: Any,
+    hand: Hand,
+    q0: np.ndarray,
+    mu: float | Sequence[float] | np.ndarray,
     controls: Sequence[str | Control],
     commands: Sequence[Command],
     *,
+    mass_scale: float = 1.0,
     vertex_radius: float = VERTEX_RADIUS,
     overlap: float | None = None,
 ) -> Scene:
-    """Scene of the hand described by ``hand_data`` (a hand file's parsed JSON).
+    """Scene of ``hand`` at its closed initial configuration ``q0`` (``(3 + F,)``: workpiece
+    pose, finger angles; both from :func:`planner.files.hand_file.hand_from_dict`).
 
     ``mu``: scalar or (n_c,) Coulomb coefficients per contact (file order); ``controls`` (F,)
     ``"velocity"``/``"effort"`` per finger joint; ``commands`` (F,) ``command(t, states)``
     returning the joint rate [rad/s] or torque [N m] (counter-clockwise positive).
+    ``mass_scale``: factor on the workpiece and finger masses (dynamics only).
     ``overlap`` [m]: vertex circles start this far into their feature (default half of pymunk's
     collision slop, SIM-NOTES: resting contacts that start exactly touching flicker).
     """
-    hand, q0 = hand_from_dict(hand_data, source="hand")
     F, n_c = hand.n_fingers, hand.n_contacts
-    mu_arr = _mu(mu, n_c)
+    mu_arr = as_friction(mu, n_c)
+    if not (np.isfinite(mass_scale) and mass_scale > 0):
+        raise InputError(f"mass_scale: expected a finite number > 0, got {mass_scale}")
     if len(controls) != F or len(commands) != F:
         raise InputError(f"controls/commands: expected {F} each (one per finger), got "
                          f"{len(controls)}/{len(commands)}")
@@ -135,14 +131,14 @@ def hand_scene(
     a, b = np.asarray(hand.palm, dtype=float)
     down = -hand.palm_normal * PALM_RADIUS
     palm_ids = [i for i, c in enumerate(hand.contacts) if c.kind == "palm"]
-    palm_shapes = tuple(Segment(tuple(a + down), tuple(b + down), PALM_RADIUS)
-                        for _ in palm_ids) or (Segment(tuple(a + down), tuple(b + down),
+    palm_shapes = tuple(Capsule(tuple(a + down), tuple(b + down), PALM_RADIUS)
+                        for _ in palm_ids) or (Capsule(tuple(a + down), tuple(b + down),
                                                        PALM_RADIUS),)
     palm = Body(name="palm", shapes=palm_shapes, kind=BodyKind.STATIC)
 
     # workpiece: polygon, then one circle per vertex contact
     V = np.asarray(hand.vertices, dtype=float)
-    shapes: list[Any] = [Polygon(tuple(map(tuple, V)))]
+    shapes: list[Shape] = [Polygon(tuple(map(tuple, V)))]
     site: dict[int, int] = {}
     for i, c in enumerate(hand.contacts):
         if c.kind in ("palm", "side"):
@@ -151,23 +147,25 @@ def hand_scene(
             site[i] = len(shapes)
             shapes.append(Circle((float(local[0]), float(local[1])), vertex_radius))
     com = np.asarray(hand.com, dtype=float)
-    work = Body(name="workpiece", shapes=tuple(shapes), mass=hand.mass,
+    mass = hand.mass * mass_scale
+    work = Body(name="workpiece", shapes=tuple(shapes), mass=mass,
                 com=(float(com[0]), float(com[1])),
-                inertia=polygon_inertia(V, hand.mass, com), pose=pose0)
+                inertia=polygon_inertia(V, mass, com), pose=pose0)
 
     # fingers
     bodies = [palm, work]
     joints = []
     tip_site: dict[int, int] = {}
     for k, f in enumerate(hand.fingers):
-        fshapes: list[Any] = [Segment((0.0, 0.0), (f.length, 0.0), f.radius)]
+        fshapes: list[Shape] = [Capsule((0.0, 0.0), (f.length, 0.0), f.radius)]
         if any(c.kind == "tip" and c.finger == k for c in hand.contacts):
             tip_site[k] = len(fshapes)
             fshapes.append(Circle((f.length, 0.0), f.radius))
         name = finger_body(hand, k)
-        bodies.append(Body(name=name, shapes=tuple(fshapes), mass=f.mass,
+        fm = f.mass * mass_scale
+        bodies.append(Body(name=name, shapes=tuple(fshapes), mass=fm,
                            com=(0.5 * f.length, 0.0),
-                           inertia=f.mass * (f.length ** 2 + f.width ** 2) / 12.0,
+                           inertia=fm * (f.length ** 2 + f.width ** 2) / 12.0,
                            pose=(float(f.pivot[0]), float(f.pivot[1]), float(q0[3 + k]))))
         joints.append(Joint(name=f"joint:{f.name}", body=name, kind=JointKind.REVOLUTE,
                             anchor=(float(f.pivot[0]), float(f.pivot[1])), control=ctrl[k],
@@ -198,7 +196,7 @@ def hand_scene(
     )
 
 
-def finger_angles(rec: Any, hand: Hand) -> np.ndarray:
+def finger_angles(rec: Recording, hand: Hand) -> np.ndarray:
     """(T, F) finger joint angles [rad] from a recording of :func:`hand_scene`."""
     cols = [rec.body_names.index(finger_body(hand, k)) for k in range(hand.n_fingers)]
     return rec.poses[:, cols, 2]

@@ -3,8 +3,9 @@
 From a planner :class:`~planner.model.system.System` given as a wrench matrix ``W`` (eq. 1) and
 contact-point velocities ``J_i thetadot``:
 
-* contact points ``r_i = m_it n_i - m_in t_i`` (:func:`planner.model.system.contact_points_from_wrench`),
-  scaled uniformly by ``scale`` (the paper's points are 2-20 m from the origin);
+* contact points ``r_i = m_it n_i - m_in t_i``
+  (:func:`planner.model.system.contact_points_from_wrench`), scaled uniformly by ``scale``
+  (the paper's points are 2-20 m from the origin);
 * the workpiece is the convex polygon ``{x : n_i . (x - r_i) >= 0}`` (its boundary passes through
   every ``r_i`` tangent to ``t_i``), clipped by a box when the normals do not close it; its centre
   of mass is the world origin, where ``g_obj`` acts (the paper's origin is the centre of gravity);
@@ -19,13 +20,24 @@ reported).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
 
 from planner.errors import InputError
 from planner.model.system import System
-from sim.scene import Body, BodyKind, Circle, ContactPair, Load, Polygon, Scene
+from sim.scene import (
+    Body,
+    BodyKind,
+    BodyState,
+    Circle,
+    Command,
+    ContactPair,
+    Load,
+    Polygon,
+    Scene,
+)
 
 
 def scaled_system(system: System, scale: float, speed: float = 1.0) -> System:
@@ -82,6 +94,13 @@ def workpiece_polygon(points: np.ndarray, normals: np.ndarray, box: float) -> np
     return poly
 
 
+def constant_twist(twist: tuple[float, float, float]) -> Command:
+    """A driven body's command that always returns ``twist`` ``(v_x, v_y, omega)``."""
+    def command(t: float, states: Mapping[str, BodyState]) -> tuple[float, float, float]:
+        return twist
+    return command
+
+
 @dataclass(frozen=True)
 class FingertipSpec:
     """Finger geometry: ``radius`` [m] of the fingertip circle, initial ``overlap`` [m]."""
@@ -125,10 +144,10 @@ def example_scene(
     for i in range(len(pts)):
         v_world = vel[i, 0] * nrm[i] + vel[i, 1] * tng[i]
         centre = pts[i] - (finger.radius - finger.overlap) * nrm[i]
-        twist = (float(v_world[0]), float(v_world[1]), 0.0)
         bodies.append(Body(f"finger{i + 1}", (Circle((0.0, 0.0), finger.radius),),
                            pose=(float(centre[0]), float(centre[1]), 0.0),
-                           kind=BodyKind.DRIVEN, twist=lambda t, s, tw=twist: tw))
+                           kind=BodyKind.DRIVEN,
+                           twist=constant_twist((float(v_world[0]), float(v_world[1]), 0.0))))
         muk = None if mu_kinetic is None else float(mu_kinetic[i])
         pairs.append(ContactPair(f"c{i + 1}", f"finger{i + 1}", "workpiece",
                                  mu_static=float(system.mu[i]), mu_kinetic=muk))

@@ -1,0 +1,308 @@
+"""Hand files (format ``qsplan-hand``, version 1): JSON in, :class:`planner.model.hand.Hand` out.
+
+The format is documented in ``docs/two-finger-task.md`` (keys, defaults) and as a JSON Schema
+in ``planner/files/schemas/hand.schema.json``.  Every file is read by
+:func:`planner.files.reader.read_json` (one size cap, one depth cap, strict JSON).  A missing
+key is an error unless the format gives a default; an unknown key is an error naming it
+(free-text keys :data:`planner.files.fields.FREE_KEYS` are allowed in every object).
+Fingers are single revolute links (Section 5.2): a finger with ``"type": "prismatic"`` or
+``"links"`` is refused, not silently planned as one revolute link.
+
+Public: :func:`load_hand` / :func:`load_hand_file` (from a path), :func:`hand_from_dict` /
+:func:`hand_file_from_dict` (from parsed content) and :func:`hand_from_plan` (the hand a plan
+embeds: the one entry point for the simulator side).
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from planner.errors import DegenerateError, FileFormatError, InputError
+from planner.files.fields import (
+    FREE_KEYS,
+    as_object,
+    check_keys,
+    integer,
+    number,
+    short,
+    string,
+    type_name,
+)
+from planner.files.reader import read_json
+from planner.model.geometry import rot90
+from planner.model.hand import CONTACT_KINDS, ContactSpec, Finger, Hand, rotation
+from planner.model.workpiece import check_convex_ccw
+
+HAND_FORMAT = "qsplan-hand"
+HAND_VERSION = 1
+
+#: Documented defaults of optional keys (docs/two-finger-task.md).
+FINGER_MASS = 0.05  # kg
+WORKPIECE_MASS = 0.1  # kg
+SEGMENT_DEFAULTS: Mapping[str, float | int] = {"max_time": 60.0, "waypoints": 41, "steps": 200}
+
+_UNSUPPORTED = ("expected a single revolute link per finger (prismatic joints and multi-link "
+                "fingers are not supported yet)")
+
+
+class HandSetup(NamedTuple):
+    """A hand and its initial configuration ``q0 = (x, y, phi, theta_1..theta_F)`` (m, rad),
+    closed so every declared contact touches."""
+
+    hand: Hand
+    q0: np.ndarray
+
+
+@dataclass(frozen=True)
+class SegmentSpec:
+    """The hand file's ``segment`` section: joint ``drive`` driven at ``speed`` (rad/s) in
+    ``mode`` (family such as ``"4S"`` or a label) for at most ``max_time`` (s); the plan has
+    ``waypoints`` waypoints; ``steps`` integration steps."""
+
+    drive: int
+    speed: float
+    mode: str
+    max_time: float
+    waypoints: int
+    steps: int
+
+
+@dataclass(frozen=True)
+class HandFile:
+    """A loaded hand file: ``hand``, ``q0``, the optional ``segment`` section, the ``mu``
+    section's ``mu_interval`` (``(lo, hi)`` pairs, one or one per contact; None when absent)
+    and ``validate_mu`` (friction values for the simulators), and ``data`` (the parsed JSON,
+    embedded verbatim in plans)."""
+
+    hand: Hand
+    q0: np.ndarray
+    segment: SegmentSpec | None
+    mu_interval: tuple[tuple[float, float], ...] | None
+    validate_mu: tuple[float, ...]
+    data: Mapping[str, Any]
+
+
+def load_hand_file(path: str | os.PathLike[str]) -> HandFile:
+    """Read a hand file (see the module docstring); errors name the file and the field."""
+    data = read_json(path, "hand file")
+    return hand_file_from_dict(data, source=f"hand file {str(path)!r}")
+
+
+def load_hand(path: str | os.PathLike[str]) -> tuple[Hand, np.ndarray, dict[str, Any]]:
+    """Read a hand file: ``(hand, q0, data)`` where ``data`` is the parsed JSON (kept for the
+    ``segment`` and ``mu`` sections, already checked, and for embedding in plans)."""
+    hf = load_hand_file(path)
+    return hf.hand, hf.q0, dict(hf.data)
+
+
+def hand_from_dict(data: Any, source: str = "<dict>") -> HandSetup:
+    """:class:`HandSetup` ``(hand, q0)`` from a hand file's parsed content (every section is
+    checked, ``segment`` and ``mu`` included).  Errors are :class:`FileFormatError` naming
+    ``source``."""
+    hf = hand_file_from_dict(data, source)
+    return HandSetup(hf.hand, hf.q0)
+
+
+def hand_from_plan(plan_hand: Mapping[str, Any]) -> HandSetup:
+    """The typed hand of a plan: ``plan_hand`` is a plan's ``hand`` object (the hand file it was
+    made for, :attr:`planner.plan.plan_file.Plan.hand`).  Returns :class:`HandSetup`
+    ``(hand, q0)``; errors name ``plan.hand``.  (``Plan.hand_model`` caches this per plan.)"""
+    return hand_from_dict(plan_hand, source="plan.hand")
+
+
+def hand_file_from_dict(data: Any, source: str = "<dict>") -> HandFile:
+    """:class:`HandFile` from parsed content; errors are :class:`FileFormatError` naming
+    ``source`` and the field."""
+    try:
+        return _hand_file(data)
+    except InputError as exc:  # FileFormatError included
+        raise FileFormatError(f"{source}: {exc}") from None
+
+
+# ---- the sections ----------------------------------------------------------------------------
+def _points(value: Any, where: str, n: int | None = None) -> np.ndarray:
+    """``(n, 2)`` finite numbers (``n`` None: any count >= 1)."""
+    if not isinstance(value, list) or (n is not None and len(value) != n) or not value:
+        want = f"{n} points [x, y]" if n is not None else "a list of points [x, y]"
+        raise FileFormatError(f"{where}: expected {want}, got {short(value)}")
+    for i, p in enumerate(value):
+        if not isinstance(p, list) or len(p) != 2:
+            raise FileFormatError(f"{where}[{i}]: expected a point [x, y], got {short(p)}")
+    return np.array([[number(x, f"{where}[{i}]") for x in p] for i, p in enumerate(value)])
+
+
+def _point(value: Any, where: str) -> np.ndarray:
+    if not isinstance(value, list) or len(value) != 2:
+        raise FileFormatError(f"{where}: expected a point [x, y], got {short(value)}")
+    return np.array([number(x, where) for x in value])
+
+
+def _finger(f: Any, k: int) -> tuple[Finger, float]:
+    where = f"fingers[{k}]"
+    f = as_object(f, where)
+    if "links" in f:
+        links = f["links"]
+        got = f"{len(links)} links" if isinstance(links, list) else type_name(links)
+        raise FileFormatError(f"{where}: {_UNSUPPORTED}, got \"links\" ({got})")
+    if "type" in f and f["type"] != "revolute":
+        raise FileFormatError(f"{where}: {_UNSUPPORTED}, got \"type\": {short(f['type'])}")
+    check_keys(f, where, required=("pivot", "length", "width", "angle"),
+               optional=("name", "mass", "type"), free=FREE_KEYS)
+    pivot = _point(f["pivot"], f"{where}.pivot")
+    finger = Finger(
+        name=string(f.get("name", f"finger{k + 1}"), f"{where}.name"),
+        pivot=(float(pivot[0]), float(pivot[1])),
+        length=number(f["length"], f"{where}.length", positive=True),
+        width=number(f["width"], f"{where}.width", positive=True),
+        mass=number(f.get("mass", FINGER_MASS), f"{where}.mass", positive=True),
+    )
+    return finger, number(f["angle"], f"{where}.angle")
+
+
+def _contact(d: Any, i: int, n_v: int, n_f: int) -> ContactSpec:
+    where = f"contacts[{i}]"
+    d = as_object(d, where)
+    check_keys(d, where, required=("kind",), optional=("vertex", "edge", "finger", "side"),
+               free=FREE_KEYS)
+    kind = d["kind"]
+    if kind not in CONTACT_KINDS:
+        raise FileFormatError(f"{where}.kind: expected one of {CONTACT_KINDS}, got {short(kind)}")
+    keys = {"palm": ("vertex",), "side": ("vertex", "finger"), "tip": ("edge", "finger")}[kind]
+    opt = ("side",) if kind == "side" else ()
+    check_keys(d, f"{where} ({kind})", required=("kind", *keys), optional=opt, free=FREE_KEYS)
+
+    def index(key: str, n: int) -> int:
+        return integer(d[key], f"{where}.{key}", 0, n - 1)
+
+    if kind == "palm":
+        return ContactSpec("palm", vertex=index("vertex", n_v))
+    if kind == "side":
+        side = d.get("side", 1)
+        if isinstance(side, bool) or side not in (1, -1):
+            raise FileFormatError(f"{where}.side: expected +1 or -1, got {short(side)}")
+        return ContactSpec("side", vertex=index("vertex", n_v), finger=index("finger", n_f),
+                           side=int(side))
+    return ContactSpec("tip", edge=index("edge", n_v), finger=index("finger", n_f))
+
+
+def _segment(seg: Any, n_f: int) -> SegmentSpec:
+    seg = as_object(seg, "segment")
+    check_keys(seg, "segment", required=("drive", "speed", "mode"),
+               optional=tuple(SEGMENT_DEFAULTS), free=FREE_KEYS)
+    speed = number(seg["speed"], "segment.speed")
+    if speed == 0:
+        raise FileFormatError("segment.speed: expected a non-zero rate [rad/s], got 0")
+    mode = string(seg["mode"], "segment.mode")
+    if not mode.strip():
+        raise FileFormatError("segment.mode: expected a mode family or label, got ''")
+    return SegmentSpec(
+        drive=integer(seg["drive"], "segment.drive", 0, n_f - 1),
+        speed=speed,
+        mode=mode,
+        max_time=number(seg.get("max_time", SEGMENT_DEFAULTS["max_time"]), "segment.max_time",
+                        positive=True),
+        waypoints=integer(seg.get("waypoints", SEGMENT_DEFAULTS["waypoints"]),
+                          "segment.waypoints", 2),
+        steps=integer(seg.get("steps", SEGMENT_DEFAULTS["steps"]), "segment.steps", 1),
+    )
+
+
+def _mu_section(mu: Any, n_c: int) -> tuple[tuple[tuple[float, float], ...] | None,
+                                            tuple[float, ...]]:
+    mu = as_object(mu, "mu")
+    check_keys(mu, "mu", optional=("interval", "validate"), free=FREE_KEYS)
+    interval = None
+    if "interval" in mu:
+        raw = mu["interval"]
+        pairs = [raw] if isinstance(raw, list) and len(raw) == 2 and not any(
+            isinstance(x, list) for x in raw) else raw
+        if not isinstance(pairs, list) or len(pairs) not in (1, n_c) or not all(
+                isinstance(p, list) and len(p) == 2 for p in pairs):
+            raise FileFormatError(
+                f"mu.interval: expected [lo, hi] or {n_c} such pairs (one per contact), "
+                f"got {short(raw)}"
+            )
+        out = []
+        for p in pairs:
+            lo = number(p[0], "mu.interval", minimum=0.0)
+            hi = number(p[1], "mu.interval", minimum=0.0)
+            if lo > hi:
+                raise FileFormatError(f"mu.interval: expected lo <= hi, got {short(p)}")
+            out.append((lo, hi))
+        interval = tuple(out)
+    val = mu.get("validate", [])
+    if not isinstance(val, list):
+        raise FileFormatError(f"mu.validate: expected a list of numbers, got {type_name(val)}")
+    return interval, tuple(number(v, f"mu.validate[{i}]", minimum=0.0) for i, v in enumerate(val))
+
+
+def _hand_file(data: Any) -> HandFile:
+    data = as_object(data, "hand")
+    check_keys(data, "hand", required=("palm", "fingers", "workpiece", "contacts"),
+               optional=("format", "version", "load", "segment", "mu"), free=FREE_KEYS)
+    fmt, ver = data.get("format", HAND_FORMAT), data.get("version", HAND_VERSION)
+    if fmt != HAND_FORMAT or ver != HAND_VERSION or isinstance(ver, bool):
+        raise FileFormatError(
+            f"expected format {HAND_FORMAT!r} version {HAND_VERSION}, got {short(fmt)} "
+            f"version {short(ver)}"
+        )
+    palm_obj = as_object(data["palm"], "palm")
+    check_keys(palm_obj, "palm", required=("edge",), free=FREE_KEYS)
+    palm = _points(palm_obj["edge"], "palm.edge", 2)
+    if np.linalg.norm(palm[1] - palm[0]) <= 0:
+        raise FileFormatError("palm.edge: expected two distinct points, got equal points")
+    fingers_raw = data["fingers"]
+    if not isinstance(fingers_raw, list) or not fingers_raw:
+        raise FileFormatError(f"fingers: expected a non-empty list, got {short(fingers_raw)}")
+    parsed = [_finger(f, k) for k, f in enumerate(fingers_raw)]
+    fingers = [f for f, _ in parsed]
+    angles = [a for _, a in parsed]
+    wp = as_object(data["workpiece"], "workpiece")
+    check_keys(wp, "workpiece", required=("vertices", "pose"), optional=("com", "mass"),
+               free=FREE_KEYS)
+    V = check_convex_ccw(_points(wp["vertices"], "workpiece.vertices"), "workpiece.vertices")
+    com = _point(wp.get("com", [0.0, 0.0]), "workpiece.com")
+    pose_raw = wp["pose"]
+    if not isinstance(pose_raw, list) or len(pose_raw) != 3:
+        raise FileFormatError(f"workpiece.pose: expected [x, y, phi], got {short(pose_raw)}")
+    pose = np.array([number(x, f"workpiece.pose[{i}]") for i, x in enumerate(pose_raw)])
+    contacts_raw = data["contacts"]
+    if not isinstance(contacts_raw, list) or not contacts_raw:
+        raise FileFormatError(f"contacts: expected a non-empty list, got {short(contacts_raw)}")
+    contacts = tuple(_contact(c, i, len(V), len(fingers)) for i, c in enumerate(contacts_raw))
+    force = np.zeros(2)
+    if "load" in data:
+        load = as_object(data["load"], "load")
+        check_keys(load, "load", required=("force",), free=FREE_KEYS)
+        force = _point(load["force"], "load.force")
+    hand = Hand(
+        palm=palm,
+        fingers=tuple(fingers),
+        vertices=V,
+        com=com,
+        mass=number(wp.get("mass", WORKPIECE_MASS), "workpiece.mass", positive=True),
+        contacts=contacts,
+        load_force=force,
+        name=string(data.get("name", "hand"), "name"),
+        meta={k: data[k] for k in ("description", "load") if k in data},
+    )
+    centroid = V.mean(axis=0) @ rotation(pose[2]).T + pose[:2]
+    if rot90(palm[1] - palm[0]) @ (centroid - palm[0]) <= 0:
+        raise FileFormatError(
+            "palm.edge: expected the workpiece on the inward side (left of first->second point), "
+            "got it on the other side"
+        )
+    segment = _segment(data["segment"], len(fingers)) if "segment" in data else None
+    interval, validate = _mu_section(data["mu"], len(contacts)) if "mu" in data else (None, ())
+    q0 = np.concatenate([pose, angles])
+    fixed = hand.default_fixed()
+    try:
+        q0 = hand.close(q0, fixed=fixed)
+    except (DegenerateError, InputError) as exc:
+        raise FileFormatError(f"initial configuration: {exc}") from None
+    return HandFile(hand, q0, segment, interval, validate, data)

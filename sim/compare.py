@@ -1,0 +1,302 @@
+"""One verdict for every simulator check: observed behaviour against the planner's prediction.
+
+Every check -- a paper example run, the ruler's switch positions, a hand plan run, a scenario,
+``qsplan validate`` -- ends in one :class:`Verdict` whose :class:`Outcome` is
+
+* ``agreed``: the run shows what the prediction says (within the documented tolerances);
+* ``disagreed``: it shows something else (a rival mode, the workpiece escaping, a switch off
+  its predicted place): a real finding about the prediction;
+* ``inconclusive``: the run cannot tell (too few judged steps, a measured engine limitation such
+  as creep above the sliding threshold); never a pass, never a silent fail;
+* ``fault``: simulator trouble (:class:`sim.run.Fault`, whose ``kind`` stays a field); the run
+  says nothing about the prediction.
+
+Scenarios and plan runs state what they :class:`Expect` (``agree``, ``disagree`` for negative
+controls, ``info`` for scenarios that only draw); :meth:`Verdict.held` says whether the outcome
+matched the expectation (a fault or an inconclusive run never holds).
+
+Observed modes are the planner's :class:`planner.model.modes.Mode` objects (or :data:`JAM`,
+Fig. 3's "Jam": no quasistatic motion), compared by value, never re-parsed from strings.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from enum import Enum
+from typing import Any, Final, Literal
+
+import numpy as np
+
+from planner.errors import InputError
+from planner.model.modes import Mode
+from sim.run import Fault
+
+#: The observed "mode" of a run whose workpiece no longer follows any quasistatic motion.
+JAM: Final = "JAM"
+#: What the classifier reports per step: a contact mode, or a jam.
+ObservedMode = Mode | Literal["JAM"]
+
+#: Fraction of judged steps that must show a predicted mode (paper examples, hand plans).
+MODE_FRACTION_REQUIRED = 0.95
+#: Hand plans: final workpiece position error allowed, as a fraction of the predicted travel.
+POSE_TOLERANCE_OF_TRAVEL = 0.02
+
+
+class Outcome(str, Enum):
+    """What a simulator check found (module docstring)."""
+
+    AGREED = "agreed"
+    DISAGREED = "disagreed"
+    INCONCLUSIVE = "inconclusive"
+    FAULT = "fault"
+
+
+class Expect(str, Enum):
+    """What a scenario or plan run is expected to show."""
+
+    AGREE = "agree"
+    DISAGREE = "disagree"
+    INFO = "info"
+
+    @classmethod
+    def parse(cls, value: str | Expect) -> Expect:
+        try:
+            return cls(value)
+        except ValueError:
+            raise InputError(f"expect: expected one of {', '.join(e.value for e in cls)}, "
+                             f"got {value!r}") from None
+
+
+def mode_label(mode: ObservedMode) -> str:
+    """``"R1 S-2 B3"`` or ``"JAM"``."""
+    return mode if isinstance(mode, str) else mode.label
+
+
+def count_labels(observed: Sequence[ObservedMode]) -> tuple[tuple[str, int], ...]:
+    """``((label, steps), ...)`` sorted by label."""
+    out: dict[str, int] = {}
+    for o in observed:
+        lab = mode_label(o)
+        out[lab] = out.get(lab, 0) + 1
+    return tuple(sorted(out.items()))
+
+
+@dataclass(frozen=True)
+class PlanMeasures:
+    """What a hand plan run measured besides the mode agreement.
+
+    ``claim``: the plan's claimed mode; ``claim_fraction`` / ``predicted_fraction`` in [0, 1]:
+    judged steps in the claim / in the waypoint interval's predicted set; ``final_error`` [m]
+    distance of the simulated and predicted workpiece positions at the last waypoint;
+    ``travel`` [m] predicted path length; ``final_angle_error`` [rad];
+    ``max_error_of_travel``: largest waypoint position error / travel; ``waypoint_observed``:
+    per hold interval the most frequent observed label.
+    """
+
+    claim: Mode
+    claim_fraction: float
+    predicted_fraction: float
+    final_error: float
+    travel: float
+    final_angle_error: float
+    max_error_of_travel: float
+    waypoint_observed: tuple[str, ...]
+
+    @property
+    def final_error_of_travel(self) -> float:
+        return self.final_error / self.travel
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "claim": self.claim.label,
+            "claim_fraction": self.claim_fraction,
+            "predicted_fraction": self.predicted_fraction,
+            "final_error_m": self.final_error,
+            "travel_m": self.travel,
+            "final_error_of_travel": self.final_error_of_travel,
+            "final_angle_error_rad": self.final_angle_error,
+            "max_error_of_travel": self.max_error_of_travel,
+            "waypoint_observed": list(self.waypoint_observed),
+        }
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """The one result type of a simulator check.
+
+    ``outcome``; ``reasons``: why (one line each; :attr:`reason` joins them); ``agreement`` in
+    [0, 1]: fraction of the judged steps (or predicted events) that matched; ``judged_steps``:
+    how many steps (or events) were actually judged; ``observed_counts``: label -> judged steps;
+    ``fault``: the simulator fault behind a ``fault`` outcome; ``plan``: hand plan measures.
+    """
+
+    outcome: Outcome
+    reasons: tuple[str, ...]
+    agreement: float = 0.0
+    judged_steps: int = 0
+    observed_counts: tuple[tuple[str, int], ...] = ()
+    fault: Fault | None = None
+    plan: PlanMeasures | None = None
+
+    def __post_init__(self) -> None:
+        if not 0.0 <= self.agreement <= 1.0:
+            raise InputError(f"agreement: expected a fraction in [0, 1], got {self.agreement}")
+
+    @property
+    def reason(self) -> str:
+        return "; ".join(self.reasons)
+
+    def held(self, expect: Expect) -> bool:
+        """True when the outcome is what ``expect`` asks for (never for a fault or an
+        inconclusive run; ``info`` expects no judgement)."""
+        if self.outcome in (Outcome.FAULT, Outcome.INCONCLUSIVE):
+            return False
+        if expect is Expect.INFO:
+            return True
+        return (self.outcome is Outcome.AGREED) == (expect is Expect.AGREE)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The verdict fields of summary.json (``status`` is the outcome)."""
+        out: dict[str, Any] = {
+            "status": self.outcome.value,
+            "agreement": self.agreement,
+            "judged_steps": self.judged_steps,
+            "reason": self.reason,
+            "reasons": list(self.reasons),
+            "observed_counts": dict(self.observed_counts),
+            "fault": self.fault.reason if self.fault is not None else None,
+            "fault_kind": self.fault.kind.value if self.fault is not None else None,
+        }
+        if self.plan is not None:
+            out.update(self.plan.to_dict())
+        return out
+
+
+def fault_verdict(fault: Fault) -> Verdict:
+    """The verdict of a run that ended in a simulator fault."""
+    return Verdict(Outcome.FAULT, (fault.reason,), fault=fault)
+
+
+def compare_modes(observed: Sequence[ObservedMode], predicted: Sequence[ObservedMode],
+                  required: float = MODE_FRACTION_REQUIRED) -> Verdict:
+    """Fraction of the judged steps ``observed`` whose mode is in ``predicted`` (``[JAM]`` for
+    a predicted jam): ``agreed`` when ``>= required``. No judged step is ``inconclusive``."""
+    counts = count_labels(observed)
+    if not observed:
+        return Verdict(Outcome.INCONCLUSIVE, ("no step could be judged (the run ended before "
+                                              "the settling time)",))
+    pred = set(predicted)
+    agree = float(np.mean([o in pred for o in observed]))
+    outcome = Outcome.AGREED if agree >= required else Outcome.DISAGREED
+    return Verdict(outcome, (f"{agree:.1%} of {len(observed)} judged steps in the predicted "
+                             f"set (required {required:.0%})",),
+                   agreement=agree, judged_steps=len(observed), observed_counts=counts)
+
+
+def _poses(name: str, value: np.ndarray, n: int) -> np.ndarray:
+    arr = np.asarray(value, dtype=float)
+    if arr.shape != (n, 3):
+        raise InputError(f"{name}: expected shape ({n}, 3) (x, y, theta per waypoint), "
+                         f"got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise InputError(f"{name}: expected finite numbers, got NaN or inf")
+    return arr
+
+
+def compare_plan(
+    claim: Mode,
+    observed: Sequence[ObservedMode],
+    predicted: Sequence[frozenset[ObservedMode]],
+    predicted_poses: np.ndarray,
+    simulated_poses: np.ndarray,
+    *,
+    interval: Sequence[int] | np.ndarray | None = None,
+    mode_fraction: float = MODE_FRACTION_REQUIRED,
+    pose_tolerance: float = POSE_TOLERANCE_OF_TRAVEL,
+) -> Verdict:
+    """Observed modes and poses of a hand plan run against its claim, predictions and poses.
+
+    ``observed`` (m,) judged steps; ``predicted`` (m,) the predicted mode set of each step's
+    waypoint interval; ``interval`` (m,) that interval's index (default: all 0);
+    ``predicted_poses``, ``simulated_poses`` (n, 3) ``(x, y, theta)`` [m, m, rad] at the n
+    waypoints. ``agreed`` when the claim holds on ``>= mode_fraction`` of the judged steps and
+    the final position is within ``pose_tolerance`` of the travel.
+    """
+    m = len(observed)
+    if m == 0:
+        raise InputError("observed: expected at least one judged step, got none")
+    if len(predicted) != m:
+        raise InputError(f"predicted: expected {m} mode sets (one per step), got {len(predicted)}")
+    n = len(np.asarray(predicted_poses, dtype=float))
+    if n < 2:
+        raise InputError(f"predicted_poses: expected at least 2 waypoints, got {n}")
+    pred = _poses("predicted_poses", predicted_poses, n)
+    simu = _poses("simulated_poses", simulated_poses, n)
+    idx = np.zeros(m, dtype=int) if interval is None else np.asarray(interval, dtype=int)
+    if idx.shape != (m,):
+        raise InputError(f"interval: expected {m} indices, got shape {idx.shape}")
+    travel = float(np.sum(np.linalg.norm(np.diff(pred[:, :2], axis=0), axis=1)))
+    if travel <= 0.0:
+        raise InputError("predicted_poses: expected a segment with positive travel, got 0")
+    claim_frac = float(np.mean([o == claim for o in observed]))
+    pred_frac = float(np.mean([o in p for o, p in zip(observed, predicted)]))
+    errs = np.linalg.norm(simu[:, :2] - pred[:, :2], axis=1)
+    counts = count_labels(observed)
+    per_wp = []
+    for k in range(int(idx.max()) + 1):
+        here = count_labels([o for o, j in zip(observed, idx) if j == k])
+        per_wp.append(max(here, key=lambda kv: kv[1])[0] if here else "")
+    reasons = []
+    if claim_frac < mode_fraction:
+        others = sorted(((c, lab) for lab, c in counts if lab != claim.label), reverse=True)
+        top = (f"; most observed instead: {others[0][1]!r} ({others[0][0] / m:.1%})"
+               if others else "")
+        reasons.append(f"claimed mode {claim.label!r} observed on {claim_frac:.1%} of the "
+                       f"segment, required {mode_fraction:.0%}{top}")
+    err = float(errs[-1])
+    if err / travel > pose_tolerance:
+        reasons.append(f"final position off by {err:.4g} m = {err / travel:.1%} of travel "
+                       f"{travel:.4g} m, allowed {pose_tolerance:.0%}")
+    measures = PlanMeasures(claim, claim_frac, pred_frac, err, travel,
+                            float(abs(simu[-1, 2] - pred[-1, 2])), float(errs.max() / travel),
+                            tuple(per_wp))
+    if not reasons:
+        reasons.append(f"{claim_frac:.1%} of the segment in the claimed mode, final position "
+                       f"{err / travel:.2%} of travel from the prediction")
+    return Verdict(Outcome.DISAGREED if claim_frac < mode_fraction or err / travel >
+                   pose_tolerance else Outcome.AGREED, tuple(reasons), agreement=claim_frac,
+                   judged_steps=m, observed_counts=counts, plan=measures)
+
+
+def compare_switches(predicted: Sequence[float], predicted_sliders: Sequence[int],
+                     observed: Sequence[float], observed_sliders: Sequence[int], *,
+                     tolerance: float, required: int) -> tuple[Verdict, list[float | None]]:
+    """Ruler switch positions (Sec. 5.1): each predicted switch ``k`` [m] is matched to the
+    observed switch of the same sliding finger nearest to it along the motion (not by list
+    index), each observed switch used once, in order. A predicted switch matches when its
+    relative error is within ``tolerance``; ``agreed`` when the first ``required`` predicted
+    switches all match. Returns the verdict and the per-predicted-switch relative errors
+    (``None`` where no observed switch of that finger is left)."""
+    need = min(required, len(predicted))
+    errors: list[float | None] = []
+    used = -1
+    for p, s in zip(predicted, predicted_sliders):
+        cands = [(abs(o - p) / p, j) for j, (o, so) in enumerate(zip(observed, observed_sliders))
+                 if j > used and so == s]
+        if not cands:
+            errors.append(None)
+            continue
+        err, j = min(cands)
+        errors.append(float(err))
+        if err <= tolerance:
+            used = j
+    matched = sum(1 for e in errors[:need] if e is not None and e <= tolerance)
+    agreement = matched / need if need else 0.0
+    shown = [None if e is None else round(e, 4) for e in errors]
+    if need == 0:
+        return Verdict(Outcome.INCONCLUSIVE, ("no switch predicted",)), errors
+    outcome = Outcome.AGREED if matched == need else Outcome.DISAGREED
+    return Verdict(outcome, (f"{matched} of {need} predicted switches within {tolerance:.0%} "
+                             f"(relative errors {shown})",), agreement=agreement,
+                   judged_steps=need), errors
