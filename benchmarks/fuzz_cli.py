@@ -1,6 +1,6 @@
 """The command-line fuzz campaign, long form: every subcommand, hostile inputs, one table.
 
-Uses the generator and the contract checks of ``tests/test_fuzz_cli.py`` (broken JSON, wrong
+Uses the generator and the contract checks of ``tests/cli_fuzz_cases.py`` (broken JSON, wrong
 types, NaN/Infinity, huge numbers, missing and unknown keys in system, hand and plan files;
 NaN/inf/absurd option values; unwritable, special and wrong-kind output paths), runs every case
 through ``qsplan.cli.main`` in-process, plus ``--subprocess K`` cases per command through a
@@ -30,26 +30,27 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tests"))
 
-from test_fuzz_cli import (  # noqa: E402
+from cli_fuzz_cases import (  # noqa: E402
     COMMANDS,
     FILE_LAYER_GAPS,
     Outcome,
     generate,
-    make_fixtures,
     problems,
     run_case,
     says_expected_and_got,
     snapshot,
     summarize,
 )
+from cli_fuzz_inputs import make_fixtures  # noqa: E402
 
 COLUMNS = ("inputs", "exit 0", "exit 1", "exit 2", "exit 3", "tracebacks",
-           "bad input not exit 2", "partial output sets", "exit 2 lacking expected/got")
+           "bad input not exit 2", "partial output sets", "internal faults",
+           "exit 2 lacking expected/got")
 
 
 def run_subprocess(case, fx) -> Outcome:  # type: ignore[no-untyped-def]
     """The same case in a real process (the console path)."""
-    from test_fuzz_cli import _partial
+    from cli_fuzz_cases import partial_output
 
     before = snapshot(fx.root)
     env = {**os.environ, "PYTHONPATH": str(ROOT), "MPLBACKEND": "Agg"}
@@ -57,7 +58,7 @@ def run_subprocess(case, fx) -> Outcome:  # type: ignore[no-untyped-def]
     res = subprocess.run([sys.executable, "-m", "qsplan.cli", *case.argv], cwd=fx.root, env=env,
                          capture_output=True, text=True, timeout=600)
     seconds = time.perf_counter() - t0
-    partial = _partial(case, res.returncode, before, snapshot(fx.root), fx.root)
+    partial = partial_output(case, res.returncode, before, snapshot(fx.root), fx.root)
     return Outcome(case, res.returncode, res.stderr, "Traceback (most recent" in res.stderr,
                    case.bad is True and res.returncode != 2, partial,
                    res.returncode == 2 and not says_expected_and_got(res.stderr), seconds)
@@ -66,7 +67,7 @@ def run_subprocess(case, fx) -> Outcome:  # type: ignore[no-untyped-def]
 def refusal_seconds(fx) -> dict[str, float]:  # type: ignore[no-untyped-def]
     """Per command: wall time (in-process) of a valid run whose output is /dev/null -- the
     refusal must come before any work (planning, simulation, a grid)."""
-    from test_fuzz_cli import Case
+    from cli_fuzz_cases import Case
 
     argvs = {
         "muspace": ["muspace", str(fx.system), "--vary", "1,2", "--out", "/dev/null"],
@@ -139,6 +140,9 @@ def main() -> int:
           f"{', '.join(FILE_LAYER_GAPS)})")
     for p in found[:20]:
         print("  " + p[:400])
+    for o in outcomes:
+        if "internal fault:" in o.stderr:
+            print(f"  internal fault: {o.case.argv}: {o.stderr.strip()[:300]}")
     if args.out:
         from planner.files.atomic import atomic_write_json
 

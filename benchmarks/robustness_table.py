@@ -1,4 +1,4 @@
-"""Issue 7 robustness table: long fuzz campaigns, cross-checked answers and the fault suite.
+"""Robustness table: long fuzz campaigns, cross-checked answers and the fault suite.
 
 Campaigns (each ``--n`` inputs unless stated):
 

@@ -111,9 +111,19 @@ def build_parser() -> argparse.ArgumentParser:
             register(sub)
     # The global options are accepted after the subcommand too (``qsplan plan ... -q``).
     for subparser in sub.choices.values():
-        subparser.formatter_class = HelpFormatter
-        _global_options(subparser, suppress=True)
+        _finish_subparser(subparser)
     return parser
+
+
+def _finish_subparser(parser: argparse.ArgumentParser) -> None:
+    """:class:`HelpFormatter` and the global options for ``parser`` and its nested
+    subcommands (``qsplan scenarios run NAME ... -q``)."""
+    parser.formatter_class = HelpFormatter
+    _global_options(parser, suppress=True)
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for nested in action.choices.values():
+                _finish_subparser(nested)
 
 
 def log_dir() -> Path:

@@ -314,3 +314,25 @@ def test_written_files_follow_the_umask(tmp_path, mask):
     finally:
         os.umask(old)
     assert (atomic.stat().st_mode & 0o777) == (plain.stat().st_mode & 0o777) == 0o666 & ~mask
+
+
+@pytest.mark.parametrize("kind", ["fifo", "dir", "link_to_fifo"])
+def test_writer_refuses_to_replace_what_is_not_a_regular_file(tmp_path, kind):
+    """A rename over a FIFO, a folder or a device would replace it (as root even /dev/null)."""
+    from planner.errors import InputError
+
+    target = tmp_path / "target"
+    if kind == "dir":
+        target.mkdir()
+    else:
+        os.mkfifo(tmp_path / "fifo")
+        if kind == "fifo":
+            target = tmp_path / "fifo"
+        else:
+            os.symlink(tmp_path / "fifo", target)
+    before = os.lstat(target).st_mode
+    with pytest.raises(InputError, match="it is not replaced"):
+        atomic_write_text(target, "x")
+    assert os.lstat(target).st_mode == before and _leftovers(tmp_path) == []
+    with pytest.raises(InputError, match="a special file"):
+        atomic_write_text("/dev/null", "x")

@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import stat
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -28,8 +29,22 @@ def current_umask() -> int:
 
 
 def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> Path:
-    """Write ``data`` to ``path`` atomically; creates parent folders. Returns the path."""
+    """Write ``data`` to ``path`` atomically; creates parent folders. Returns the path.
+
+    A ``path`` that exists and is not a regular file (a directory, FIFO, device, socket, or a
+    symlink to one) raises :class:`planner.errors.InputError` and is left as it is: the rename
+    would replace it (``/dev/null`` as root) with a regular file."""
     target = Path(path)
+    try:
+        mode = os.stat(target).st_mode
+    except OSError:
+        mode = None
+    if mode is not None and not stat.S_ISREG(mode):
+        from planner.errors import InputError
+
+        raise InputError(f"output {str(target)!r}: expected a regular file or a new path, got "
+                         f"{'a directory' if stat.S_ISDIR(mode) else 'a special file'}; it is "
+                         "not replaced")
     target.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
     try:
@@ -54,17 +69,19 @@ def atomic_write_text(path: str | os.PathLike[str], text: str) -> Path:
     return atomic_write_bytes(path, text.encode("utf-8"))
 
 
-def _jsonable(value: Any) -> Any:
+def jsonable(value: Any) -> Any:
+    """``value`` with numpy arrays and scalars as lists and numbers, NaN as null, +-inf as
+    "inf"/"-inf" (strict JSON, as :func:`atomic_write_json` writes it)."""
     import numpy as np
 
     if isinstance(value, dict):
-        return {str(k): _jsonable(v) for k, v in value.items()}
+        return {str(k): jsonable(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
-        return [_jsonable(v) for v in value]
+        return [jsonable(v) for v in value]
     if isinstance(value, np.ndarray):
-        return _jsonable(value.tolist())
+        return jsonable(value.tolist())
     if isinstance(value, np.generic):
-        return _jsonable(value.item())
+        return jsonable(value.item())
     if isinstance(value, float) and not math.isfinite(value):
         return None if math.isnan(value) else ("inf" if value > 0 else "-inf")
     return value
@@ -72,7 +89,7 @@ def _jsonable(value: Any) -> Any:
 
 def atomic_write_json(path: str | os.PathLike[str], data: Any) -> Path:
     """Serialise ``data`` (numpy arrays allowed; NaN -> null, inf -> "inf") and write atomically."""
-    text = json.dumps(_jsonable(data), indent=2, allow_nan=False)
+    text = json.dumps(jsonable(data), indent=2, allow_nan=False)
     return atomic_write_text(path, text + "\n")
 
 

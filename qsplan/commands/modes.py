@@ -104,7 +104,9 @@ def run(args: argparse.Namespace) -> int:
         out = pred.to_dict()
         if stats is not None:
             out["search"] = stats.to_dict()
-        json.dump(out, sys.stdout, indent=2)
+        from planner.files.atomic import jsonable
+
+        json.dump(jsonable(out), sys.stdout, indent=2, allow_nan=False)
         sys.stdout.write("\n")
         return 0
     if getattr(args, "quiet", False):

@@ -24,8 +24,9 @@ def register(sub: argparse._SubParsersAction) -> None:
             "scenarios/data such as two_finger_hand), choose the control partition (Sec. 3.2), "
             "compute the torque band that guarantees the segment's mode and excludes every rival "
             "for all friction in --mu (eq. 28, Figs. 10-13) and write the plan (versioned JSON, "
-            "docs/plan-format.md) and, with --figures, Figures 10-13. Exit 0 ok, 2 bad input, "
-            "3 when no partition can guarantee the mode."
+            "docs/plan-format.md) and, with --figures, Figures 10-13. Exit 0 ok, 1 when no "
+            "control partition can guarantee the mode (nothing is written), 2 bad input, "
+            "3 internal fault."
         ),
     )
     p.add_argument("scenario", help="hand file or scenario name (e.g. two_finger_hand)")
@@ -80,7 +81,7 @@ def run(args: argparse.Namespace) -> int:
                              policy=args.policy, control=control, waypoints=args.waypoints)
         except DegenerateError as exc:
             print(f"qsplan plan: cannot guarantee the mode: {exc}", file=sys.stderr)
-            return 3
+            return 1  # a valid request whose answer is "no guaranteed plan": a failed check
         save_plan(plan, plan_tmp)
         figs = []
         if fig_dir is not None:

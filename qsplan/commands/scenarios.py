@@ -35,6 +35,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                 for opt in sub_parser._actions:
                     if "--out" in opt.option_strings:
                         opt.type = str
+                        opt.help = ("output folder (summary.json, figures); written into place "
+                                    "only when the run has finished")
+                    elif opt.dest == "name" and not opt.option_strings:
+                        opt.help = "scenario name (see `qsplan scenarios list`)"
     parser.set_defaults(func=_run)
 
 
