@@ -275,3 +275,13 @@ def test_search_reports_an_over_budget_relaxed_scan():
     assert "NOT COMPLETE" in pred.reason
     # the exhaustive call proves by the structural test that there is nothing to scan
     assert feasible_modes(system).complete
+
+
+def test_streamed_enumeration_finds_the_relaxed_modes_too(monkeypatch):
+    system = box_on_supports(20, rng=np.random.default_rng(5))  # 21 contacts: 1,750 candidates
+    whole = feasible_modes(system)
+    assert whole.indeterminate_modes and whole.complete and whole.method == "exhaustive"
+    monkeypatch.setattr(feasibility, "STREAM_ELEMENTS", 42 * 100)  # 256 per chunk (the floor)
+    streamed = feasible_modes(system)
+    assert streamed.method == "exhaustive, streamed in 7 chunks" and streamed.complete
+    assert streamed.labels == whole.labels and streamed.status is whole.status

@@ -266,6 +266,25 @@ def force_rhs(system: System) -> np.ndarray:
     return np.concatenate([-system.g_obj, system.joint_inputs[E] - system.g_man[E]])
 
 
+#: Per-system cache of :func:`force_setup`.
+_FORCE_SETUP: weakref.WeakKeyDictionary[System, tuple[np.ndarray, np.ndarray, np.ndarray]] = (
+    weakref.WeakKeyDictionary()
+)
+
+
+def force_setup(system: System) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(G, rs, rhs)``: ``G = [W^T  J_E]`` (2 n_c, 3 + |tau_I|) whose rows are the loads of
+    unit contact-force components (eq. 26), the global row scaling ``rs`` of ``Q`` (largest
+    ``|G|`` per column, 0 -> 1) and :func:`force_rhs` (cached per system)."""
+    hit = _FORCE_SETUP.get(system)
+    if hit is None:
+        G = np.concatenate([system.W.T, system.J[:, joint_partition(system)[0]]], axis=1)
+        rs = np.max(np.abs(G), axis=0)
+        rs[rs == 0] = 1.0
+        hit = _FORCE_SETUP[system] = (G, rs, force_rhs(system))
+    return hit
+
+
 def force_matrices(
     system: System, rows: np.ndarray, sliding: np.ndarray, contact: np.ndarray,
     xi: np.ndarray, mu: np.ndarray,
@@ -287,8 +306,7 @@ def force_matrices(
         Row ``j`` is the wrench and effort-joint load of unit ``c_A[j]``: ``[w; j_E]`` of its
         row, minus ``mu_i xi_i [w_t; j_tE]`` when it is a sliding contact's normal (eq. 17).
     """
-    E = joint_partition(system)[0]
-    G = np.concatenate([system.W.T, system.J[:, E]], axis=1)  # (2 n_c, 3+|E|)
+    G = force_setup(system)[0]  # (2 n_c, 3+|E|)
     base = G[rows]  # (m, k, q)
     tang = G[2 * contact + 1]  # tangent row of the same contact
     xi_rows = xi[np.arange(xi.shape[0])[:, None], contact].astype(float)  # (m, k)
@@ -318,13 +336,10 @@ def force_stage(
     codes = candidates.codes[index]
     m = rows.shape[0]
     QT = force_matrices(system, rows, sliding, contact, xi, mu2)  # (L, m, k, k)
-    rhs = force_rhs(system)
     # Equilibrate: global scaling of Q's rows (columns of QT), unit columns of Q per mode.
-    G_all = np.concatenate([system.W.T, system.J[:, joint_partition(system)[0]]], axis=1)
-    rs = np.max(np.abs(G_all), axis=0)
-    rs[rs == 0] = 1.0
+    _, rs, rhs = force_setup(system)
     QTn = QT / rs
-    cn = np.linalg.norm(QTn, axis=-1)  # (L, m, k)
+    cn = np.sqrt(np.einsum("...i,...i->...", QTn, QTn))  # (L, m, k) column norms
     cn[cn == 0] = 1.0
     QTn = QTn / cn[..., None]
     # Q_AI = QTn^T per mode: one LU per matrix gives |det| (30-32) and y (eq. 26).
