@@ -36,7 +36,7 @@ from planner.predict.stages import DEFAULT_TOL, force_stage, kinematic_stage
 
 JAM = "jam"
 #: Friction vectors per batched force-stage call: keeps the ``(L, m, k, q)`` working set of
-#: :func:`planner.predict.feasibility.force_stage` small (2-4x faster than one call over 160 000
+#: :func:`planner.predict.stages.force_stage` small (2-4x faster than one call over 160 000
 #: vectors, measured with benchmarks/muspace_bench.py).
 MU_CHUNK = 8192
 FORMAT = "qsplan-muspace"
