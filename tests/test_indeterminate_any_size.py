@@ -244,3 +244,44 @@ def test_too_large_exhaustive_request_is_refused():
 
     with pytest.raises(InputError, match="candidate modes .* use planner.predict.search"):
         feasible_modes(random_system(0, 30), indeterminate=False)
+
+
+def test_cli_json_carries_completeness(tmp_path, capsys):
+    import json
+
+    from planner.files.system_file import save_system
+    from qsplan.cli import main
+
+    path = tmp_path / "box12.json"
+    save_system(box_on_supports(12), path)
+    assert main(["modes", str(path), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["complete"] is True and out["limits"] == [] and out["method"] == "exhaustive"
+    assert out["status"] == "unique" and out["modes"][0]["force_indeterminate"] is True
+    assert main(["modes", str(path), "--json", "--no-indeterminate"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["complete"] is False and out["status"] == "jammed"
+    assert out["limits"] == [feasibility.INDETERMINATE_OFF]
+
+
+def test_search_reports_an_over_budget_relaxed_scan():
+    from planner.predict.search import search_modes
+    from planner.sweeps.random_systems import random_system
+
+    system = random_system(0, 11)  # C(22, 11) = 705,432 row subsets > 250,000
+    pred = search_modes(system).prediction
+    assert pred.method == "search" and not pred.complete
+    assert "C(22, 11) = 705432 row subsets exceed max_subsets" in pred.limits[0]
+    assert "NOT COMPLETE" in pred.reason
+    # the exhaustive call proves by the structural test that there is nothing to scan
+    assert feasible_modes(system).complete
+
+
+def test_streamed_enumeration_finds_the_relaxed_modes_too(monkeypatch):
+    system = box_on_supports(20, rng=np.random.default_rng(5))  # 21 contacts: 1,750 candidates
+    whole = feasible_modes(system)
+    assert whole.indeterminate_modes and whole.complete and whole.method == "exhaustive"
+    monkeypatch.setattr(feasibility, "STREAM_ELEMENTS", 42 * 100)  # 256 per chunk (the floor)
+    streamed = feasible_modes(system)
+    assert streamed.method == "exhaustive, streamed in 7 chunks" and streamed.complete
+    assert streamed.labels == whole.labels and streamed.status is whole.status

@@ -75,3 +75,32 @@ def test_cli_muspace_quiet_and_verbose(tmp_path, capsys):
     assert main([*args, "-v"]) == 0
     out = capsys.readouterr().out
     assert "wrote" in out and "S+1 S-2 S-3" in out and "%" in out
+
+
+def _pushed_box(mu, h, load):
+    return System.from_contacts(
+        points=[[-0.5, 0.0], [0.5, 0.0], [-0.5, h]], normals=[[0, 1], [0, 1], [1, 0]], mu=mu,
+        external_wrench=load, contact_velocities=[[0, 0], [0, 0], [0.01, 0.0]])
+
+
+@pytest.mark.parametrize("h, load, base, vary", [
+    (0.515, (0.261, -1.0, -0.339), [0.291, 0.541, 0.388], (0, 1)),  # sliding j: an interval
+    (0.397, (0.3, -1.0, 0.712), [0.471, 0.274, 0.158], (0, 1)),
+    (0.336, (0.235, -1.0, 0.617), [0.432, 0.109, 0.107], (2, 0)),  # rolling j: an up-set
+    (0.489, (0.061, -1.0, -0.336), [0.308, 0.245, 0.155], (0, 1)),  # two modes, ambiguity
+    (0.359, (-0.385, -1.0, -0.522), [0.081, 0.31, 0.518], (1, 2)),
+])
+def test_sliding_and_rolling_lines_agree_pointwise(h, load, base, vary):
+    """Two LPs per grid line (relaxed_map) give the per-point verdicts of feasible_modes on maps
+    where the force-indeterminate mode S-1 S-2 R3 holds on part of the grid only."""
+    n = 15
+    grid = mu_grid(_pushed_box(base, h, load), vary, base, (0.0, 1.0), n=n)
+    frac = grid.feasible[:, grid.labels.index("S-1 S-2 R3")].mean()
+    assert 0.05 < frac < 0.95
+    for i, a in enumerate(grid.axes[0]):
+        for j, b in enumerate(grid.axes[1]):
+            mu = np.array(base, float)
+            mu[vary[0]], mu[vary[1]] = a, b
+            want = sorted(feasible_modes(_pushed_box(mu, h, load)).labels)
+            got = sorted(lab for lab, f in zip(grid.labels, grid.feasible[i * n + j]) if f)
+            assert got == want, (a, b)

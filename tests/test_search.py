@@ -102,9 +102,9 @@ def test_search_equals_exhaustive_large(n_c, relaxation):
 
 
 def test_linprog_fallback_gives_the_same_modes(monkeypatch):
-    import planner.predict.search as search
+    import planner.predict.prune_lp as prune_lp
 
-    monkeypatch.setattr(search, "_make_lp", search.LinprogLp)
+    monkeypatch.setattr(prune_lp, "make_lp", prune_lp.LinprogLp)
     for seed, relaxation in zip(range(4), RELAXATIONS * 2):
         system = random_system(seed, 7)
         res = search_modes(

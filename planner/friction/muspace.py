@@ -29,14 +29,14 @@ import numpy as np
 
 from planner.errors import InputError
 from planner.friction.closed_form import ClosedFormRegion, closed_form_region
-from planner.model.modes import SLIDE, Mode, enumerate_modes
+from planner.model.modes import Mode, enumerate_modes
 from planner.model.system import System
 from planner.predict.indeterminate import DEFAULT_MAX_ROW_SUBSETS, row_subset_count
-from planner.predict.stages import DEFAULT_SINGULAR_TOL, DEFAULT_TOL, force_stage, kinematic_stage
+from planner.predict.stages import DEFAULT_TOL, force_stage, kinematic_stage
 
 JAM = "jam"
 #: Friction vectors per batched force-stage call: keeps the ``(L, m, k, q)`` working set of
-#: :func:`planner.predict.feasibility.force_stage` small (2-4x faster than one call over 160 000
+#: :func:`planner.predict.stages.force_stage` small (2-4x faster than one call over 160 000
 #: vectors, measured with benchmarks/muspace_bench.py).
 MU_CHUNK = 8192
 FORMAT = "qsplan-muspace"
@@ -247,51 +247,26 @@ def mu_grid(
 def _indeterminate_grid(system: System, grid: MuGrid, mu: np.ndarray, tol: float
                         ) -> tuple[tuple[str, ...], np.ndarray]:
     """Force-indeterminate modes (relaxed utility, Sec. 3.2) on the grid, as in
-    :func:`planner.predict.feasibility.feasible_modes`: one linear program per mode and point.
-
-    A mode without sliding contacts has ``Q_A`` independent of friction and rolling cones that
-    only grow with ``mu`` (``c_n >= 0`` is explicit), so its feasible set is an up-set of the
-    grid: along every grid line of the first varied coefficient a bisection finds the switch
-    (``O(log n)`` programs per line, exact on the grid).  Other modes are tested at every point
-    (with a progress bar when that is many programs).
-    """
-    from planner.predict.indeterminate import force_lp, indeterminate_kinematics
+    :func:`planner.predict.feasibility.feasible_modes`, by two linear programs per mode and grid
+    line of the first varied coefficient (:mod:`planner.friction.relaxed_map`: the feasible
+    coefficients of a line form an interval), not one per point."""
+    from planner.friction.relaxed_map import relaxed_mode_on_lines
+    from planner.predict.indeterminate import indeterminate_kinematics
 
     kins = indeterminate_kinematics(system, tol=tol)
     if not kins:
         return (), np.zeros((mu.shape[0], 0), bool)
     shape = tuple(len(a) for a in grid.axes)
+    pts = mu.reshape(*shape, -1)
+    rests = list(np.ndindex(*shape[1:])) if len(shape) > 1 else [()]
+    others = np.array([pts[(0, *rest)] for rest in rests])
     out = np.zeros((mu.shape[0], len(kins)), bool)
-
-    def ok(kin, m) -> bool:
-        res = force_lp(system, kin.rows, kin.sliding, kin.contact, kin.codes, kin.xi, m,
-                        DEFAULT_SINGULAR_TOL)
-        return res is not None and min(kin.margin, res[2]) >= -tol
-
-    for j, kin in enumerate(kins):
+    for m, kin in enumerate(kins):
+        lines = relaxed_mode_on_lines(system, kin, grid.axes[0], others, grid.vary[0], tol)
         col = np.zeros(shape, bool)
-        pts = mu.reshape(*shape, -1)
-        if not np.any(kin.codes == SLIDE) and np.all(np.diff(grid.axes[0]) >= 0):
-            # up-set along axis 0: bisect every line
-            lines = np.ndindex(*shape[1:]) if len(shape) > 1 else [()]
-            for rest in lines:
-                lo, hi = 0, shape[0]  # first feasible index in [lo, hi]
-                while lo < hi:
-                    mid = (lo + hi) // 2
-                    if ok(kin, pts[(mid, *rest)]):
-                        hi = mid
-                    else:
-                        lo = mid + 1
-                col[(slice(lo, None), *rest)] = True
-        else:
-            flat = pts.reshape(-1, pts.shape[-1])
-            it = range(flat.shape[0])
-            if flat.shape[0] > 2000:
-                from tqdm import tqdm  # type: ignore[import-untyped]
-
-                it = tqdm(it, desc=f"LPs for {kin.mode.label}", leave=False)
-            col = np.array([ok(kin, flat[i]) for i in it]).reshape(shape)
-        out[:, j] = col.reshape(-1)
+        for li, rest in enumerate(rests):
+            col[(slice(None), *rest)] = lines[li]
+        out[:, m] = col.reshape(-1)
     return tuple(k.mode.label for k in kins), out
 
 

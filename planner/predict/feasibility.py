@@ -363,7 +363,7 @@ def finish_prediction(
             kinematics, limit = relaxed_kinematics
         elif relaxed is not None:
             kinematics = tuple(indeterminate_kinematics_of(
-                system, relaxed.codes, tol=tol, singular_tol=singular_tol))
+                system, relaxed.codes, tol=tol, singular_tol=singular_tol)) if relaxed.codes else ()
             limit = relaxed.limit
         else:
             scan = scan_indeterminate(

@@ -53,9 +53,12 @@ __all__ = [
 ]
 
 
-#: Largest number of ``k``-row subsets of ``K`` (``C(2 n_c, 3 + |tau_I|)``) the relaxed-utility
-#: pass examines by default; above it the pass is skipped and the result says so.
-DEFAULT_MAX_ROW_SUBSETS = 4_000_000
+#: Largest number of ``k``-row subsets of ``K`` (``C(2 n_c, 3 + |tau_I|)``) the row-subset scan
+#: examines by default (about 1-2 s; e.g. ``n_c <= 57`` without effort joints, ``n_c <= 10`` for
+#: random systems with ``3 + |tau_I| = n_c``); above it the scan is skipped and the result says
+#: so.  (Deciding whether any ``k + 1`` rows of ``[K | b]`` are dependent is NP-hard in general:
+#: Khachiyan 1995, so no budget-free exact test is fast for large ``k``.)
+DEFAULT_MAX_ROW_SUBSETS = 250_000
 #: Row subsets solved per batch (bounds the pass's memory at any ``n_c``).
 SUBSET_CHUNK = 4096
 #: Generation tolerance, relative to the largest equilibrated right side: a row with

@@ -132,7 +132,7 @@ class KinematicStage:
 
 def _velocity_input(system: System) -> np.ndarray:
     """``J_V thetadot_V`` per constraint row, (2 n_c,): the prescribed contact-point motion."""
-    V = system.velocity_joints
+    V = joint_partition(system)[1]
     return system.J[:, V] @ system.joint_inputs[V]
 
 
@@ -151,7 +151,22 @@ class EquilibratedKinematics:
     velocity_scale: float
 
 
-#: Per-system cache of :func:`equilibrated_kinematics` (a System's arrays are read-only).
+#: Per-system cache of :func:`joint_partition` and :func:`equilibrated_kinematics` (a System's
+#: arrays are read-only).
+_PARTITION: weakref.WeakKeyDictionary[System, tuple[np.ndarray, np.ndarray]] = (
+    weakref.WeakKeyDictionary()
+)
+
+
+def joint_partition(system: System) -> tuple[np.ndarray, np.ndarray]:
+    """``(effort_joints, velocity_joints)`` index arrays of ``system`` (cached)."""
+    hit = _PARTITION.get(system)
+    if hit is None:
+        hit = _PARTITION[system] = (system.effort_joints, system.velocity_joints)
+    return hit
+
+
+
 _EQUILIBRATED: weakref.WeakKeyDictionary[System, EquilibratedKinematics] = (
     weakref.WeakKeyDictionary()
 )
@@ -167,7 +182,7 @@ def equilibrated_kinematics(system: System) -> EquilibratedKinematics:
 
 
 def _equilibrate(system: System) -> EquilibratedKinematics:
-    K = np.concatenate([system.W.T, -system.J[:, system.effort_joints]], axis=1)
+    K = np.concatenate([system.W.T, -system.J[:, joint_partition(system)[0]]], axis=1)
     rhs = _velocity_input(system)
     vel_scale = float(np.max(np.abs(rhs))) if rhs.size else 0.0
     col = np.max(np.abs(K), axis=0)
@@ -192,8 +207,7 @@ def kinematic_stage(
     side is ``J_AV thetadot_V``.
     """
     cand = candidates if candidates is not None else enumerate_modes(system.n_contacts, system.dof)
-    E = system.effort_joints
-    V = system.velocity_joints
+    E, V = joint_partition(system)
     n_c = system.n_contacts
     M = len(cand)
     # Equilibrate: global column scaling, then unit rows (rows of P_AI are rows of K).
@@ -248,8 +262,27 @@ class ForceStage:
 
 def force_rhs(system: System) -> np.ndarray:
     """Right side of eq. (26): ``[-g_obj; tau_I - g_man_I]``, shape (3 + |tau_I|,)."""
-    E = system.effort_joints
+    E = joint_partition(system)[0]
     return np.concatenate([-system.g_obj, system.joint_inputs[E] - system.g_man[E]])
+
+
+#: Per-system cache of :func:`force_setup`.
+_FORCE_SETUP: weakref.WeakKeyDictionary[System, tuple[np.ndarray, np.ndarray, np.ndarray]] = (
+    weakref.WeakKeyDictionary()
+)
+
+
+def force_setup(system: System) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(G, rs, rhs)``: ``G = [W^T  J_E]`` (2 n_c, 3 + |tau_I|) whose rows are the loads of
+    unit contact-force components (eq. 26), the global row scaling ``rs`` of ``Q`` (largest
+    ``|G|`` per column, 0 -> 1) and :func:`force_rhs` (cached per system)."""
+    hit = _FORCE_SETUP.get(system)
+    if hit is None:
+        G = np.concatenate([system.W.T, system.J[:, joint_partition(system)[0]]], axis=1)
+        rs = np.max(np.abs(G), axis=0)
+        rs[rs == 0] = 1.0
+        hit = _FORCE_SETUP[system] = (G, rs, force_rhs(system))
+    return hit
 
 
 def force_matrices(
@@ -273,11 +306,10 @@ def force_matrices(
         Row ``j`` is the wrench and effort-joint load of unit ``c_A[j]``: ``[w; j_E]`` of its
         row, minus ``mu_i xi_i [w_t; j_tE]`` when it is a sliding contact's normal (eq. 17).
     """
-    E = system.effort_joints
-    G = np.concatenate([system.W.T, system.J[:, E]], axis=1)  # (2 n_c, 3+|E|)
+    G = force_setup(system)[0]  # (2 n_c, 3+|E|)
     base = G[rows]  # (m, k, q)
     tang = G[2 * contact + 1]  # tangent row of the same contact
-    xi_rows = np.take_along_axis(xi, contact, axis=1).astype(float)  # (m, k)
+    xi_rows = xi[np.arange(xi.shape[0])[:, None], contact].astype(float)  # (m, k)
     coef = mu[:, contact] * (xi_rows * sliding)[None]  # (L, m, k)
     return base[None] - coef[..., None] * tang[None]
 
@@ -304,13 +336,10 @@ def force_stage(
     codes = candidates.codes[index]
     m = rows.shape[0]
     QT = force_matrices(system, rows, sliding, contact, xi, mu2)  # (L, m, k, k)
-    rhs = force_rhs(system)
     # Equilibrate: global scaling of Q's rows (columns of QT), unit columns of Q per mode.
-    G_all = np.concatenate([system.W.T, system.J[:, system.effort_joints]], axis=1)
-    rs = np.max(np.abs(G_all), axis=0)
-    rs[rs == 0] = 1.0
+    _, rs, rhs = force_setup(system)
     QTn = QT / rs
-    cn = np.linalg.norm(QTn, axis=-1)  # (L, m, k)
+    cn = np.sqrt(np.einsum("...i,...i->...", QTn, QTn))  # (L, m, k) column norms
     cn[cn == 0] = 1.0
     QTn = QTn / cn[..., None]
     # Q_AI = QTn^T per mode: one LU per matrix gives |det| (30-32) and y (eq. 26).
@@ -323,7 +352,7 @@ def force_stage(
     c_A = y / cn
     # Scatter to full contact forces; sliding tangential force c_t = -mu xi c_n (eq. 17).
     c_full = np.zeros((L, m, 2 * n_c))
-    np.put_along_axis(c_full, np.broadcast_to(rows, (L, m, k)), c_A, axis=2)
+    c_full[:, np.arange(m)[:, None], rows] = c_A
     cn_all = c_full[..., 0::2]
     is_s = codes == SLIDE
     c_full[..., 1::2] += np.where(is_s[None], -mu2[:, None, :] * xi[None] * cn_all, 0.0)

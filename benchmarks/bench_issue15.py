@@ -1,0 +1,199 @@
+"""Issue 15 benchmark: correct at any size, fast inside a planning loop.
+
+Measures in one run, with the machine's load average before and after (other jobs inflate
+absolute times; the ratios are measured in the same run):
+
+* ``latency``: one ``feasible_modes`` call (relaxed utility included) on seeded random systems
+  (``planner.sweeps.random_systems``, ``3 + |tau_I| = n_c``) at ``n_c = 4`` and ``8``, each call
+  on a fresh System object (no per-system cache reused), against a batched
+  ``numpy.linalg.solve`` of as many ``n_c x n_c`` systems as the call has candidates (target:
+  within 20x);
+* ``batch``: ``feasible_modes_batch`` against a loop of single calls over 1,000 waypoints of
+  the two-finger segment (target: >= 10x), and that both give the same predictions;
+* ``map``: ``mu_grid`` 200 x 200 of a box on a table with force-indeterminate modes
+  (target: <= 3 s);
+* ``boxes``: boxes on 8 and 12 supports pushed low by one finger (expected: the sliding mode,
+  never jammed);
+* ``search`` (with ``--search``): ``search_modes`` at ``n_c = 20`` on ten seeded systems,
+  serial (issue 15's worst-case target <= 10 s; not improved this session).
+
+    PYTHONPATH=. python benchmarks/bench_issue15.py [--search] [--out FILE]
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import os
+import platform
+import sys
+import time
+from pathlib import Path
+from statistics import median
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from planner.files.atomic import atomic_write_json  # noqa: E402
+from planner.friction.muspace import mu_grid  # noqa: E402
+from planner.model.modes import candidate_count  # noqa: E402
+from planner.model.system import System  # noqa: E402
+from planner.predict.batch import feasible_modes_batch  # noqa: E402
+from planner.predict.feasibility import feasible_modes  # noqa: E402
+from planner.sweeps.random_systems import random_system  # noqa: E402
+
+
+def latency(seeds: int, repeat: int) -> list[dict]:
+    rows = []
+    for n_c in (4, 8):
+        for seed in range(seeds):
+            system = random_system(seed, n_c)
+            feasible_modes(system)  # warm-up (imports, enumerate_modes cache)
+            fresh = [copy.copy(system) for _ in range(repeat)]
+            times = []
+            for s in fresh:
+                t0 = time.perf_counter()
+                pred = feasible_modes(s)
+                times.append(time.perf_counter() - t0)
+            m = candidate_count(n_c, system.dof)
+            rng = np.random.default_rng(seed)
+            A, b = rng.normal(size=(m, n_c, n_c)), rng.normal(size=(m, n_c, 1))
+            solve = []
+            for _ in range(repeat):
+                t0 = time.perf_counter()
+                np.linalg.solve(A, b)
+                solve.append(time.perf_counter() - t0)
+            t, ts = median(times), median(solve)
+            rows.append({"n_c": n_c, "seed": seed, "candidates": m, "predict_s": t,
+                         "batched_solve_s": ts, "ratio": t / ts, "complete": pred.complete,
+                         "modes": pred.labels})
+            print(f"latency n_c={n_c} seed={seed}: {1e3 * t:.3f} ms vs solve {1e3 * ts:.4f} ms "
+                  f"({t / ts:.1f}x)")
+    return rows
+
+
+def two_finger_systems(n: int) -> list[System]:
+    from planner.model.hand import load_hand
+    from planner.plan.trajectory import integrate_segment
+    from scenarios.registry import shipped_file
+
+    hand, q0, data = load_hand(shipped_file("two_finger_hand"))
+    spec = data["segment"]
+    seg = integrate_segment(hand, q0, drive=spec["drive"], speed=spec["speed"],
+                            mode=spec["mode"], max_time=spec["max_time"]).resample(hand, n)
+    return [hand.system(seg.q[i], 0.1, [{"effort": 0.0},
+                                        {"velocity": float(seg.thetadot[i, 1])}])
+            for i in range(n)]
+
+
+def batch(n: int, repeat: int) -> dict:
+    systems = two_finger_systems(n)
+    loop_t, batch_t = [], []
+    for _ in range(repeat):
+        fresh = [copy.copy(s) for s in systems]
+        t0 = time.perf_counter()
+        single = [feasible_modes(s) for s in fresh]
+        loop_t.append(time.perf_counter() - t0)
+        fresh = [copy.copy(s) for s in systems]
+        t0 = time.perf_counter()
+        many = feasible_modes_batch(fresh)
+        batch_t.append(time.perf_counter() - t0)
+    same = all(a.labels == b.labels and a.status == b.status for a, b in zip(single, many))
+    lt, bt = median(loop_t), median(batch_t)
+    print(f"batch {n} waypoints: loop {lt:.3f} s, batch {bt:.3f} s ({lt / bt:.1f}x), same {same}")
+    return {"waypoints": n, "loop_s": lt, "batch_s": bt, "ratio": lt / bt, "same": same}
+
+
+def box(mu, h: float, load, push=(0.01, 0.0)) -> System:
+    return System.from_contacts(
+        points=[[-0.5, 0.0], [0.5, 0.0], [-0.5, h]], normals=[[0, 1], [0, 1], [1, 0]], mu=mu,
+        external_wrench=load, contact_velocities=[[0, 0], [0, 0], list(push)])
+
+
+def maps(n: int) -> list[dict]:
+    cases = [
+        ("box pushed low, S-1 S-2 R3 everywhere", 0.1, (0.0, -1.0, 0.0), (0.01, 0.0),
+         [0.3, 0.3, 0.2], (0, 1)),
+        ("box pushed, S-1 S-2 R3 on part of the map", 0.515, (0.261, -1.0, -0.339),
+         (0.01, 0.0), [0.291, 0.541, 0.388], (0, 1)),
+        ("box at rest under a side load, R1 R2 B3 (rolling: up-set)", 0.5, (0.3, -1.0, 0.0),
+         (-0.01, 0.0), [0.3, 0.3, 0.2], (0, 1)),
+    ]
+    out = []
+    for name, h, load, push, base, vary in cases:
+        system = box(base, h, load, push)
+        t0 = time.perf_counter()
+        grid = mu_grid(system, vary, base, (0.0, 1.0), n=n)
+        dt = time.perf_counter() - t0
+        frac = {lab: float(grid.feasible[:, i].mean()) for i, lab in enumerate(grid.labels)}
+        print(f"map {n}x{n} {name}: {dt:.3f} s, {frac}")
+        out.append({"case": name, "grid": [n, n], "seconds": dt, "fractions": frac})
+    return out
+
+
+def boxes() -> list[dict]:
+    out = []
+    for n_s in (8, 12):
+        xs = np.linspace(-1.0, 1.0, n_s)
+        system = System.from_contacts(
+            points=[[x, 0.0] for x in xs] + [[-1.0, 0.1]],
+            normals=[[0.0, 1.0]] * n_s + [[1.0, 0.0]], mu=0.5,
+            external_wrench=[0.0, -1.0, 0.0],
+            contact_velocities=[[0.0, 0.0]] * n_s + [[0.01, 0.0]])
+        t0 = time.perf_counter()
+        pred = feasible_modes(system)
+        dt = time.perf_counter() - t0
+        print(f"box on {n_s} supports pushed low: {pred.status.value} {pred.labels} "
+              f"({1e3 * dt:.1f} ms, complete {pred.complete})")
+        out.append({"supports": n_s, "status": pred.status.value, "modes": pred.labels,
+                    "seconds": dt, "complete": pred.complete})
+    return out
+
+
+def search(n_c: int, seeds: int) -> list[dict]:
+    from planner.predict.search import search_modes
+
+    out = []
+    for seed in range(seeds):
+        system = random_system(seed, n_c)
+        t0 = time.perf_counter()
+        res = search_modes(system, indeterminate=False)
+        dt = time.perf_counter() - t0
+        print(f"search n_c={n_c} seed={seed}: {dt:.2f} s, {res.prediction.labels}")
+        out.append({"n_c": n_c, "seed": seed, "seconds": dt, "modes": res.prediction.labels,
+                    **res.stats.to_dict()})
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--seeds", type=int, default=5, help="random systems per n_c (latency)")
+    ap.add_argument("--repeat", type=int, default=30, help="timing repeats (median)")
+    ap.add_argument("--waypoints", type=int, default=1000)
+    ap.add_argument("--map-n", type=int, default=200)
+    ap.add_argument("--search", action="store_true", help="also n_c = 20 search (slow)")
+    ap.add_argument("--out", default="benchmarks/results/bench_issue15.json")
+    args = ap.parse_args(argv)
+    load_start = os.getloadavg()
+    out: dict = {
+        "benchmark": "bench_issue15",
+        "command": "PYTHONPATH=. python benchmarks/bench_issue15.py " + " ".join(sys.argv[1:]),
+        "machine": {"python": platform.python_version(), "processor": platform.processor(),
+                    "cpus": os.cpu_count(), "numpy": np.__version__},
+        "latency": latency(args.seeds, args.repeat),
+        "batch": batch(args.waypoints, 3),
+        "map": maps(args.map_n),
+        "boxes": boxes(),
+    }
+    if args.search:
+        out["search"] = search(20, 10)
+    out["load_average_1_5_15"] = {"start": list(load_start), "end": list(os.getloadavg())}
+    print(f"load average at start {load_start}, at end {os.getloadavg()}")
+    atomic_write_json(args.out, out)
+    print(f"wrote {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
