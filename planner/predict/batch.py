@@ -26,7 +26,15 @@ from typing import Any
 import numpy as np
 
 from planner.errors import DegenerateError, InputError
-from planner.model.modes import BREAK, ROLL, SLIDE, Mode, candidate_count, enumerate_modes
+from planner.model.modes import (
+    BREAK,
+    ROLL,
+    SLIDE,
+    CandidateSet,
+    Mode,
+    candidate_count,
+    enumerate_modes,
+)
 from planner.model.system import System
 from planner.model.validation import as_friction
 from planner.predict.feasibility import STREAM_ELEMENTS, Prediction, finish_prediction
@@ -119,7 +127,11 @@ def _friction_rows(systems: list[System], mu: Any) -> np.ndarray:
     return np.broadcast_to(as_friction(mu, n_c), (N, n_c))
 
 
-def _block(systems, mus, cand, E, V, tol, singular_tol, indeterminate, max_subsets):
+def _block(
+    systems: list[System], mus: np.ndarray, cand: CandidateSet, E: np.ndarray, V: np.ndarray,
+    tol: float, singular_tol: float, indeterminate: bool | None, max_subsets: int,
+) -> list[Prediction]:
+    """Predictions of one block of configurations (stacked stages, module docstring)."""
     B = len(systems)
     n_c, k, M = cand.n_contacts, cand.n_rows, len(cand)
     W = np.stack([s.W for s in systems])  # (B, 3, 2 n_c)
@@ -206,7 +218,7 @@ def _block(systems, mus, cand, E, V, tol, singular_tol, indeterminate, max_subse
     if indeterminate is not False:
         structure_ok = _closed_bases_stacked(Kn, n_c, k)
         cfg, gen_codes, relaxed_limit = _generate(
-            v / row[:, None, :], nonsingular, structure_ok, rhs, row, vel_scale, bn, k, tol)
+            v / row[:, None, :], nonsingular, structure_ok, row, vel_scale, bn, k, tol)
         relaxed_kin = stacked_relaxed_kinematics(
             Kn, bn, col, vel_scale, W, J, inputs, E, V, cfg, gen_codes, B,
             tol=tol, singular_tol=singular_tol)
@@ -242,7 +254,10 @@ def _block(systems, mus, cand, E, V, tol, singular_tol, indeterminate, max_subse
     return out
 
 
-def _generate(v, nonsingular, structure_ok, rhs, row, vel_scale, bn, k, tol):
+def _generate(
+    v: np.ndarray, nonsingular: np.ndarray, structure_ok: np.ndarray, row: np.ndarray,
+    vel_scale: np.ndarray, bn: np.ndarray, k: int, tol: float,
+) -> tuple[np.ndarray, np.ndarray, list[str]]:
     """:func:`planner.predict.indeterminate.codes_from_velocities`, stacked: the relaxed-utility
     candidates ``(config (G,), codes (G, n_c))`` read off the equilibrated velocities
     ``v (B, M, 2 n_c)`` of the nonsingular determinate candidates of the configurations whose
