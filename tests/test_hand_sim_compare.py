@@ -149,7 +149,7 @@ def test_validate_bad_input(plan_files, tmp_path, capsys):
     assert main(["validate", str(plan_files["good"]), "--engine", "bullet"]) == 2
     assert "expected one of pymunk, mujoco, got 'bullet'" in capsys.readouterr().err
     assert main(["validate", str(plan_files["good"]), "--mu", "abc"]) == 2
-    assert "--mu: expected comma-separated numbers, got 'abc'" in capsys.readouterr().err
+    assert "--mu: expected numbers separated by commas, got 'abc'" in capsys.readouterr().err
     assert main(["validate", str(plan_files["good"]), "--mu", "-0.1"]) == 2
     # tampered: one torque changed by hand -> digest mismatch
     data = json.loads(plan_files["good"].read_text())
