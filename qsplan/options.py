@@ -123,7 +123,9 @@ def fmt(x: float, spec: str = "g") -> str:
     if math.isinf(value):
         return "inf" if value > 0 else "-inf"
     text = format(value, spec)
-    return text[1:] if text.startswith("-") and float(text) == 0.0 else text
+    if text.lstrip().startswith("-") and float(text) == 0.0:  # rounds to zero: no sign
+        text = text.replace("-", "+" if "+" in spec else "", 1)
+    return text
 
 
 def fmt_list(values: Sequence[float], spec: str = ".4g") -> str:

@@ -191,7 +191,14 @@ def test_help_texts_show_defaults_and_no_markup(capsys):
 
 
 def test_numbers_are_printed_plainly(capsys):
+    import numpy as np
+
     from qsplan.cli import main
+    from qsplan.options import fmt, fmt_list
+
+    assert fmt(-0.0) == "0" and fmt(np.float64(-1e-9), ".3f") == "0.000"
+    assert fmt(-1e-9, "+.5f") == "+0.00000" and fmt(-2.5, ".2f") == "-2.50"
+    assert fmt_list(np.array([-0.0, 1.5, -1e-20])) == "[0, 1.5, -1e-20]"
 
     assert main(["modes", str(DATA / "example_4_3.json"), "--mu", "0.5"]) == 0
     out = capsys.readouterr().out
