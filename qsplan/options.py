@@ -34,18 +34,17 @@ def parse_number(text: str, what: str, *, lo: float = -math.inf, hi: float = mat
     return value
 
 
-def parse_numbers(text: str, what: str, *, lo: float = -math.inf, hi: float = math.inf,
-                  phrase: str = "comma-separated numbers") -> list[float]:
-    """Comma-separated finite numbers in ``[lo, hi]`` (at least one); ``phrase`` is what the
-    message says was expected."""
+def parse_numbers(text: str, what: str, *, lo: float = -math.inf,
+                  hi: float = math.inf) -> list[float]:
+    """Comma-separated finite numbers in ``[lo, hi]`` (at least one)."""
     parts = [p for p in str(text).split(",")]
     if not str(text).strip() or any(not p.strip() for p in parts):
-        raise InputError(f"{what}: expected {phrase}, got {text!r}")
+        raise InputError(f"{what}: expected comma-separated numbers, got {text!r}")
     for p in parts:
         try:
             float(p)
         except ValueError:
-            raise InputError(f"{what}: expected {phrase}, got {p.strip()!r}"
+            raise InputError(f"{what}: expected comma-separated numbers, got {p.strip()!r}"
                              + (f" in {text!r}" if len(parts) > 1 else "")) from None
     return [parse_number(p, what, lo=lo, hi=hi) for p in parts]
 
@@ -81,19 +80,10 @@ def parse_range(text: str, what: str, *, lo: float = 0.0, hi: float = MU_MAX,
     if len(parts) != 2:
         hint = " (a comma is not a range separator)" if "," in raw else ""
         raise InputError(f"{what}: expected LO:HI, e.g. 0:1, got {raw!r}{hint}")
-    values = []
-    for tok in parts:
-        try:
-            values.append(float(tok.strip()))
-        except ValueError:
-            raise InputError(f"{what}: expected LO:HI of numbers, e.g. 0:1, got {raw!r}") from None
-    a, b = values
-    if not (math.isfinite(a) and math.isfinite(b)):
-        raise InputError(f"{what}: expected LO:HI of finite numbers, got {raw!r}")
-    if not (lo <= a <= hi and lo <= b <= hi):
-        raise InputError(f"{what}: expected LO:HI within [{fmt(lo)}, {fmt(hi)}], got {raw!r}")
+    a = parse_number(parts[0], what, lo=lo, hi=hi)
+    b = parse_number(parts[1], what, lo=lo, hi=hi)
     if a > b:
-        raise InputError(f"{what}: expected LO:HI with lo <= hi, got {raw!r}")
+        raise InputError(f"{what}: expected LO <= HI, got {raw!r}")
     return a, b
 
 
@@ -133,7 +123,9 @@ def fmt(x: float, spec: str = "g") -> str:
     if math.isinf(value):
         return "inf" if value > 0 else "-inf"
     text = format(value, spec)
-    return text[1:] if text.startswith("-") and float(text) == 0.0 else text
+    if text.lstrip().startswith("-") and float(text) == 0.0:  # rounds to zero: no sign
+        text = text.replace("-", "+" if "+" in spec else "", 1)
+    return text
 
 
 def fmt_list(values: Sequence[float], spec: str = ".4g") -> str:

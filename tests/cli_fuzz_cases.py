@@ -310,9 +310,10 @@ def run_case(case: Case, fx: Fixtures) -> Outcome:
 
 
 def says_expected_and_got(message: str) -> bool:
-    """The message names what was expected and what came ("got", or a digest that "hashes
-    to" another value)."""
-    return "expected" in message and ("got" in message or "hashes to" in message)
+    """The message names what was expected and what came ("got", a digest that "hashes to"
+    another value, or the "unknown key" it found)."""
+    return "expected" in message and any(w in message for w in ("got", "hashes to",
+                                                                  "unknown key"))
 
 
 def partial_output(case: Case, code: int, before: dict[str, object], after: dict[str, object],
@@ -357,19 +358,12 @@ def summarize(outcomes: list[Outcome]) -> dict[str, dict[str, int]]:
     return table
 
 
-# Messages of the system-file reader that do not yet say what came; that reader is being
-# rebuilt (one JSON reader for every format). Counted by the benchmark, tolerated here.
-FILE_LAYER_GAPS = ("JSON nested too deeply", "expected UTF-8 text (",
-                   "expected a UTF-8 JSON hand file (")
-
-
-def problems(outcomes: list[Outcome],
-             tolerate: tuple[str, ...] = FILE_LAYER_GAPS) -> list[str]:
+def problems(outcomes: list[Outcome]) -> list[str]:
     """Every broken promise: a traceback, bad input not exit 2, a partial output set, an
-    exit-2 message without expected and got (except ``tolerate``d ones), an unknown code."""
+    exit-2 message without expected and got, an unknown exit code."""
     return [f"{o.case.argv}: exit {o.code}; {o.partial or ''} {o.stderr.strip()[-300:]}"
             for o in outcomes if o.traceback or o.bad_not_2 or o.partial
-            or (o.lacking_message and not any(t in o.stderr for t in tolerate))
+            or o.lacking_message
             or o.code not in (0, 1, 2, 3)]
 
 

@@ -60,7 +60,7 @@ BAD_INPUT = [
     ("plan", ["plan", "no_such_hand", "--out", "{tmp}/p.json"], "hand: expected a hand file path or one of ['two_finger_hand']"),
     ("validate", ["validate", EX41, "--engine", "bullet"], "--engine: expected one of"),
     ("sweep", ["sweep", "mu", EX41, "--mu-range", "1,0", "--out", "{tmp}/s.json"],
-     "--mu-range: expected LO:HI with lo <= hi"),
+     "--mu-range: expected LO <= HI"),
     ("scenarios", ["scenarios", "run", "nosuch", "--engine", "pymunk", "--out", "{tmp}/r"],
      "unknown scenario 'nosuch'"),
     ("report", ["report", "{tmp}/missing"], "expected an existing directory"),

@@ -195,7 +195,14 @@ def test_help_texts_show_defaults_and_no_markup(capsys):
 
 
 def test_numbers_are_printed_plainly(capsys):
+    import numpy as np
+
     from qsplan.cli import main
+    from qsplan.options import fmt, fmt_list
+
+    assert fmt(-0.0) == "0" and fmt(np.float64(-1e-9), ".3f") == "0.000"
+    assert fmt(-1e-9, "+.5f") == "+0.00000" and fmt(-2.5, ".2f") == "-2.50"
+    assert fmt_list(np.array([-0.0, 1.5, -1e-20])) == "[0, 1.5, -1e-20]"
 
     assert main(["modes", str(DATA / "example_4_3.json"), "--mu", "0.5"]) == 0
     out = capsys.readouterr().out
@@ -207,11 +214,11 @@ def test_numbers_are_printed_plainly(capsys):
     (["muspace", "{sys}", "--vary", "nan,1", "--out", "{tmp}/m"],
      "--vary: expected comma-separated 1-based integers, got 'nan,1'"),
     (["muspace", "{sys}", "--vary", "1,2", "--range", "1e308:1e308", "--out", "{tmp}/m"],
-     "--range: expected LO:HI within [0, 1e+06], got '1e308:1e308'"),
+     "--range: expected a number in [0, 1e+06], got '1e308'"),
     (["muspace", "{sys}", "--vary", "1,2", "--range", "0,1", "--out", "{tmp}/m"],
      "--range: expected LO:HI, e.g. 0:1, got '0,1' (a comma is not a range separator)"),
     (["plan", "two_finger_hand", "--mu", "0:1e308", "--out", "{tmp}/p.json"],
-     "--mu: expected LO:HI within [0, 1e+06], got '0:1e308'"),
+     "--mu: expected a number in [0, 1e+06], got '1e308'"),
     (["sweep", "mu", "{sys}", "--grid", "1000", "--out", "{tmp}/s.json"],
      "got a grid of 1000^3 = 1000000000 friction points, which would need"),
     (["validate", "{sys}", "--out", "/dev/null"],

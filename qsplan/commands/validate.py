@@ -48,7 +48,7 @@ MAX_RUNS = 100
 
 def parse_mu_list(text: str) -> list[float]:
     """``"0.1"`` or ``"0,0.1,0.2"`` -> coefficients (finite, >= 0)."""
-    out = parse_numbers(text, "--mu", lo=0.0, hi=MU_MAX, phrase="numbers separated by commas")
+    out = parse_numbers(text, "--mu", lo=0.0, hi=MU_MAX)
     if len(out) > MAX_RUNS:
         raise InputError(f"--mu: expected at most {MAX_RUNS} values, got {len(out)}")
     return out
