@@ -121,7 +121,7 @@ def test_paper_files_load_and_round_trip(tmp_path, example_41, example_43):
     ('{"contacts": [{"point": [0, 0]}], "manipulator": {"contact_velocities": [[0, 1]]}}',
      "contact 1: expected key 'normal', got keys \\['point'\\]"),
     ('{"wrench_matrix": [[1, 0], [0, 1], [0, 0]], "manipulator": {"contact_velocities": [[0, 1]]}}',
-     "'wrench_matrix' needs 'mu'"),
+     "'wrench_matrix': expected a top-level 'mu' \\(one per contact\\) beside it, got no 'mu'"),
     ('{"contacts": [{"point": [0, 0], "normal": [0, 1], "mu": 0.1}], "manipulator": []}',
      "expected a 'manipulator' object, got an array"),
     ('{"contacts": [{"point": [0, 0], "normal": [0, 1], "mu": 0.1}], "manipulator": {}}',
