@@ -8,6 +8,8 @@ import json
 import sys
 from typing import Any
 
+import numpy as np
+
 from planner.errors import InputError
 from qsplan.options import (
     MU_MAX,
@@ -118,9 +120,19 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _rounding_noise_to_zero(values: Any, tol: float) -> np.ndarray:
+    """``values`` with entries below ``tol`` times the largest one set to zero: a velocity of
+    -1.1e-16 next to 2.0 is rounding, and the tolerance policy (docs/conventions.md) judges it
+    as zero, so the table prints it as 0."""
+    arr = np.asarray(values, dtype=float)
+    scale = float(np.max(np.abs(arr))) if arr.size else 0.0
+    return np.where(np.abs(arr) <= tol * scale, 0.0, arr)
+
+
 def format_prediction(pred: Any) -> str:
     """A readable table of a :class:`planner.predict.feasibility.Prediction` (numbers without
-    ``-0`` or numpy type names)."""
+    ``-0`` or numpy type names; entries at rounding level, ``|x| <= tol * max|x|`` per column,
+    printed as 0 -- ``--json`` keeps the raw values)."""
     lines = [
         f"status: {pred.status.value}   candidates (eq. 49): {pred.candidates}   "
         f"mu: {fmt_list(pred.mu)}",
@@ -140,13 +152,18 @@ def format_prediction(pred: Any) -> str:
         lines.append("")
         lines.append(f"mode {m.label}  ({m.mode.family})  margin {fmt(m.margin, '.3g')}"
                      + (f"  [{', '.join(flags)}]" if flags else ""))
-        lines.append(f"  qdot (vx, vy, omega): {fmt_list(m.qdot)}")
-        lines.append(f"  joint velocities:     {fmt_list(m.joint_velocities)}")
+        qdot = _rounding_noise_to_zero(m.qdot, pred.tol)
+        lines.append(f"  qdot (vx, vy, omega): {fmt_list(qdot)}")
+        joint_v = _rounding_noise_to_zero(m.joint_velocities, pred.tol)
+        lines.append(f"  joint velocities:     {fmt_list(joint_v)}")
         lines.append("  contact   v_n         v_t         c_n         c_t")
-        for i, (v, c) in enumerate(zip(m.contact_velocities, m.contact_forces)):
+        vel = _rounding_noise_to_zero(m.contact_velocities, pred.tol)
+        force = _rounding_noise_to_zero(m.contact_forces, pred.tol)
+        for i, (v, c) in enumerate(zip(vel, force)):
             cells = "".join(f"{fmt(x, '<11.4g')} " for x in (v[0], v[1], c[0], c[1]))
             lines.append(f"  {i + 1:>7}   {cells.rstrip()}")
-        lines.append(f"  joint efforts:        {fmt_list(m.joint_efforts)}")
+        efforts = _rounding_noise_to_zero(m.joint_efforts, pred.tol)
+        lines.append(f"  joint efforts:        {fmt_list(efforts)}")
     if pred.boundary_modes:
         lines.append("")
         lines.append("within tolerance of a strict kinematic boundary (not counted): "
