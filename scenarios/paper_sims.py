@@ -59,10 +59,12 @@ def run_example(out_dir: Path, *, name: str, expect: Expect, data: str, scale: f
     load = float(np.linalg.norm(base.g_obj[:2]))
     jam_force = 20.0 * load
     settings = RunSettings(duration=duration, dt=es["dt"], slip_speed=0.05 * speed,
-                           penetration_tol=0.02 * scene.length_scale, jam_force=jam_force)
+                           penetration_tol=0.02 * scene.length_scale, jam_force=jam_force,
+                           jam_after=es["settle"] + 0.1)
     rec = run_scene(scene, make_backend(engine), settings)
-    th = Thresholds.for_drive(speed, load, creep_floor=es["creep"], settle=es["settle"])
-    verdict, observed = judge_run(rec, th, predicted, jam_force=jam_force)
+    th = Thresholds.for_drive(speed, load, creep_floor=es["creep"], settle=es["settle"],
+                              jam_force=jam_force, length_scale=scene.length_scale)
+    verdict, observed = judge_run(rec, th, pred.all_modes)
     out_dir.mkdir(parents=True, exist_ok=True)
     files = {}
     if render and len(rec.times):
@@ -84,7 +86,7 @@ def run_example(out_dir: Path, *, name: str, expect: Expect, data: str, scale: f
             "mass_kg": scene.meta["mass"], "finger_radius_m": scene.meta["finger_radius"],
             "initial_contact_points_m": np.asarray(scaled.points).tolist(),
             "slip_speed_m_per_s": th.slip_speed, "force_floor_N": th.force_floor,
-            "debounce_s": th.debounce, "settle_s": th.settle, "jam_force_N": jam_force,
+            "window_s": th.window, "settle_s": th.settle, "jam_force_N": jam_force,
         },
         "predicted": {"labels": [str(m) for m in predicted], "status": pred.status.value,
                       "unscaled_labels": pred_unscaled.labels,
@@ -107,7 +109,7 @@ def run_ruler(out_dir: Path, *, name: str, expect: Expect, mu_s: float, mu_k: fl
               tolerance: float = 0.02, render: bool = True, **_: Any) -> dict[str, Any]:
     """Ruler on two approaching fingers (Sec. 5.1); compares switch positions."""
     from sim.backends import make_backend
-    from sim.classify import Thresholds, debounce, mode_of, raw_tokens
+    from sim.classify import Thresholds, mode_of, window_tokens
     from sim.compare import compare_switches
     from sim.run import RunSettings, run_scene
     from sim.scenes.ruler import THICKNESS_RATIO, observed_switches, predicted_switches, ruler_scene
@@ -129,7 +131,7 @@ def run_ruler(out_dir: Path, *, name: str, expect: Expect, mu_s: float, mu_k: fl
                            penetration_tol=0.01 * length, record_every=5)
     rec = run_scene(scene, make_backend(engine), settings)
     th = Thresholds.for_drive(speed, weight, creep_floor=es["creep"])
-    tokens = debounce(raw_tokens(rec, th), rec.times, th.debounce)
+    tokens = window_tokens(rec, th)
     obs_pos, obs_sl = observed_switches(rec, tokens, rec.body_names)
     need = min(required, len(pred_pos))
     verdict: Verdict

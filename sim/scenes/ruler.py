@@ -19,7 +19,16 @@ import numpy as np
 from planner.model.system import System
 from planner.predict.feasibility import feasible_modes
 from sim.run import Recording
-from sim.scene import Body, BodyKind, Circle, ContactPair, Load, Polygon, Scene
+from sim.scene import (
+    Body,
+    BodyKind,
+    Circle,
+    ContactPair,
+    Load,
+    Polygon,
+    Scene,
+    preload_depth,
+)
 
 THICKNESS_RATIO = 0.05
 
@@ -93,7 +102,7 @@ def ruler_scene(*, length: float, weight: float, mass: float, x_left: float, x_r
                    (-length / 2, h / 2)))
     work = Body("workpiece", (rod,), mass=mass, com=(0.0, 0.0),
                 inertia=mass * (length ** 2 + h ** 2) / 12.0)
-    y = -h / 2 - finger_radius + 1e-6 * length
+    y = -h / 2 - finger_radius + preload_depth(length)
     left = Body("finger1", (Circle((0.0, 0.0), finger_radius),), pose=(x_left, y, 0.0),
                 kind=BodyKind.DRIVEN, twist=lambda t, s: (speed, 0.0, 0.0))
     right = Body("finger2", (Circle((0.0, 0.0), finger_radius),), pose=(x_right, y, 0.0),
@@ -108,21 +117,37 @@ def ruler_scene(*, length: float, weight: float, mass: float, x_left: float, x_r
 
 def observed_switches(rec: Recording, tokens: np.ndarray, body_names: tuple[str, ...]
                       ) -> tuple[list[float], list[int]]:
-    """Switch positions from a recording: when the (debounced) sliding finger changes from
-    ``i`` to ``j``, the distance of finger ``i`` to the rod's COM at that step [m]."""
+    """Switch positions from a recording and its (window-averaged) tokens: when the sliding
+    finger changes from ``i`` to ``j``, the distance of finger ``i`` to the rod's COM [m].
+
+    The hand-over is dated at the middle of the stretch where neither or both fingers read
+    sliding (the window mean of the stopping finger's slip falls below the threshold as late as
+    the starting finger's rises above it early, so the middle is unbiased). A run that ends
+    without another single slider records the switch where the last slider stopped."""
     iw = body_names.index("workpiece")
     ifs = [body_names.index("finger1"), body_names.index("finger2")]
-    slider = np.full(len(rec.times), -1)
-    for k in range(len(rec.times)):
+    T = len(rec.times)
+    slider = np.full(T, -1)
+    for k in range(T):
         s = [j for j in (0, 1) if tokens[k, j] in ("S+", "S-")]
         if len(s) == 1:
             slider[k] = s[0]
-    positions, sliders = [], []
-    prev = -1
-    for k in range(len(rec.times)):
-        if prev >= 0 and slider[k] != prev:
-            xc = rec.poses[k, iw, 0]
-            positions.append(float(abs(rec.poses[k, ifs[prev], 0] - xc)))
-            sliders.append(int(prev))
-        prev = int(slider[k])
+    positions: list[float] = []
+    sliders: list[int] = []
+
+    def record(finger: int, k: int) -> None:
+        xc = rec.poses[k, iw, 0]
+        positions.append(float(abs(rec.poses[k, ifs[finger], 0] - xc)))
+        sliders.append(finger)
+
+    prev, end = -1, -1  # current single slider, the last step it was alone
+    for k in range(T):
+        cur = int(slider[k])
+        if cur < 0:
+            continue
+        if prev >= 0 and cur != prev:
+            record(prev, (end + k + 1) // 2)
+        prev, end = cur, k
+    if prev >= 0 and end < T - 1:
+        record(prev, end + 1)
     return positions, sliders
