@@ -45,9 +45,9 @@ from sim.compare import (
     TWIST_TOLERANCE,
     ObservedMode,
     Verdict,
-    compare_motion,
     fault_verdict,
 )
+from sim.compare_motion import compare_motion
 from sim.run import Recording
 
 #: Per-contact token -> (mode code, sliding direction xi) of :class:`planner.model.modes.Mode`.

@@ -3,6 +3,8 @@ comparison (synthetic signals; recorded ones in test_sim_flicker.py)."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -18,8 +20,9 @@ from sim.classify import (
     window_mean,
     window_tokens,
 )
-from sim.compare import JAM, Expect, Outcome, Verdict, compare_modes, compare_switches
+from sim.compare import JAM, Expect, Outcome, Verdict, compare_modes
 from sim.run import Fault, FaultKind, Recording
+from sim.scenes.ruler import compare_switches
 
 
 def _rec(vt, fn, present=None, depth=None, dt=0.01, fault=None, jammed_at=None, poses=None):
@@ -174,3 +177,26 @@ def test_verdict_held_and_bounds():
         Verdict(Outcome.AGREED, (), agreement=1.5)
     with pytest.raises(InputError, match="expect: expected one of agree, disagree, info"):
         Expect.parse("maybe")
+
+
+def test_sliding_finger_sees_through_creep_and_dates_the_hand_over():
+    """Ruler: finger 1 slides at the drive speed while finger 2 'sticks' but creeps at 20 % of
+    it (MuJoCo's soft friction measured 13-27 %); then they swap at t = 1 s. The sliding finger
+    is the one that carries the motion, and the hand-over is dated where it happened."""
+    from sim.scenes.ruler import creep, observed_switches, sliding_finger
+
+    T, dt, v = 200, 0.01, 1e-3
+    t = dt * (1 + np.arange(T))
+    swap = t > 1.0
+    vt = np.stack([np.where(swap, 0.2 * v, v), np.where(swap, -v, -0.2 * v)], axis=1)
+    poses = np.zeros((T, 3, 3))
+    poses[:, 1, 0] = -0.04 + np.cumsum(np.where(swap, 0.2 * v, v)) * dt  # finger 1
+    poses[:, 2, 0] = 0.025 - np.cumsum(np.where(swap, v, 0.2 * v)) * dt  # finger 2
+    rec = dataclasses.replace(_rec(vt, np.ones((T, 2)), dt=dt), body_names=(
+        "workpiece", "finger1", "finger2"), poses=poses)
+    slider = sliding_finger(rec, 0.05 * v, 0.1)
+    assert (slider[10:90] == 0).all() and (slider[110:190] == 1).all()
+    pos, sl, when = observed_switches(rec, slider, rec.body_names, 0.1)
+    assert sl[0] == 0 and pos[0] == pytest.approx(abs(poses[99, 1, 0]), abs=2 * v * dt)
+    assert when[0] == pytest.approx(1.0, abs=2 * dt)
+    assert creep(rec, slider, 0.1) == pytest.approx(0.2 * v, rel=1e-6)
