@@ -14,8 +14,7 @@ import math
 from pathlib import Path
 
 from planner.errors import InputError
-
-ENGINES = ("pymunk", "mujoco")
+from sim.backends import ENGINES
 
 
 def register(sub: argparse._SubParsersAction) -> None:
