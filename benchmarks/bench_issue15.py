@@ -74,7 +74,7 @@ def latency(seeds: int, repeat: int) -> list[dict]:
 
 
 def two_finger_systems(n: int) -> list[System]:
-    from planner.model.hand import load_hand
+    from planner.files.hand_file import load_hand
     from planner.plan.trajectory import integrate_segment
     from scenarios.registry import shipped_file
 

@@ -14,7 +14,8 @@ Campaigns (each ``--n`` inputs unless stated):
 ``system loader: hypothesis JSON``
     hypothesis' arbitrary JSON trees and "plausible" system dicts (``tests/test_fuzz.py``).
 ``plan loader: mutated files``
-    if ``planner.plan.plan_file`` exists: a valid plan file mutated at tree and byte level and read by
+    if ``planner.plan.plan_file`` exists: a valid plan file mutated at tree and byte level and
+    read by
     ``load_plan``; a mutation that changes a value but keeps the stale digest must be rejected
     (else: wrong answer).
 ``feasible_modes: random systems`` / ``feasible_modes: degenerate systems``

@@ -20,6 +20,7 @@ from pathlib import Path
 from planner.files.atomic import atomic_write_json
 from planner.plan.segment_planner import plan_hand
 from scenarios.registry import shipped_file
+from sim.backends import ENGINES
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -41,7 +42,7 @@ def main() -> None:
         times.append(time.perf_counter() - t)
     mus = ([float(x) for x in args.mu.split(",")] if args.mu else list(plan.validate_mu))
     runs = []
-    for engine in ("pymunk", "mujoco"):
+    for engine in ENGINES:
         for mu in mus:
             t = time.perf_counter()
             res = run_plan(plan, engine, mu, render=False)

@@ -8,6 +8,7 @@ simulator's contact data (:mod:`sim.classify`).
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -59,10 +60,12 @@ def run_example(out_dir: Path, *, name: str, expect: Expect, data: str, scale: f
     load = float(np.linalg.norm(base.g_obj[:2]))
     jam_force = 20.0 * load
     settings = RunSettings(duration=duration, dt=es["dt"], slip_speed=0.05 * speed,
-                           penetration_tol=0.02 * scene.length_scale, jam_force=jam_force)
+                           penetration_tol=0.02 * scene.length_scale, jam_force=jam_force,
+                           jam_after=es["settle"] + 0.1)
     rec = run_scene(scene, make_backend(engine), settings)
-    th = Thresholds.for_drive(speed, load, creep_floor=es["creep"], settle=es["settle"])
-    verdict, observed = judge_run(rec, th, predicted, jam_force=jam_force)
+    th = Thresholds.for_drive(speed, load, creep_floor=es["creep"], settle=es["settle"],
+                              jam_force=jam_force, length_scale=scene.length_scale)
+    verdict, observed = judge_run(rec, th, pred.all_modes)
     out_dir.mkdir(parents=True, exist_ok=True)
     files = {}
     if render and len(rec.times):
@@ -84,7 +87,7 @@ def run_example(out_dir: Path, *, name: str, expect: Expect, data: str, scale: f
             "mass_kg": scene.meta["mass"], "finger_radius_m": scene.meta["finger_radius"],
             "initial_contact_points_m": np.asarray(scaled.points).tolist(),
             "slip_speed_m_per_s": th.slip_speed, "force_floor_N": th.force_floor,
-            "debounce_s": th.debounce, "settle_s": th.settle, "jam_force_N": jam_force,
+            "window_s": th.window, "settle_s": th.settle, "jam_force_N": jam_force,
         },
         "predicted": {"labels": [str(m) for m in predicted], "status": pred.status.value,
                       "unscaled_labels": pred_unscaled.labels,
@@ -107,10 +110,17 @@ def run_ruler(out_dir: Path, *, name: str, expect: Expect, mu_s: float, mu_k: fl
               tolerance: float = 0.02, render: bool = True, **_: Any) -> dict[str, Any]:
     """Ruler on two approaching fingers (Sec. 5.1); compares switch positions."""
     from sim.backends import make_backend
-    from sim.classify import Thresholds, debounce, mode_of, raw_tokens
-    from sim.compare import compare_switches
+    from sim.classify import Thresholds, mode_of, window_tokens
     from sim.run import RunSettings, run_scene
-    from sim.scenes.ruler import THICKNESS_RATIO, observed_switches, predicted_switches, ruler_scene
+    from sim.scenes.ruler import (
+        THICKNESS_RATIO,
+        compare_switches,
+        creep,
+        observed_switches,
+        predicted_switches,
+        ruler_scene,
+        sliding_finger,
+    )
 
     speed = RULER_SPEED[engine] if speed is None else speed
     weight, mass, radius = 1.0, 0.1, 0.03 * length
@@ -129,8 +139,10 @@ def run_ruler(out_dir: Path, *, name: str, expect: Expect, mu_s: float, mu_k: fl
                            penetration_tol=0.01 * length, record_every=5)
     rec = run_scene(scene, make_backend(engine), settings)
     th = Thresholds.for_drive(speed, weight, creep_floor=es["creep"])
-    tokens = debounce(raw_tokens(rec, th), rec.times, th.debounce)
-    obs_pos, obs_sl = observed_switches(rec, tokens, rec.body_names)
+    tokens = window_tokens(rec, th)
+    slider = sliding_finger(rec, th.slip_speed, th.window)
+    obs_pos, obs_sl, obs_t = observed_switches(rec, slider, rec.body_names, th.window)
+    creep_speed = creep(rec, slider, th.window) if len(rec.times) else 0.0
     need = min(required, len(pred_pos))
     verdict: Verdict
     if rec.fault is not None:
@@ -138,6 +150,8 @@ def run_ruler(out_dir: Path, *, name: str, expect: Expect, mu_s: float, mu_k: fl
     else:
         verdict, errors = compare_switches(pred_pos, pred_sl, obs_pos, obs_sl,
                                            tolerance=tolerance, required=need)
+        verdict = creep_verdict(verdict, errors, pred_pos[:need], obs_pos, obs_t,
+                                creep_speed, th.slip_speed, tolerance)
     labels = ["S+1 R2" if s == 0 else "R1 S-2" for s in pred_sl]
     summary = {
         "scenario": name, "engine": engine, "expect": expect.value,
@@ -150,6 +164,7 @@ def run_ruler(out_dir: Path, *, name: str, expect: Expect, mu_s: float, mu_k: fl
                        "slip_speed_m_per_s": th.slip_speed, "tolerance": tolerance},
         "predicted": {"labels": labels, "sliding_finger": pred_sl},
         "observed": {"sliding_finger": obs_sl, "relative_errors": errors,
+                     "creep_m_per_s": creep_speed,
                      "fault": rec.fault.reason if rec.fault else None},
         "switch_positions": {"predicted": pred_pos, "observed": obs_pos},
     }
@@ -165,6 +180,30 @@ def run_ruler(out_dir: Path, *, name: str, expect: Expect, mu_s: float, mu_k: fl
     return summary
 
 
+def creep_verdict(verdict: Verdict, errors: list[float | None], predicted: list[float],
+                  observed: list[float], times: list[float], creep_speed: float,
+                  slip_speed: float, tolerance: float) -> Verdict:
+    """A ruler disagreement in an engine whose "sticking" finger creeps faster than the slip
+    threshold is ``inconclusive`` when the creep can explain every missed switch: switch ``k``
+    may be off by the creep displacement up to its observed time, ``creep * t_k``, relative to
+    its predicted position (on top of ``tolerance``). A miss beyond that stays ``disagreed``."""
+    from sim.compare import Outcome
+
+    if verdict.outcome is not Outcome.DISAGREED or not creep_speed > slip_speed:
+        return verdict
+    t_max = max(times) if times else 0.0
+    for e, p in zip(errors, predicted):
+        t_k = t_max if e is None else min(
+            (t for o, t in zip(observed, times) if abs(o - p) / p == e), default=t_max)
+        allowed = tolerance + creep_speed * t_k / p
+        if e is None or e > allowed:
+            return verdict
+    return replace(verdict, outcome=Outcome.INCONCLUSIVE, reasons=verdict.reasons + (
+        f"the sticking finger creeps at {creep_speed:.3g} m/s, above the slip threshold "
+        f"{slip_speed:.3g} m/s: the misses are within the creep's displacement, so this "
+        f"engine cannot tell here",))
+
+
 def _example(name: str, summary: str, reference: str, expect: Expect, **kw: Any) -> None:
     register(Scenario(name=name, summary=summary, reference=reference, expect=expect,
                       run=lambda out_dir, _n=name, _e=expect, _kw=kw, **opt: run_example(
@@ -172,12 +211,13 @@ def _example(name: str, summary: str, reference: str, expect: Expect, **kw: Any)
                       engines=ENGINES, tags=("sim", "paper")))
 
 
-def _ruler(name: str, summary: str, expect: Expect, **kw: Any) -> None:
+def _ruler(name: str, summary: str, expect: Expect, engines: tuple[str, ...] = ENGINES,
+           **kw: Any) -> None:
     register(Scenario(name=name, summary=summary, reference="Sec. 5.1 (ruler on two fingers)",
                       expect=expect,
                       run=lambda out_dir, _n=name, _e=expect, _kw=kw, **opt: run_ruler(
                           Path(out_dir), name=_n, expect=_e, **{**_kw, **opt}),
-                      engines=ENGINES, tags=("sim", "paper", "ruler")))
+                      engines=engines, tags=("sim", "paper", "ruler")))
 
 
 E41 = {"data": "example_4_1", "scale": 0.01}
@@ -200,8 +240,11 @@ _example("neg_ex41_wrong_region", "Negative control: 3S run judged by the RS reg
 _example("neg_ex43_wrong_mu", "Negative control: two-mode run judged at the one-mode mu",
          "Sec. 4.3, eq. 42", Expect.DISAGREE, mu=(0.05, 0.15, 0.85), predict_mu=(0.15, 0.65, 0.05),
          **E43)
+# pymunk only: in MuJoCo the "sticking" finger creeps (2e-5 m/s, 13 % of the finger speed)
+# and both fingers slide together from ~26 mm on, so the single switch is smeared
+# (docs/simulation.md, open problems)
 _ruler("ruler_single_mu", "Ruler, one mu = 0.5: far finger slides until equidistant", Expect.AGREE,
-       mu_s=0.5, mu_k=0.5, required=1)
+       engines=("pymunk",), mu_s=0.5, mu_k=0.5, required=1)
 _ruler("ruler_static_kinetic", "Ruler, static 0.5 / kinetic 0.3: alternating slides", Expect.AGREE,
        mu_s=0.5, mu_k=0.3)
 _ruler("neg_ruler_wrong_mu", "Negative control: static/kinetic run judged with kinetic 0.4",

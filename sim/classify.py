@@ -1,27 +1,32 @@
-"""Observed contact modes from simulator contact data only (compared in :mod:`sim.compare`).
+"""Observed contact modes from simulator contact data only (judged in :mod:`sim.compare`).
 
-Per contact and recorded step (``docs/conventions.md`` mode tokens):
+Per contact and recorded step (``docs/conventions.md`` mode tokens), from the contact's signals
+averaged over a centred window of ``window`` seconds (:func:`window_mean`):
 
-* ``B`` when the pair is not touching or its normal force is below ``force_floor``;
-* ``S+`` / ``S-`` when the relative tangential velocity ``v_t`` (workpiece minus finger, eq. 5)
-  exceeds ``+slip_speed`` / is below ``-slip_speed``;
+* ``B`` when the mean normal force (zero while the pair does not touch) is below
+  ``force_floor``;
+* ``S+`` / ``S-`` when the mean relative tangential velocity ``v_t`` (workpiece minus finger,
+  eq. 5; over the steps the pair touches) exceeds ``+slip_speed`` / is below ``-slip_speed``;
 * ``R`` otherwise.
 
-Thresholds (:class:`Thresholds`, justified in ``docs/simulation.md``): ``slip_speed =
-max(0.05 * drive_speed, 10 * creep_floor)`` -- the slowest sliding contacts of eqs. (37)/(42)
-slide at ~15 % of the drive speed, while pymunk sticks to ~1e-9 m/s and MuJoCo (elliptic cone,
-noslip) to ~1e-8 m/s; ``force_floor = 1e-3 * |load|`` (SIM-NOTES).
-Debounce: a contact's label changes only after the new raw label held for ``debounce``
-seconds (50 ms), so single-step losses and start transients are not mode changes.
+Hysteresis (:func:`window_tokens`): a contact leaves ``S`` only when ``|mean v_t|`` falls below
+``slip_speed / 2`` and leaves ``B`` only when the mean force exceeds ``2 force_floor``, so a
+mean that hovers at a threshold does not chatter. A window mean cannot be frozen by flicker: a
+contact that slides on 60 % of its steps and reads rolling or broken on the rest has the mean
+slip of its sliding steps times 0.6 (the old debounce, which restarted its timer on every
+repeat of the current label, kept such a contact in its first label for ever).
 
-Observed jam (``JAM``, Fig. 3): the fingers keep pressing but cannot move the workpiece, so
-force or penetration grows. A step is ``JAM`` when the total normal force exceeds ``jam_force``
-(rigid engines: pymunk's forces blow up by orders of magnitude), or when the summed
-penetration depth of the contacts touching throughout the trailing ``jam_rate_window`` grew
-faster than ``jam_depth_rate`` (only windows starting at or after ``settle - jam_rate_window``,
-i.e. after the start transient) (soft engines: MuJoCo's contacts yield, the depth creeps up
-steadily). In a feasible mode the summed depth only follows the slowly changing quasistatic
-force (single depths may see-saw when the workpiece rocks between two fingers).
+Thresholds (:class:`Thresholds`; derived in docs/simulation.md, "Observed-mode classifier"):
+``slip_speed = max(0.05 * drive_speed, 10 * creep_floor)``; ``force_floor = 1e-3 * |load|``;
+``window = 0.1 s``.
+
+Observed jam (``JAM``, Fig. 3 "Jam": no quasistatic motion): a step is ``JAM`` only when the
+workpiece stops following every predicted twist (:func:`twist_error` above
+``jam_twist_error`` for each predicted ``qdot``; vacuous when nothing is predicted) *and* the
+contact forces grow: the window-mean total normal force exceeds ``jam_force``, or the summed
+penetration depth of the contacts touching throughout the trailing ``jam_rate_window`` grows
+faster than ``jam_depth_rate`` (soft engines yield instead of blowing up). A body that moves as
+predicted while the forces build up and level off is not jammed.
 """
 
 from __future__ import annotations
@@ -32,14 +37,17 @@ from dataclasses import dataclass
 import numpy as np
 
 from planner.model.modes import BREAK, ROLL, SLIDE, Mode
+from planner.predict.stages import FeasibleMode
 from sim.compare import (
+    FORCE_TOLERANCE,
     JAM,
     MODE_FRACTION_REQUIRED,
+    TWIST_TOLERANCE,
     ObservedMode,
     Verdict,
-    compare_modes,
     fault_verdict,
 )
+from sim.compare_motion import compare_motion
 from sim.run import Recording
 
 #: Per-contact token -> (mode code, sliding direction xi) of :class:`planner.model.modes.Mode`.
@@ -48,50 +56,63 @@ TOKEN_CODES = {"R": (ROLL, 0), "S+": (SLIDE, 1), "S-": (SLIDE, -1), "B": (BREAK,
 
 @dataclass(frozen=True)
 class Thresholds:
-    """``slip_speed`` [m/s], ``force_floor`` [N], ``debounce`` [s], ``settle`` [s] (steps
-    before ``settle`` are excluded from the agreement)."""
+    """``slip_speed`` [m/s]; ``force_floor`` [N]; ``window`` [s] centred averaging window;
+    ``settle`` [s] (steps before it are never judged); ``jam_force`` [N] total normal force
+    (None: no force rule); ``jam_depth_rate`` [m/s] and ``jam_rate_window`` [s] (penetration
+    growth rule); ``jam_twist_error``: relative twist error above which the workpiece no longer
+    follows a predicted twist; ``length_scale`` [m] weights rotation in twist errors; ``load``
+    [N] the load's size (scales force errors); ``early`` [s] the stretch at the start of the
+    judged steps over which twist and forces are compared with the certificate."""
 
     slip_speed: float
     force_floor: float
-    debounce: float = 0.05
+    window: float = 0.1
     settle: float = 0.2
+    jam_force: float | None = None
     jam_depth_rate: float = np.inf
     jam_rate_window: float = 1.0
+    jam_twist_error: float = 0.5
+    length_scale: float = 1.0
+    load: float = 1.0
+    early: float = 0.2
 
     @classmethod
     def for_drive(cls, drive_speed: float, load: float, creep_floor: float = 1e-8,
-                  settle: float = 0.2) -> Thresholds:
-        """Thresholds from the drive speed [m/s], load [N] and the engine's creep floor; the
-        jam depth rate is 1 % of the drive speed."""
+                  settle: float = 0.2, jam_force: float | None = None,
+                  length_scale: float = 1.0) -> Thresholds:
+        """Thresholds from the drive speed [m/s], load [N] and the engine's creep floor
+        [m/s]; the jam depth rate is 1 % of the drive speed."""
         return cls(slip_speed=max(0.05 * drive_speed, 10.0 * creep_floor),
-                   force_floor=1e-3 * load, settle=settle,
-                   jam_depth_rate=max(0.01 * drive_speed, 10.0 * creep_floor))
+                   force_floor=1e-3 * load, settle=settle, jam_force=jam_force,
+                   jam_depth_rate=max(0.01 * drive_speed, 10.0 * creep_floor),
+                   length_scale=length_scale, load=load)
 
 
-def jam_steps(rec: Recording, th: Thresholds, jam_force: float | None) -> np.ndarray:
-    """(T,) bool: steps showing a jam (growing force or penetration, module docstring)."""
-    T = len(rec.times)
-    out = np.zeros(T, dtype=bool)
-    if jam_force is not None:
-        out |= np.sum(np.where(rec.present, rec.normal_force, 0.0), axis=1) > jam_force
-    if T > 1 and np.isfinite(th.jam_depth_rate):
-        step = float(rec.times[1] - rec.times[0])
-        w = max(1, int(round(th.jam_rate_window / step)))
-        if T > w:
-            touching = np.ones((T - w, rec.present.shape[1]), dtype=bool)
-            for lag in range(0, w + 1, max(1, w // 10)):
-                touching &= rec.present[lag:T - w + lag]
-            depth = np.where(rec.present, rec.depth, 0.0)
-            grown = np.sum(np.where(touching, depth[w:] - depth[:-w], 0.0), axis=1)
-            # windows must start after the start transient: settle - window (>= 0)
-            after_start = rec.times[:-w] >= max(0.0, th.settle - th.jam_rate_window) - 1e-12
-            out[w:] |= (after_start & touching.any(axis=1)
-                        & (grown / (w * step) > th.jam_depth_rate))
-    return out
+def window_mean(values: np.ndarray, weights: np.ndarray, times: np.ndarray,
+                window: float) -> np.ndarray:
+    """Centred moving average of ``values`` (T, ...) weighted by ``weights`` (same shape, 0/1
+    or positive) over ``window`` seconds; NaN where the window holds no weight. Assumes evenly
+    recorded steps (as :func:`sim.run.run_scene` records)."""
+    T = len(times)
+    if T == 0:
+        return np.zeros_like(values, dtype=float)
+    step = float(times[1] - times[0]) if T > 1 else window
+    h = max(0, int(round(0.5 * window / step)))
+    v = np.where(weights > 0, values * weights, 0.0)
+    w = np.asarray(weights, dtype=float)
+    pad = ((1, 0),) + ((0, 0),) * (v.ndim - 1)
+    cv = np.pad(np.cumsum(v, axis=0), pad)
+    cw = np.pad(np.cumsum(w, axis=0), pad)
+    lo = np.clip(np.arange(T) - h, 0, T)
+    hi = np.clip(np.arange(T) + h + 1, 0, T)
+    num, den = cv[hi] - cv[lo], cw[hi] - cw[lo]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(den > 0, num / np.where(den > 0, den, 1.0), np.nan)
 
 
 def raw_tokens(rec: Recording, th: Thresholds) -> np.ndarray:
-    """(T, P) array of tokens ``R``, ``S+``, ``S-``, ``B`` before debouncing."""
+    """(T, P) per-step tokens ``R``, ``S+``, ``S-``, ``B`` without any averaging (diagnostics
+    and the flicker statistics of docs/simulation.md)."""
     tok = np.full(rec.present.shape, "R", dtype=object)
     tok[rec.slip_velocity > th.slip_speed] = "S+"
     tok[rec.slip_velocity < -th.slip_speed] = "S-"
@@ -99,23 +120,31 @@ def raw_tokens(rec: Recording, th: Thresholds) -> np.ndarray:
     return tok
 
 
-def debounce(tokens: np.ndarray, times: np.ndarray, window: float) -> np.ndarray:
-    """Hold each column's label until a new one persisted for ``window`` seconds."""
-    out = tokens.copy()
-    T, P = tokens.shape
+def window_tokens(rec: Recording, th: Thresholds) -> np.ndarray:
+    """(T, P) tokens from window means with hysteresis (module docstring)."""
+    present = rec.present.astype(float)
+    force = window_mean(np.where(rec.present, rec.normal_force, 0.0), np.ones_like(present),
+                        rec.times, th.window)
+    slip = window_mean(rec.slip_velocity, present, rec.times, th.window)
+    T, P = present.shape
+    out = np.empty((T, P), dtype=object)
     for j in range(P):
-        current = tokens[0, j]
-        cand, since = current, 0
+        state = "R"
         for k in range(T):
-            raw = tokens[k, j]
-            if raw == current:
-                cand, since = current, k
-            elif raw != cand:
-                cand, since = raw, k
-            if cand != current and times[k] - times[since] >= window - 1e-12:
-                current = cand
-                out[since:k + 1, j] = current
-            out[k, j] = current
+            f, v = force[k, j], slip[k, j]
+            if state == "B":
+                broken = not f > 2.0 * th.force_floor
+            else:
+                broken = not f >= th.force_floor
+            if broken or not np.isfinite(v):
+                state = "B"
+            elif v > th.slip_speed or (state == "S+" and v > 0.5 * th.slip_speed):
+                state = "S+"
+            elif v < -th.slip_speed or (state == "S-" and v < -0.5 * th.slip_speed):
+                state = "S-"
+            else:
+                state = "R"
+            out[k, j] = state
     return out
 
 
@@ -125,10 +154,64 @@ def mode_of(tokens: tuple[str, ...]) -> Mode:
     return Mode(tuple(c for c, _ in pairs), tuple(x for _, x in pairs))
 
 
+def workpiece_twist(rec: Recording, window: float) -> np.ndarray:
+    """(T, 3) twist ``(v_x, v_y, omega)`` [m/s, m/s, rad/s] of the workpiece frame's origin,
+    central differences of the recorded poses averaged over ``window`` seconds."""
+    iw = rec.body_names.index("workpiece")
+    pose = rec.poses[:, iw].copy()
+    if len(pose) < 2:
+        return np.zeros((len(pose), 3))
+    pose[:, 2] = np.unwrap(pose[:, 2])
+    q = np.gradient(pose, rec.times, axis=0)
+    return window_mean(q, np.ones_like(q), rec.times, window)
+
+
+def twist_error(observed: np.ndarray, predicted: np.ndarray, length_scale: float) -> np.ndarray:
+    """Relative error ``|q_obs - q_pred|_L / |q_pred|_L`` with ``|(v_x, v_y, w)|_L =
+    sqrt(v_x^2 + v_y^2 + (L w)^2)`` (``L = length_scale`` [m]); ``observed`` (..., 3)."""
+    wvec = np.array([1.0, 1.0, length_scale])
+    diff = np.linalg.norm((np.asarray(observed) - predicted) * wvec, axis=-1)
+    size = float(np.linalg.norm(np.asarray(predicted) * wvec))
+    return diff / size if size > 0 else np.where(diff > 0, np.inf, 0.0)
+
+
+def jam_steps(rec: Recording, th: Thresholds,
+              predicted_twists: Sequence[np.ndarray] = ()) -> np.ndarray:
+    """(T,) bool: steps showing a jam (module docstring)."""
+    T = len(rec.times)
+    grows = np.zeros(T, dtype=bool)
+    if T == 0:
+        return grows
+    if th.jam_force is not None:
+        total = window_mean(np.sum(np.where(rec.present, rec.normal_force, 0.0), axis=1),
+                            np.ones(T), rec.times, th.window)
+        grows |= total > th.jam_force
+    if T > 1 and np.isfinite(th.jam_depth_rate):
+        step = float(rec.times[1] - rec.times[0])
+        w = max(1, int(round(th.jam_rate_window / step)))
+        if T > w:
+            touching = np.ones((T - w, rec.present.shape[1]), dtype=bool)
+            for lag in range(0, w + 1, max(1, w // 10)):
+                touching &= rec.present[lag:T - w + lag]
+            depth = np.where(rec.present, rec.depth, 0.0)
+            grown = np.sum(np.where(touching, depth[w:] - depth[:-w], 0.0), axis=1)
+            after_start = rec.times[:-w] >= max(0.0, th.settle - th.jam_rate_window) - 1e-12
+            grows[w:] |= (after_start & touching.any(axis=1)
+                          & (grown / (w * step) > th.jam_depth_rate))
+    if not predicted_twists or not grows.any():
+        return grows
+    q = workpiece_twist(rec, th.window)
+    follows = np.zeros(T, dtype=bool)
+    for qp in predicted_twists:
+        follows |= twist_error(q, np.asarray(qp, dtype=float), th.length_scale) \
+            <= th.jam_twist_error
+    return grows & ~follows
+
+
 def observed_modes(rec: Recording, th: Thresholds,
-                   jam_force: float | None = None) -> list[ObservedMode]:
+                   predicted_twists: Sequence[np.ndarray] = ()) -> list[ObservedMode]:
     """Observed :class:`Mode` per recorded step, or :data:`sim.compare.JAM`."""
-    tok = debounce(raw_tokens(rec, th), rec.times, th.debounce)
+    tok = window_tokens(rec, th)
     cache: dict[tuple[str, ...], Mode] = {}
     modes = []
     for row in tok:
@@ -136,30 +219,52 @@ def observed_modes(rec: Recording, th: Thresholds,
         if key not in cache:
             cache[key] = mode_of(key)
         modes.append(cache[key])
-    jam = jam_steps(rec, th, jam_force)
+    jam = jam_steps(rec, th, predicted_twists)
     if rec.jammed_at is not None and np.any(jam):
         jam[int(np.flatnonzero(jam)[0]):] = True  # the run stopped on a sustained jam
     return [JAM if j else m for j, m in zip(jam, modes)]
 
 
-def judged_steps(rec: Recording, observed: list[ObservedMode],
-                 th: Thresholds) -> list[ObservedMode]:
-    """The observed modes of the steps a comparison judges: those after ``th.settle``; a run
-    that stopped on a jam before settling is judged on its jam steps."""
-    settled = np.flatnonzero(rec.times >= th.settle)
-    obs = [observed[k] for k in settled]
-    if not obs and rec.jammed_at is not None and observed and observed[-1] == JAM:
-        obs = [o for o in observed if o == JAM]
-    return obs
+def flicker_fraction(rec: Recording, th: Thresholds, mask: np.ndarray) -> float:
+    """Largest fraction, over the contacts, of the ``mask`` steps whose per-step token
+    (:func:`raw_tokens`) differs from the window token (:func:`window_tokens`)."""
+    if not mask.any() or rec.present.shape[1] == 0:
+        return 0.0
+    differ = raw_tokens(rec, th)[mask] != window_tokens(rec, th)[mask]
+    return float(np.max(np.mean(differ, axis=0)))
 
 
-def judge_run(rec: Recording, th: Thresholds, predicted: Sequence[ObservedMode],
-              jam_force: float | None = None,
-              required: float = MODE_FRACTION_REQUIRED) -> tuple[Verdict, list[ObservedMode]]:
-    """Classify ``rec`` and judge it against the ``predicted`` modes (``[JAM]`` for a predicted
-    jam): a fault verdict when the run faulted, else :func:`sim.compare.compare_modes` on the
-    judged steps. Returns ``(verdict, observed mode per recorded step)``."""
-    observed = observed_modes(rec, th, jam_force=jam_force)
+def judged_mask(rec: Recording, th: Thresholds) -> np.ndarray:
+    """(T,) bool: the steps a comparison judges, those at or after ``th.settle`` (a run that
+    stopped early has fewer; one that stopped before settling has none)."""
+    return rec.times >= th.settle - 1e-12
+
+
+def judge_run(rec: Recording, th: Thresholds, predicted: Sequence[FeasibleMode],
+              required: float = MODE_FRACTION_REQUIRED,
+              twist_tolerance: float = TWIST_TOLERANCE,
+              force_tolerance: float = FORCE_TOLERANCE) -> tuple[Verdict, list[ObservedMode]]:
+    """Classify ``rec`` and judge it against the planner's ``predicted`` feasible modes (empty
+    for a predicted jam) with :func:`sim.compare.compare_motion` on the judged steps (modes,
+    workpiece twist, forces). A run that faulted is a fault unless its steps up to one window
+    before the fault already disagreed (:func:`sim.compare.fault_verdict`).
+    Returns ``(verdict, observed mode per recorded step)``."""
+    observed = observed_modes(rec, th, [m.qdot for m in predicted])
+    mask = judged_mask(rec, th)
     if rec.fault is not None:
-        return fault_verdict(rec.fault), observed
-    return compare_modes(judged_steps(rec, observed, th), predicted, required), observed
+        # what the run showed up to one window before the fault (the fault's own blow-up
+        # excluded): a disagreement there means the run had left the plan
+        before, _ = judge_run(rec.until(rec.fault.time - th.window), th, predicted, required,
+                              twist_tolerance, force_tolerance)
+        return fault_verdict(rec.fault, before), observed
+    judged = [o for o, k in zip(observed, mask) if k]
+    iw = rec.body_names.index("workpiece")
+    flicker = flicker_fraction(rec, th, mask)
+    return compare_motion(judged, predicted, rec.times[mask], rec.poses[mask, iw],
+                          np.where(rec.present, rec.normal_force, 0.0)[mask],
+                          np.where(rec.present, rec.tangent_force, 0.0)[mask],
+                          length_scale=th.length_scale, load=th.load,
+                          early=th.early, initial_pose=rec.poses[0, iw] if len(rec.times)
+                          else None, flicker=flicker, required=required,
+                          twist_tolerance=twist_tolerance,
+                          force_tolerance=force_tolerance), observed

@@ -22,7 +22,7 @@ Fig. 3's "Jam": no quasistatic motion), compared by value, never re-parsed from 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from enum import Enum
 from typing import Any, Final, Literal
 
@@ -30,7 +30,7 @@ import numpy as np
 
 from planner.errors import InputError
 from planner.model.modes import Mode
-from sim.run import Fault
+from sim.run import Fault, FaultKind
 
 #: The observed "mode" of a run whose workpiece no longer follows any quasistatic motion.
 JAM: Final = "JAM"
@@ -41,6 +41,15 @@ ObservedMode = Mode | Literal["JAM"]
 MODE_FRACTION_REQUIRED = 0.95
 #: Hand plans: final workpiece position error allowed, as a fraction of the predicted travel.
 POSE_TOLERANCE_OF_TRAVEL = 0.02
+#: Observed mean workpiece twist vs the predicted mode's ``qdot``: largest relative error
+#: ``|q_obs - q_pred|_L / |q_pred|_L`` (docs/simulation.md, "Twist and forces").
+TWIST_TOLERANCE = 0.1
+#: Observed mean contact forces vs the certificate of a force-determinate mode: largest
+#: ``|c_obs,i - c_pred,i| / |load|`` over the contacts (docs/simulation.md).
+FORCE_TOLERANCE = 0.1
+#: Forces are judged only while the workpiece is within this fraction of its size (``L``-norm
+#: of the pose change) of the configuration the certificate is for.
+FORCE_DRIFT_LIMIT = 0.01
 
 
 class Outcome(str, Enum):
@@ -122,6 +131,42 @@ class PlanMeasures:
 
 
 @dataclass(frozen=True)
+class MotionMeasures:
+    """Observed workpiece motion and contact forces against a predicted mode's certificate.
+
+    ``twist_observed`` (3,) [m/s, m/s, rad/s] mean twist of the workpiece frame's origin over
+    the first judged steps (:func:`compare_motion`); ``reference``: the predicted mode compared
+    with (the most observed one that was predicted, else the closest in twist);
+    ``twist_predicted`` its ``qdot``;
+    ``twist_error``: relative error (:data:`TWIST_TOLERANCE`); ``twist_cosine``: cosine of the
+    angle between the two (rotation weighted by ``length_scale``); ``twist_size_ratio``:
+    observed / predicted size; ``force_error``: largest ``|c_obs,i - c_pred,i| / |load|``
+    over the contacts where the reference mode is force-determinate (None otherwise);
+    ``forces_observed`` (n_c, 2) [N] mean ``(c_in, c_it)`` over the steps in the reference
+    mode.
+    """
+
+    twist_observed: tuple[float, float, float]
+    reference: str | None = None
+    twist_predicted: tuple[float, float, float] | None = None
+    twist_error: float | None = None
+    twist_cosine: float | None = None
+    twist_size_ratio: float | None = None
+    force_error: float | None = None
+    forces_observed: tuple[tuple[float, float], ...] = ()
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "reference_mode": self.reference,
+            "twist_observed": list(self.twist_observed),
+            "twist_predicted": list(self.twist_predicted) if self.twist_predicted else None,
+            "twist_error": self.twist_error, "twist_cosine": self.twist_cosine,
+            "twist_size_ratio": self.twist_size_ratio, "force_error_of_load": self.force_error,
+            "forces_observed_N": [list(c) for c in self.forces_observed],
+        }
+
+
+@dataclass(frozen=True)
 class Verdict:
     """The one result type of a simulator check.
 
@@ -138,6 +183,7 @@ class Verdict:
     observed_counts: tuple[tuple[str, int], ...] = ()
     fault: Fault | None = None
     plan: PlanMeasures | None = None
+    motion: MotionMeasures | None = None
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.agreement <= 1.0:
@@ -170,11 +216,23 @@ class Verdict:
         }
         if self.plan is not None:
             out.update(self.plan.to_dict())
+        if self.motion is not None:
+            out["motion"] = self.motion.to_dict()
         return out
 
 
-def fault_verdict(fault: Fault) -> Verdict:
-    """The verdict of a run that ended in a simulator fault."""
+def fault_verdict(fault: Fault, before: Verdict | None = None) -> Verdict:
+    """The verdict of a run that ended in a simulator fault. ``before``: the judgement of the
+    steps recorded before the fault; when it is ``disagreed`` the run had already left the plan
+    (a rival mode, the workpiece off its path) and the fault is what followed -- the escaping
+    workpiece leaving the scene or pushed into a finger (``left_scene``, ``penetration``): the
+    verdict is ``disagreed`` with the observed modes up to the event and the fault as the
+    event. Otherwise (and always for NaN, engine alarms and contacts missing at the start:
+    simulator trouble whatever the run showed before) it is a ``fault``."""
+    if (before is not None and before.outcome is Outcome.DISAGREED
+            and fault.kind in (FaultKind.LEFT_SCENE, FaultKind.PENETRATION)):
+        return replace(before, reasons=before.reasons + (
+            f"the run left the plan, then ended: {fault.reason}",), fault=fault)
     return Verdict(Outcome.FAULT, (fault.reason,), fault=fault)
 
 
@@ -267,36 +325,3 @@ def compare_plan(
     return Verdict(Outcome.DISAGREED if claim_frac < mode_fraction or err / travel >
                    pose_tolerance else Outcome.AGREED, tuple(reasons), agreement=claim_frac,
                    judged_steps=m, observed_counts=counts, plan=measures)
-
-
-def compare_switches(predicted: Sequence[float], predicted_sliders: Sequence[int],
-                     observed: Sequence[float], observed_sliders: Sequence[int], *,
-                     tolerance: float, required: int) -> tuple[Verdict, list[float | None]]:
-    """Ruler switch positions (Sec. 5.1): each predicted switch ``k`` [m] is matched to the
-    observed switch of the same sliding finger nearest to it along the motion (not by list
-    index), each observed switch used once, in order. A predicted switch matches when its
-    relative error is within ``tolerance``; ``agreed`` when the first ``required`` predicted
-    switches all match. Returns the verdict and the per-predicted-switch relative errors
-    (``None`` where no observed switch of that finger is left)."""
-    need = min(required, len(predicted))
-    errors: list[float | None] = []
-    used = -1
-    for p, s in zip(predicted, predicted_sliders):
-        cands = [(abs(o - p) / p, j) for j, (o, so) in enumerate(zip(observed, observed_sliders))
-                 if j > used and so == s]
-        if not cands:
-            errors.append(None)
-            continue
-        err, j = min(cands)
-        errors.append(float(err))
-        if err <= tolerance:
-            used = j
-    matched = sum(1 for e in errors[:need] if e is not None and e <= tolerance)
-    agreement = matched / need if need else 0.0
-    shown = [None if e is None else round(e, 4) for e in errors]
-    if need == 0:
-        return Verdict(Outcome.INCONCLUSIVE, ("no switch predicted",)), errors
-    outcome = Outcome.AGREED if matched == need else Outcome.DISAGREED
-    return Verdict(outcome, (f"{matched} of {need} predicted switches within {tolerance:.0%} "
-                             f"(relative errors {shown})",), agreement=agreement,
-                   judged_steps=need), errors

@@ -33,11 +33,13 @@ from planner.model.modes import Mode
 from planner.model.validation import as_friction
 from planner.plan.plan_file import Plan
 from sim.backends import EngineSettings, check_engine, make_backend
+from sim.classify import Thresholds, judged_mask
 from sim.compare import (
     MODE_FRACTION_REQUIRED,
     POSE_TOLERANCE_OF_TRAVEL,
     Expect,
     ObservedMode,
+    Outcome,
     Verdict,
     compare_plan,
     fault_verdict,
@@ -149,7 +151,7 @@ def run_schedule(
     """Run ``schedule`` on ``hand`` (initial configuration ``q0``) in ``engine`` at friction
     ``mu`` (scalar or per contact). Returns ``(verdict, recording, observed mode per recorded
     step, details)``."""
-    from sim.classify import Thresholds, judged_steps, observed_modes
+    from sim.classify import observed_modes
     from sim.run import RunSettings, run_scene
     from sim.scenes.hand import finger_angles, hand_scene
 
@@ -182,8 +184,11 @@ def run_schedule(
         duration=float(t[-1]), dt=es.dt, slip_speed=0.05 * drive_speed,
         penetration_tol=0.02 * scene.length_scale, record_every=es.record_every))
     wall = time.perf_counter() - wall
-    th = Thresholds(slip_speed=max(0.05 * drive_speed, 10.0 * es.creep),
-                    force_floor=1e-3 * load, settle=es.settle)
+    # no jam rule in plan runs: a plan predicts no jam; one would show as the claim not
+    # observed and the pose off the plan
+    th = replace(Thresholds.for_drive(drive_speed, load, creep_floor=es.creep,
+                                      settle=es.settle, length_scale=hand.length_scale),
+                 jam_depth_rate=np.inf)
     observed = observed_modes(rec, th)
     iw = rec.body_names.index("workpiece")
     details: dict[str, Any] = {
@@ -194,21 +199,54 @@ def run_schedule(
         "wall_time_s": wall,
     }
     if rec.fault is not None:
-        return fault_verdict(rec.fault), rec, observed, details
-    judged = judged_steps(rec, observed, th)
-    if not judged:
-        from sim.compare import Outcome
-
-        return (Verdict(Outcome.INCONCLUSIVE, ("no step after the settling time was "
-                                               "recorded",)), rec, observed, details)
+        # what the run showed up to one window before the fault (its blow-up excluded)
+        before = rec.until(rec.fault.time - th.window)
+        verdict = _judge_plan(before, observed_modes(before, th), th, schedule, hand)
+        return fault_verdict(rec.fault, verdict), rec, observed, details
+    verdict = _judge_plan(rec, observed, th, schedule, hand) or Verdict(
+        Outcome.INCONCLUSIVE, ("no step could be judged",))
     k = np.clip(np.searchsorted(rec.times, t - 1e-9), 0, len(rec.times) - 1)
-    settled = np.flatnonzero(rec.times >= th.settle)
-    interval = np.clip(np.searchsorted(t, rec.times[settled], side="right") - 1, 0, len(t) - 2)
-    verdict = compare_plan(schedule.claim, judged, [schedule.predicted[j] for j in interval],
-                           np.asarray(schedule.poses), rec.poses[k, iw], interval=interval)
     details["simulated_poses"] = rec.poses[k, iw].tolist()
     details["simulated_angles"] = finger_angles(rec, hand)[k].tolist()
     return verdict, rec, observed, details
+
+
+def _judge_plan(rec: Recording, observed: list[ObservedMode], th: Thresholds,
+                schedule: Schedule, hand: Hand) -> Verdict | None:
+    """The verdict of a recording (one that ended normally, or the part of a faulted one
+    before its fault) against the schedule; None when nothing can be judged."""
+    t = np.asarray(schedule.times, dtype=float)
+    iw = rec.body_names.index("workpiece")
+    if len(rec.times) == 0:
+        return None
+    mask = judged_mask(rec, th)
+    judged = [o for o, m in zip(observed, mask) if m]
+    # waypoints passed by the run (all of them unless it stopped early), plus its last step
+    t_end = float(rec.times[-1])
+    n_wp = int(np.searchsorted(t, t_end + 1e-9))
+    t_cmp = t[:n_wp] if n_wp == len(t) else np.append(t[:n_wp], t_end)
+    pred_poses = np.asarray(schedule.poses, dtype=float)
+    if n_wp < len(t):
+        pred_poses = np.vstack([pred_poses[:n_wp], [np.interp(t_end, t, pred_poses[:, c])
+                                                   for c in range(3)]])
+    k = np.clip(np.searchsorted(rec.times, t_cmp - 1e-9), 0, len(rec.times) - 1)
+    if not judged:
+        # before the settling time only the pose can be judged (modes need settling)
+        off = float(np.linalg.norm(rec.poses[-1, iw, :2] - pred_poses[-1, :2]))
+        travel = float(np.linalg.norm(pred_poses[-1, :2] - pred_poses[0, :2]))
+        if off > POSE_TOLERANCE_OF_TRAVEL * max(travel, 0.01 * hand.length_scale):
+            return Verdict(Outcome.DISAGREED, (
+                f"the workpiece left the planned path before the settling time: "
+                f"{off:.3g} m from the predicted position at t = {t_end:.3f} s",))
+        return Verdict(Outcome.INCONCLUSIVE, ("no step after the settling time was recorded",))
+    settled = np.flatnonzero(mask)
+    interval = np.clip(np.searchsorted(t, rec.times[settled], side="right") - 1, 0, len(t) - 2)
+    try:
+        return compare_plan(schedule.claim, judged,
+                            [schedule.predicted[j] for j in interval], pred_poses,
+                            rec.poses[k, iw], interval=interval)
+    except InputError:
+        return None  # no predicted travel yet
 
 
 def run_plan(

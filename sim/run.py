@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import sys
 import threading
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from enum import Enum
 from typing import Any
 
@@ -163,12 +163,22 @@ class Recording:
     fault: Fault | None = None
     jammed_at: float | None = None
 
+    def until(self, t: float) -> Recording:
+        """The steps recorded at or before ``t`` [s], without the fault or jam that ended the
+        run (what the run showed before its end)."""
+        k = int(np.searchsorted(self.times, t + 1e-12, side="right"))
+        cut = {f: getattr(self, f)[:k] for f in (
+            "times", "poses", "present", "points", "normals", "normal_force", "tangent_force",
+            "slip_velocity", "depth", "mu_used")}
+        return replace(self, fault=None, jammed_at=None, **cut)
+
 
 @dataclass(frozen=True)
 class RunSettings:
     """Loop settings: ``duration``, ``dt`` [s]; ``slip_speed`` [m/s] threshold for switching a
     pair from static to kinetic friction; ``penetration_tol`` [m]; ``jam_force`` [N] (total
-    normal force) and ``jam_window`` [s]."""
+    normal force) and ``jam_window`` [s]; ``jam_after`` [s]: the loop never stops on a jam
+    before this time (set it past the settling time, so a jammed run still has judged steps)."""
 
     duration: float
     dt: float
@@ -176,6 +186,7 @@ class RunSettings:
     penetration_tol: float
     jam_force: float = np.inf
     jam_window: float = 0.05
+    jam_after: float = 0.0
     record_every: int = 1
 
 
@@ -245,7 +256,8 @@ def run_scene(scene: Scene, backend: Backend, settings: RunSettings) -> Recordin
             x, y, _ = states[b].pose
             if not (xmin <= x <= xmax and ymin <= y <= ymax):
                 fault = Fault(FaultKind.LEFT_SCENE, t,
-                              f"body {b!r} at ({x:.4g}, {y:.4g}) outside bounds {scene.bounds}")
+                              f"body {b!r} at ({x:.4g}, {y:.4g}) outside bounds "
+                              f"{[round(float(v), 6) for v in scene.bounds]}")
                 break
         if fault:
             break
@@ -261,7 +273,7 @@ def run_scene(scene: Scene, backend: Backend, settings: RunSettings) -> Recordin
             break
         if float(np.sum(np.where(present, fn, 0.0))) > settings.jam_force:
             jam_steps += 1
-            if jam_steps * settings.dt >= settings.jam_window:
+            if jam_steps * settings.dt >= settings.jam_window and t >= settings.jam_after:
                 jammed_at = t
                 break
         else:

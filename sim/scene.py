@@ -272,6 +272,16 @@ class ContactReading:
 
 ABSENT = ContactReading(present=False)
 
+#: Pre-load of every contact at the start, as a fraction of the scene's length scale: each
+#: pair starts overlapped by this much (half of pymunk's collision slop of 1e-4 x scale), so a
+#: pair built "exactly touching" never starts with a gap that rounding made +1e-17 m.
+PRELOAD_OF_SCALE = 5e-5
+
+
+def preload_depth(length_scale: float) -> float:
+    """Initial overlap [m] of every contact pair of a scene of ``length_scale`` [m]."""
+    return PRELOAD_OF_SCALE * length_scale
+
 
 class Backend(Protocol):
     """The small interface every simulator backend implements."""

@@ -77,3 +77,24 @@ def test_qsplan_scenarios_run(tmp_path, capsys):
                  "--out", str(tmp_path), "--no-render"])
     assert code == 0  # a negative control that disagrees is a pass
     assert json.loads((tmp_path / "summary.json").read_text())["status"] == "disagreed"
+
+
+def test_ruler_creep_makes_explained_misses_inconclusive():
+    """A missed switch that the measured creep can explain (creep x time of the switch,
+    relative to its position, on top of the tolerance) is inconclusive; a miss beyond that, or
+    any miss without creep above the slip threshold, stays a disagreement."""
+    from scenarios.paper_sims import creep_verdict
+    from sim.compare import Outcome, Verdict
+
+    miss = Verdict(Outcome.DISAGREED, ("1 of 2 switches",), agreement=0.5, judged_steps=2)
+    pred, obs, times = [0.015, 0.009], [0.0151, 0.0093], [20.0, 40.0]
+    errors = [abs(o - p) / p for o, p in zip(obs, pred)]  # 0.7 %, 3.3 %
+    # creep 2e-6 m/s over 40 s = 80 um = 0.9 % of 9 mm: 2 % + 0.9 % < 3.3 % -> still a miss
+    assert creep_verdict(miss, errors, pred, obs, times, 2e-6, 1e-6, 0.02).outcome \
+        is Outcome.DISAGREED
+    # creep 1e-5 m/s: 400 um = 4.4 % of 9 mm -> the miss is explained
+    v = creep_verdict(miss, errors, pred, obs, times, 1e-5, 1e-6, 0.02)
+    assert v.outcome is Outcome.INCONCLUSIVE and "creeps" in v.reason
+    # creep below the slip threshold explains nothing
+    assert creep_verdict(miss, errors, pred, obs, times, 1e-5, 2e-5, 0.02).outcome \
+        is Outcome.DISAGREED

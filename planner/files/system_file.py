@@ -165,7 +165,9 @@ def _system(data: Any) -> System:
             kwargs["joints"] = manip.get("joints")
         return System.from_contacts(points=pts, normals=nrm, mu=mu, environment=env, **kwargs)
     if "mu" not in data:
-        raise FileFormatError("'wrench_matrix': expected a top-level 'mu' (one per contact) beside it, got no 'mu'")
+        raise FileFormatError(
+            "'wrench_matrix': expected a top-level 'mu' (one per contact) beside it, got no 'mu'"
+        )
     W = _numbers(data["wrench_matrix"], "wrench_matrix")
     env_raw = data.get("environment")
     if env_raw is not None and (not isinstance(env_raw, list)

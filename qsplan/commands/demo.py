@@ -32,9 +32,9 @@ from typing import Any
 from planner.errors import InputError
 from qsplan.options import check_int
 from scenarios.registry import shipped_file
+from sim.backends import ENGINES
 
 SCENARIO = "two_finger_hand"
-ENGINES = ("pymunk", "mujoco")
 NEGATIVE_MU = 0.2
 RIVAL = "R2S"
 MAX_JOBS = 64

@@ -14,8 +14,7 @@ from pathlib import Path
 
 from planner.errors import InputError
 from qsplan.options import MU_MAX, fmt, parse_numbers
-
-ENGINES = ("pymunk", "mujoco")
+from sim.backends import ENGINES
 
 
 def register(sub: argparse._SubParsersAction) -> None:

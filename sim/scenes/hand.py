@@ -51,6 +51,7 @@ from sim.scene import (
     Polygon,
     Scene,
     Shape,
+    preload_depth,
 )
 
 #: Radius [m] of the circles standing for sharp workpiece vertices.
@@ -103,8 +104,11 @@ def hand_scene(
     ``"velocity"``/``"effort"`` per finger joint; ``commands`` (F,) ``command(t, states)``
     returning the joint rate [rad/s] or torque [N m] (counter-clockwise positive).
     ``mass_scale``: factor on the workpiece and finger masses (dynamics only).
-    ``overlap`` [m]: vertex circles start this far into their feature (default half of pymunk's
-    collision slop, SIM-NOTES: resting contacts that start exactly touching flicker).
+    ``overlap`` [m]: every contact starts this far into its feature (default
+    :func:`sim.scene.preload_depth`: half of pymunk's collision slop, SIM-NOTES: resting
+    contacts that start exactly touching flicker, and a computed gap of +1e-17 m is no
+    contact at all): vertex circles are placed that deep, fingertip circles are shifted that
+    far along the contact normal into the workpiece edge.
     """
     F, n_c = hand.n_fingers, hand.n_contacts
     mu_arr = as_friction(mu, n_c)
@@ -122,7 +126,7 @@ def hand_scene(
         raise InputError(f"vertex_radius: expected > 0 m, got {vertex_radius}")
     scale = hand.length_scale
     if overlap is None:
-        overlap = 0.5e-4 * scale
+        overlap = preload_depth(scale)
     pts, nrm, _ = hand.contact_geometry(q0)
     pose0 = (float(q0[0]), float(q0[1]), float(q0[2]))
     to_body = _rot(-pose0[2])
@@ -158,9 +162,12 @@ def hand_scene(
     tip_site: dict[int, int] = {}
     for k, f in enumerate(hand.fingers):
         fshapes: list[Shape] = [Capsule((0.0, 0.0), (f.length, 0.0), f.radius)]
-        if any(c.kind == "tip" and c.finger == k for c in hand.contacts):
+        tips = [i for i, c in enumerate(hand.contacts) if c.kind == "tip" and c.finger == k]
+        if tips:
+            # pre-load: the tip circle shifted by `overlap` along the contact's inward normal
+            push = _rot(-float(q0[3 + k])) @ (overlap * nrm[tips[0]])
             tip_site[k] = len(fshapes)
-            fshapes.append(Circle((f.length, 0.0), f.radius))
+            fshapes.append(Circle((f.length + float(push[0]), float(push[1])), f.radius))
         name = finger_body(hand, k)
         fm = f.mass * mass_scale
         bodies.append(Body(name=name, shapes=tuple(fshapes), mass=fm,

@@ -37,6 +37,7 @@ from sim.scene import (
     Load,
     Polygon,
     Scene,
+    preload_depth,
 )
 
 
@@ -103,10 +104,11 @@ def constant_twist(twist: tuple[float, float, float]) -> Command:
 
 @dataclass(frozen=True)
 class FingertipSpec:
-    """Finger geometry: ``radius`` [m] of the fingertip circle, initial ``overlap`` [m]."""
+    """Finger geometry: ``radius`` [m] of the fingertip circle, initial ``overlap`` [m]
+    (None: :func:`sim.scene.preload_depth` of the scene)."""
 
     radius: float = 0.004
-    overlap: float = 1e-5
+    overlap: float | None = None
 
 
 def example_scene(
@@ -128,6 +130,7 @@ def example_scene(
     tng = np.stack([-nrm[:, 1], nrm[:, 0]], axis=1)
     size = float(np.max(np.linalg.norm(pts, axis=1)))
     poly = workpiece_polygon(pts, nrm, 1.25 * size)
+    overlap = preload_depth(size) if finger.overlap is None else finger.overlap
     area = 0.5 * float(np.sum(poly[:, 0] * np.roll(poly[:, 1], -1)
                               - np.roll(poly[:, 0], -1) * poly[:, 1]))
     # inertia of a uniform polygon about the origin (the COM we impose), polar moment
@@ -143,7 +146,7 @@ def example_scene(
     pairs = []
     for i in range(len(pts)):
         v_world = vel[i, 0] * nrm[i] + vel[i, 1] * tng[i]
-        centre = pts[i] - (finger.radius - finger.overlap) * nrm[i]
+        centre = pts[i] - (finger.radius - overlap) * nrm[i]
         bodies.append(Body(f"finger{i + 1}", (Circle((0.0, 0.0), finger.radius),),
                            pose=(float(centre[0]), float(centre[1]), 0.0),
                            kind=BodyKind.DRIVEN,

@@ -14,12 +14,24 @@ mode (``R S``) stops being feasible (:func:`planner.predict.feasibility.feasible
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
 from planner.model.system import System
 from planner.predict.feasibility import feasible_modes
+from sim.compare import Outcome, Verdict
 from sim.run import Recording
-from sim.scene import Body, BodyKind, Circle, ContactPair, Load, Polygon, Scene
+from sim.scene import (
+    Body,
+    BodyKind,
+    Circle,
+    ContactPair,
+    Load,
+    Polygon,
+    Scene,
+    preload_depth,
+)
 
 THICKNESS_RATIO = 0.05
 
@@ -93,7 +105,7 @@ def ruler_scene(*, length: float, weight: float, mass: float, x_left: float, x_r
                    (-length / 2, h / 2)))
     work = Body("workpiece", (rod,), mass=mass, com=(0.0, 0.0),
                 inertia=mass * (length ** 2 + h ** 2) / 12.0)
-    y = -h / 2 - finger_radius + 1e-6 * length
+    y = -h / 2 - finger_radius + preload_depth(length)
     left = Body("finger1", (Circle((0.0, 0.0), finger_radius),), pose=(x_left, y, 0.0),
                 kind=BodyKind.DRIVEN, twist=lambda t, s: (speed, 0.0, 0.0))
     right = Body("finger2", (Circle((0.0, 0.0), finger_radius),), pose=(x_right, y, 0.0),
@@ -106,23 +118,113 @@ def ruler_scene(*, length: float, weight: float, mass: float, x_left: float, x_r
                  meta={"thickness": h})
 
 
-def observed_switches(rec: Recording, tokens: np.ndarray, body_names: tuple[str, ...]
-                      ) -> tuple[list[float], list[int]]:
-    """Switch positions from a recording: when the (debounced) sliding finger changes from
-    ``i`` to ``j``, the distance of finger ``i`` to the rod's COM at that step [m]."""
+#: A finger carries the motion when its window-mean slip exceeds the slip threshold and this
+#: many times the other finger's (a creeping "sticking" finger does not hide which one slides).
+DOMINANCE = 2.0
+
+
+def sliding_finger(rec: Recording, slip_speed: float, window: float) -> np.ndarray:
+    """(T,) index of the finger that carries the motion (0 left, 1 right), -1 where neither
+    or both do: window-mean ``|v_t|`` (:func:`sim.classify.window_mean`) above ``slip_speed``
+    and above :data:`DOMINANCE` times the other finger's."""
+    from sim.classify import window_mean
+
+    v = np.abs(window_mean(rec.slip_velocity, rec.present.astype(float), rec.times, window))
+    v = np.nan_to_num(v, nan=0.0)
+    out = np.full(len(rec.times), -1)
+    for i in (0, 1):
+        out[(v[:, i] > slip_speed) & (v[:, i] > DOMINANCE * v[:, 1 - i])] = i
+    return out
+
+
+def observed_switches(rec: Recording, slider: np.ndarray, body_names: tuple[str, ...],
+                      window: float = 0.0) -> tuple[list[float], list[int], list[float]]:
+    """Switch positions from a recording and its sliding finger per step (``slider``, from
+    :func:`sliding_finger` with averaging ``window`` [s]): when the sliding finger changes from
+    ``i`` to ``j``, the distance of finger ``i`` to the rod's COM [m]. Returns the positions,
+    the fingers ``i`` and the times [s] of the switches.
+
+    Dating: the window means of the two slips cross at a hand-over; the stretch where neither
+    finger dominates is about symmetric around the crossing and is dated at its middle. A
+    stretch longer than one window (the fingers chatter, or both slide after the last switch)
+    is dated where finger ``i`` stopped dominating, less half a window (the centred mean's lag);
+    so is a run that ends without another sliding finger."""
     iw = body_names.index("workpiece")
     ifs = [body_names.index("finger1"), body_names.index("finger2")]
-    slider = np.full(len(rec.times), -1)
-    for k in range(len(rec.times)):
-        s = [j for j in (0, 1) if tokens[k, j] in ("S+", "S-")]
-        if len(s) == 1:
-            slider[k] = s[0]
-    positions, sliders = [], []
-    prev = -1
-    for k in range(len(rec.times)):
-        if prev >= 0 and slider[k] != prev:
-            xc = rec.poses[k, iw, 0]
-            positions.append(float(abs(rec.poses[k, ifs[prev], 0] - xc)))
-            sliders.append(int(prev))
-        prev = int(slider[k])
-    return positions, sliders
+    T = len(rec.times)
+    step = float(rec.times[1] - rec.times[0]) if T > 1 else 1.0
+    lag = int(round(0.5 * window / step))
+    positions: list[float] = []
+    sliders: list[int] = []
+    times: list[float] = []
+
+    def record(finger: int, k: int) -> None:
+        k = min(max(k, 0), T - 1)
+        xc = rec.poses[k, iw, 0]
+        positions.append(float(abs(rec.poses[k, ifs[finger], 0] - xc)))
+        sliders.append(finger)
+        times.append(float(rec.times[k]))
+
+    prev, end = -1, -1  # current sliding finger, the last step it dominated
+    for k in range(T):
+        cur = int(slider[k])
+        if cur < 0:
+            continue
+        if prev >= 0 and cur != prev:
+            gap = k - end - 1
+            record(prev, (end + k + 1) // 2 if gap * step <= window else end + 1 - lag)
+        prev, end = cur, k
+    if prev >= 0 and end < T - 1:
+        record(prev, end + 1 - lag)
+    return positions, sliders, times
+
+
+def creep(rec: Recording, slider: np.ndarray, window: float) -> float:
+    """Median window-mean ``|v_t|`` [m/s] of the finger that does *not* carry the motion
+    (predicted to stick) while the other one does, away from the hand-overs (steps more than
+    one window inside a stretch of one sliding finger): the engine's measured creep."""
+    from sim.classify import window_mean
+
+    v = np.abs(np.nan_to_num(window_mean(rec.slip_velocity, rec.present.astype(float),
+                                         rec.times, window)))
+    T = len(rec.times)
+    step = float(rec.times[1] - rec.times[0]) if T > 1 else 1.0
+    m = max(1, int(round(window / step)))
+    inside = np.zeros(T, dtype=bool)
+    for k in range(m, T - m):
+        inside[k] = slider[k] >= 0 and bool(np.all(slider[k - m:k + m + 1] == slider[k]))
+    rest = np.concatenate([v[inside & (slider == i), 1 - i] for i in (0, 1)])
+    return float(np.median(rest)) if len(rest) else 0.0
+
+
+def compare_switches(predicted: Sequence[float], predicted_sliders: Sequence[int],
+                     observed: Sequence[float], observed_sliders: Sequence[int], *,
+                     tolerance: float, required: int) -> tuple[Verdict, list[float | None]]:
+    """Ruler switch positions (Sec. 5.1): each predicted switch ``k`` [m] is matched to the
+    observed switch of the same sliding finger nearest to it along the motion (not by list
+    index), each observed switch used once, in order. A predicted switch matches when its
+    relative error is within ``tolerance``; ``agreed`` when the first ``required`` predicted
+    switches all match. Returns the verdict and the per-predicted-switch relative errors
+    (``None`` where no observed switch of that finger is left)."""
+    need = min(required, len(predicted))
+    errors: list[float | None] = []
+    used = -1
+    for p, s in zip(predicted, predicted_sliders):
+        cands = [(abs(o - p) / p, j) for j, (o, so) in enumerate(zip(observed, observed_sliders))
+                 if j > used and so == s]
+        if not cands:
+            errors.append(None)
+            continue
+        err, j = min(cands)
+        errors.append(float(err))
+        if err <= tolerance:
+            used = j
+    matched = sum(1 for e in errors[:need] if e is not None and e <= tolerance)
+    agreement = matched / need if need else 0.0
+    shown = [None if e is None else round(e, 4) for e in errors]
+    if need == 0:
+        return Verdict(Outcome.INCONCLUSIVE, ("no switch predicted",)), errors
+    outcome = Outcome.AGREED if matched == need else Outcome.DISAGREED
+    return Verdict(outcome, (f"{matched} of {need} predicted switches within {tolerance:.0%} "
+                             f"(relative errors {shown})",), agreement=agreement,
+                   judged_steps=need), errors

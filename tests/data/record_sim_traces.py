@@ -1,0 +1,72 @@
+"""Record the short simulator traces that tests/test_sim_flicker.py classifies.
+
+Run from the repository root: ``PYTHONPATH=. python tests/data/record_sim_traces.py``. Each
+trace is one paper-example run (the settings of ``scenarios/paper_sims.py``) cut to the
+``[start, stop]`` seconds listed below and stored as float32 arrays in
+``tests/data/sim_trace_<name>.npz``: ``times`` (T,), per contact ``vt``, ``fn``, ``ft``,
+``depth`` (T, P) and ``present`` (T, P), the workpiece ``poses`` (T, 3), and ``meta`` (a JSON
+string: engine, data, scale, mu, speed, load, creep, settle, length_scale). The tests rebuild the
+prediction from the planner; nothing predicted is stored.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from planner.files.system_file import load_system
+from scenarios.paper_sims import DATA, ENGINE_SETTINGS
+from sim.backends import make_backend
+from sim.run import RunSettings, run_scene
+from sim.scenes.paper import example_scene, scaled_system
+
+HERE = Path(__file__).resolve().parent
+#: name -> (engine, data, scale, mu, start [s], stop [s])
+TRACES = {
+    # Example 4.1 inside the 3S region at high mu_2: MuJoCo's contacts flicker
+    "mujoco_ex41_3s_flicker": ("mujoco", "example_4_1", 0.01, (0.2, 0.6, 0.1), 1.2, 2.6),
+    "mujoco_ex41_3s_flicker_b": ("mujoco", "example_4_1", 0.01, (0.3, 0.7, 0.2), 1.2, 2.6),
+    # Example 4.3 at mu = 3: pymunk wedges the workpiece (B1 R2 S-3, forces 30-110 x the load)
+    # for 0.4 s, flickers, then leaves for S-1 R2 B3 (both predicted)
+    "pymunk_ex43_mu3_wedge": ("pymunk", "example_4_3", 0.1, (3.0, 3.0, 3.0), 0.0, 1.4),
+    # Example 4.1 in a jam region: pymunk's contacts flicker while the force blows up
+    "pymunk_ex41_jam_flicker": ("pymunk", "example_4_1", 0.01, (1.44, 1.09, 0.81), 0.0, 0.5),
+    # clean runs: 3S in pymunk, a MuJoCo jam (penetration grows, nothing predicted)
+    "pymunk_ex41_3s": ("pymunk", "example_4_1", 0.01, (0.2, 0.6, 0.1), 0.0, 1.4),
+    "mujoco_ex41_jam": ("mujoco", "example_4_1", 0.01, (0.75, 0.95, 0.25), 0.5, 3.0),
+}
+
+
+def record(name: str) -> Path:
+    engine, data, scale, mu, start, stop = TRACES[name]
+    es = ENGINE_SETTINGS[engine]
+    speed = float(es["speed"])
+    base = load_system(DATA / f"{data}.json")
+    scaled = scaled_system(base, scale, speed)
+    scene = example_scene(scaled.with_mu(mu), speed=speed, mass=float(es["mass"]))
+    load = float(np.linalg.norm(base.g_obj[:2]))
+    rec = run_scene(scene, make_backend(engine), RunSettings(
+        duration=stop, dt=float(es["dt"]), slip_speed=0.05 * speed,
+        penetration_tol=0.02 * scene.length_scale))
+    assert rec.fault is None, rec.fault
+    keep = (rec.times >= start - 1e-9) & (rec.times <= stop + 1e-9)
+    iw = rec.body_names.index("workpiece")
+    meta = {"engine": engine, "data": data, "scale": scale, "mu": list(mu), "speed": speed,
+            "load": load, "creep": float(es["creep"]), "settle": float(es["settle"]),
+            "length_scale": scene.length_scale, "start": start, "stop": stop}
+    path = HERE / f"sim_trace_{name}.npz"
+    np.savez_compressed(
+        path, times=rec.times[keep], vt=rec.slip_velocity[keep].astype(np.float32),
+        fn=rec.normal_force[keep].astype(np.float32),
+        ft=rec.tangent_force[keep].astype(np.float32),
+        depth=rec.depth[keep].astype(np.float32), present=rec.present[keep],
+        poses=rec.poses[keep, iw], meta=np.array(json.dumps(meta)))
+    return path
+
+
+if __name__ == "__main__":
+    for nm in TRACES:
+        p = record(nm)
+        print(f"{p.name}: {p.stat().st_size / 1024:.0f} KiB")

@@ -1,0 +1,58 @@
+"""Recorded simulator traces (tests/data/sim_trace_*.npz, written by
+tests/data/record_sim_traces.py) as :class:`sim.run.Recording` objects, with the planner's
+prediction for the same system and friction recomputed (nothing predicted is stored)."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from planner.files.system_file import load_system
+from planner.predict.feasibility import Prediction, feasible_modes
+from scenarios.registry import DATA_DIR
+from sim.classify import Thresholds
+from sim.run import Recording
+from sim.scenes.paper import scaled_system
+
+TRACE_DIR = Path(__file__).resolve().parent / "data"
+
+
+@dataclass(frozen=True)
+class Trace:
+    rec: Recording
+    meta: dict[str, Any]
+
+    def prediction(self, mu: tuple[float, ...] | None = None) -> Prediction:
+        m = self.meta
+        system = scaled_system(load_system(DATA_DIR / f"{m['data']}.json"), m["scale"],
+                               m["speed"])
+        return feasible_modes(system, tuple(m["mu"]) if mu is None else mu)
+
+    def thresholds(self, **kw: Any) -> Thresholds:
+        m = self.meta
+        # judge from the later of the engine's settling time and one window after the cut
+        settle = max(m["settle"], m["start"] + 0.1)
+        return Thresholds.for_drive(m["speed"], m["load"], creep_floor=m["creep"],
+                                    settle=settle, jam_force=20.0 * m["load"],
+                                    length_scale=m["length_scale"], **kw)
+
+
+def load_trace(name: str) -> Trace:
+    d = np.load(TRACE_DIR / f"sim_trace_{name}.npz")
+    meta = json.loads(str(d["meta"]))
+    T, P = d["vt"].shape
+    z = np.zeros((T, P))
+    rec = Recording(
+        engine=meta["engine"], pair_names=tuple(f"c{i + 1}" for i in range(P)),
+        body_names=("workpiece",), times=np.asarray(d["times"], dtype=float),
+        poses=np.asarray(d["poses"], dtype=float).reshape(T, 1, 3),
+        present=np.asarray(d["present"], dtype=bool), points=np.zeros((T, P, 2)),
+        normals=np.zeros((T, P, 2)), normal_force=np.asarray(d["fn"], dtype=float),
+        tangent_force=np.asarray(d["ft"], dtype=float),
+        slip_velocity=np.asarray(d["vt"], dtype=float),
+        depth=np.asarray(d["depth"], dtype=float), mu_used=z)
+    return Trace(rec, meta)
