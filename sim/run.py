@@ -76,7 +76,7 @@ class EngineWatch:
         self._names: tuple[str, ...] = ()
         data = getattr(backend, "data", None)
         if data is not None and hasattr(data, "warning"):
-            import mujoco  # type: ignore[import-untyped]  # only with a MuJoCo backend
+            import mujoco  # only with a MuJoCo backend
 
             self._names = tuple(
                 nm for nm in mujoco.mjtWarning.__members__ if nm.startswith("mjWARN_"))

@@ -259,13 +259,13 @@ def _indeterminate_grid(system: System, grid: MuGrid, mu: np.ndarray, tol: float
     shape = tuple(len(a) for a in grid.axes)
     pts = mu.reshape(*shape, -1)
     rests = list(np.ndindex(*shape[1:])) if len(shape) > 1 else [()]
-    others = np.array([pts[(0, *rest)] for rest in rests])
+    others = np.array([pts[(0,) + tuple(rest)] for rest in rests])
     out = np.zeros((mu.shape[0], len(kins)), bool)
     for m, kin in enumerate(kins):
         lines = relaxed_mode_on_lines(system, kin, grid.axes[0], others, grid.vary[0], tol)
         col = np.zeros(shape, bool)
         for li, rest in enumerate(rests):
-            col[(slice(None), *rest)] = lines[li]
+            col[(slice(None),) + tuple(rest)] = lines[li]
         out[:, m] = col.reshape(-1)
     return tuple(k.mode.label for k in kins), out
 

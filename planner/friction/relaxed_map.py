@@ -28,7 +28,7 @@ Charnes & Cooper (1962), linear-fractional programming.
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import linprog  # type: ignore[import-untyped]
+from scipy.optimize import linprog
 
 from planner.model.modes import BREAK, ROLL, SLIDE
 from planner.model.system import System
@@ -46,7 +46,7 @@ class _Lp:
 
     def __init__(self) -> None:
         try:
-            from scipy.optimize._highspy import _core  # type: ignore[import-untyped]
+            from scipy.optimize._highspy import _core
 
             self._core = _core
             self._h = _core._Highs()

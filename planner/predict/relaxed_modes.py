@@ -20,7 +20,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import linprog  # type: ignore[import-untyped]
+from scipy.optimize import linprog
 
 from planner.model.modes import BREAK, ROLL, SLIDE, Mode, candidates_from_codes
 from planner.model.system import System

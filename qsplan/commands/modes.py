@@ -153,9 +153,9 @@ def format_prediction(pred: Any) -> str:
         lines.append(f"mode {m.label}  ({m.mode.family})  margin {fmt(m.margin, '.3g')}"
                      + (f"  [{', '.join(flags)}]" if flags else ""))
         qdot = _rounding_noise_to_zero(m.qdot, pred.tol)
-        lines.append(f"  qdot (vx, vy, omega): {fmt_list(qdot)}")
+        lines.append(f"  qdot (vx, vy, omega): {fmt_list(qdot.tolist())}")
         joint_v = _rounding_noise_to_zero(m.joint_velocities, pred.tol)
-        lines.append(f"  joint velocities:     {fmt_list(joint_v)}")
+        lines.append(f"  joint velocities:     {fmt_list(joint_v.tolist())}")
         lines.append("  contact   v_n         v_t         c_n         c_t")
         vel = _rounding_noise_to_zero(m.contact_velocities, pred.tol)
         force = _rounding_noise_to_zero(m.contact_forces, pred.tol)
@@ -163,7 +163,7 @@ def format_prediction(pred: Any) -> str:
             cells = "".join(f"{fmt(x, '<11.4g')} " for x in (v[0], v[1], c[0], c[1]))
             lines.append(f"  {i + 1:>7}   {cells.rstrip()}")
         efforts = _rounding_noise_to_zero(m.joint_efforts, pred.tol)
-        lines.append(f"  joint efforts:        {fmt_list(efforts)}")
+        lines.append(f"  joint efforts:        {fmt_list(efforts.tolist())}")
     if pred.boundary_modes:
         lines.append("")
         lines.append("within tolerance of a strict kinematic boundary (not counted): "

@@ -23,7 +23,7 @@ velocities of contact points with ``mj_jac``.
 
 from __future__ import annotations
 
-import mujoco  # type: ignore[import-untyped]
+import mujoco
 import numpy as np
 
 from sim.scene import (
