@@ -1,4 +1,4 @@
-"""Simulator scenarios of the two-finger hand plan (Sec. 5.2, Figs. 9-13; issue 5).
+"""Simulator scenarios of the two-finger hand plan (Sec. 5.2, Figs. 9-13).
 
 ``hand_4s_plan``: the planned 4S segment (torque in the band guaranteed for mu in [0, 0.2]) run
 at mu = 0.1; expected to agree (claimed mode >= 95 %, final position within 2 % of travel).

@@ -35,7 +35,7 @@ manipulator).
 the measured slip, detects faults (NaN, penetration, a body leaving the scene, a contact missing
 at the start) and records a :class:`sim.run.Recording`.
 
-Example (a hand scene, issue 5)::
+Example (a hand scene)::
 
     palm = Body("palm", (Polygon(((-.1, -.02), (.1, -.02), (.1, 0), (-.1, 0))),), kind="static")
     link = Body("f1", (Capsule((0, 0), (0, .1), .005),), mass=.05, com=(0, .05))

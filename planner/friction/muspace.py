@@ -31,6 +31,7 @@ from planner.errors import InputError
 from planner.friction.closed_form import ClosedFormRegion, closed_form_region
 from planner.model.modes import Mode, enumerate_modes
 from planner.model.system import System
+from planner.model.validation import as_friction
 from planner.predict.indeterminate import DEFAULT_MAX_ROW_SUBSETS, row_subset_count
 from planner.predict.stages import DEFAULT_TOL, force_stage, kinematic_stage
 
@@ -176,15 +177,6 @@ def _check_vary(vary: tuple[int, ...], n_c: int) -> tuple[int, ...]:
     return vary
 
 
-def _check_base(base_mu: Any, n_c: int) -> np.ndarray:
-    base = np.asarray(base_mu, dtype=float).reshape(-1)
-    if base.shape != (n_c,):
-        raise InputError(f"base_mu: expected shape ({n_c},), got {base.shape}")
-    if np.any(base < 0) or not np.all(np.isfinite(base)):
-        raise InputError(f"base_mu: expected finite mu >= 0, got {base.tolist()}")
-    return base
-
-
 def mu_grid(
     system: System,
     vary: tuple[int, ...],
@@ -211,7 +203,7 @@ def mu_grid(
     """
     n_c = system.n_contacts
     vary = _check_vary(vary, n_c)
-    base = _check_base(base_mu, n_c)
+    base = as_friction(base_mu, n_c, "base_mu")
     _check_range(*mu_range)
     if n < 1:
         raise InputError(f"n: expected >= 1 grid points per axis, got {n}")
@@ -375,7 +367,7 @@ def muspace_map(
     sliced."""
     n_c = system.n_contacts
     vary = _check_vary(vary, n_c)
-    base = _check_base(system.mu if base_mu is None else base_mu, n_c)
+    base = as_friction(system.mu if base_mu is None else base_mu, n_c, "base_mu")
     grids, titles = [], []
     if sliced is None:
         grids.append(mu_grid(system, vary, base, mu_range, n, tol=tol))

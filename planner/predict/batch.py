@@ -1,4 +1,4 @@
-"""Feasible modes of many configurations of one structure at once (issue 15).
+"""Feasible modes of many configurations of one structure at once.
 
 A planner asks for the modes of thousands of configurations that share their structure: the
 waypoints of a trajectory (same contacts, same joints, same control partition; ``W``, ``J``,

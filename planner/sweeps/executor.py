@@ -1,4 +1,4 @@
-"""One executor abstraction for large sweeps (issue 6): local processes or Dask distributed.
+"""One executor abstraction for large sweeps: local processes or Dask distributed.
 
 Mu-space maps, batch validation of many randomised scenes and exhaustive enumeration at large
 ``n_c`` are embarrassingly parallel: a pure function applied to many items.  :class:`Executor`

@@ -1,4 +1,4 @@
-"""Seeded random systems for benchmarks and scale tests (issue 6).
+"""Seeded random systems for benchmarks and scale tests.
 
 A random system is a random convex polygonal workpiece with ``n_c`` contacts on its boundary
 (inward unit normals, Sec. 3 / Fig. 1), and a manipulator with a random contact Jacobian
@@ -75,7 +75,7 @@ def random_system(
         Velocity-controlled joints (commanded speeds ~ N(0, 1) [rad/s]); at least 1 so the
         system moves.
     n_effort : int, optional
-        Effort-controlled joints ``|tau_I|``; default ``n_c - 3`` (issue 6), giving
+        Effort-controlled joints ``|tau_I|``; default ``n_c - 3``, giving
         ``3 + |tau_I| = n_c`` kinematic constraints per candidate mode (eq. 29).
     mu_range : (lo, hi)
         Friction coefficients are uniform in this range.
