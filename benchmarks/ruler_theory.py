@@ -38,7 +38,10 @@ def main() -> None:
             errs = " ".join(f"{e:.4f}" for e in r["relative_errors"])
             print(f"{args.engine:7s} mu {mu_s}/{mu_k} layout ({left}, {right}): {r['status']:12s} "
                   f"switches {len(r['observed_m'])} errors [{errs}] creep "
-                  f"{r['creep_m_per_s']:.2g} m/s  {r['wall_s']:.1f} s", flush=True)
+                  f"{r['creep_m_per_s']:.2g} m/s, contacts missing "
+                  f"{r['contact_lost_fraction']:.1%}  {r['wall_s']:.1f} s", flush=True)
+            if r["cause"]:
+                print(f"        cause: {r['cause']}")
     counts = {s: sum(r["status"] == s for r in rows)
               for s in ("agreed", "disagreed", "inconclusive", "fault")}
     print(json.dumps(counts))

@@ -4,8 +4,9 @@
 
 1. **predict** -- :func:`planner.predict.feasibility.feasible_modes` at the judging friction
    (``judge_mu``, default the simulated ``mu``), as ``qsplan modes`` does; a positive
-   scaling of every contact velocity (slow motion) leaves the feasible mode set unchanged, so
-   the prediction is made on the system as given;
+   scaling of every contact velocity (slow motion) leaves the feasible mode set unchanged, and
+   the prediction is made on the system with its contact velocities scaled to the scene's
+   (the certificate's ``qdot`` is then the twist the run should show);
 2. **build** the scene (:func:`sim.scenes.system.system_scene`) at the simulated ``mu``;
 3. **run** it in slow motion (:func:`sim.run.run_scene`): the fastest contact moves at
    ``RATE[engine] * size`` [m/s] (``size``: the scene's length scale) unless ``speed`` is given;
@@ -55,6 +56,32 @@ class SystemRun:
     scene: Any
 
 
+def judge_recording(rec: Any, prediction: Any, engine: str, drive: float, load: float,
+                    size: float) -> tuple[Verdict, list[ObservedMode], Any]:
+    """Classify ``rec`` (simulator contact data only) and judge it against ``prediction`` (a
+    :class:`planner.predict.feasibility.Prediction`): ``(verdict, observed modes,
+    thresholds)``. ``drive`` [m/s] fastest contact speed, ``load`` [N], ``size`` [m].
+
+    Works with both classifier interfaces of :func:`sim.classify.judge_run` (predicted modes
+    plus ``jam_force``, or the feasible modes with the jam force in the thresholds) so this
+    module does not depend on the order the two are merged in."""
+    import inspect
+
+    from sim.classify import Thresholds, judge_run
+
+    es = ENGINE[engine]
+    jam_force = JAM_FORCE_OF_LOAD * load
+    if "jam_force" in inspect.signature(judge_run).parameters:
+        th = Thresholds.for_drive(drive, load, creep_floor=es["creep"], settle=es["settle"])
+        modes: list[ObservedMode] = [m.mode for m in prediction.all_modes] or [JAM]
+        verdict, observed = judge_run(rec, th, modes, jam_force=jam_force)  # type: ignore[call-arg,arg-type,unused-ignore]
+        return verdict, observed, th
+    th = Thresholds.for_drive(drive, load, creep_floor=es["creep"],  # type: ignore[call-arg,unused-ignore]
+                              settle=es["settle"], jam_force=jam_force, length_scale=size)
+    verdict, observed = judge_run(rec, th, list(prediction.all_modes))
+    return verdict, observed, th
+
+
 def simulate_system(system: System, engine: str, *, mu: Any = None, mu_kinetic: Any = None,
                     judge_mu: Any = None, duration: float | None = None,
                     speed: float | None = None) -> SystemRun:
@@ -62,7 +89,6 @@ def simulate_system(system: System, engine: str, *, mu: Any = None, mu_kinetic: 
     ``judge_mu`` (default ``mu``). ``duration`` [s]; ``speed`` [m/s] of the fastest contact."""
     from planner.predict.feasibility import feasible_modes
     from sim.backends import ENGINES, make_backend
-    from sim.classify import Thresholds, judge_run
     from sim.run import RunSettings, run_scene
     from sim.scenes.system import system_scene
 
@@ -91,8 +117,8 @@ def simulate_system(system: System, engine: str, *, mu: Any = None, mu_kinetic: 
         raise InputError(f"--speed: expected a finite speed > 0 [m/s], got {speed}")
     scale = drive / fastest
     scene = system_scene(sim_sys, speed_scale=scale, mu_kinetic=muk)
-
-    pred = feasible_modes(judge_sys)
+    # predicted at the scene's speeds, so the certificate's qdot is the twist to observe
+    pred = feasible_modes(judge_sys.with_joint_inputs(np.asarray(judge_sys.joint_inputs) * scale))
     predicted: list[ObservedMode] = [m.mode for m in pred.all_modes] or [JAM]
     g = np.asarray(system.g_obj, dtype=float)
     load = max(float(np.linalg.norm(g[:2])), abs(float(g[2])) / size)
@@ -103,8 +129,7 @@ def simulate_system(system: System, engine: str, *, mu: Any = None, mu_kinetic: 
     settings = RunSettings(duration=duration, dt=es["dt"], slip_speed=0.05 * drive,
                            penetration_tol=0.02 * size, jam_force=jam_force)
     rec = run_scene(scene, make_backend(engine), settings)
-    th = Thresholds.for_drive(drive, load, creep_floor=es["creep"], settle=es["settle"])
-    verdict, observed = judge_run(rec, th, predicted, jam_force=jam_force)
+    verdict, observed, th = judge_recording(rec, pred, engine, drive, load, size)
     iw = rec.body_names.index("workpiece")
     summary: dict[str, Any] = {
         "engine": engine,

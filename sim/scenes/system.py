@@ -7,10 +7,14 @@ What is built (all in the world frame of the system file, metres, no rescaling):
   (:func:`sim.scenes.paper.workpiece_polygon`) with its centre of mass at the world origin (the
   paper's origin is the centre of gravity, Sec. 4) and a default mass;
 * **environment contacts** (``"environment": true``): a *fixed flat surface* along the contact's
-  tangent ``t_i = rot90(n_i)`` -- a thin static slab whose top face is the contact's tangent line
-  (not a peg). It reaches ``ENV_REACH`` times the scene size past the contact on any side where
-  the workpiece does not lie, and only ``ENV_INSET`` times the size under the workpiece, so a
-  workpiece vertex at the contact (a box corner on a table) can lift off or pivot there;
+  tangent ``t_i = rot90(n_i)`` (not a peg): a static slab with rounded ends (a capsule of radius
+  ``ENV_THICKNESS / 2`` times the scene size) whose flat top is the contact's tangent line. It
+  reaches ``ENV_REACH`` times the size past the contact on any side where the workpiece does
+  not lie, and only ``ENV_INSET`` times the size under the workpiece, so a workpiece vertex at
+  the contact (a box corner on a table) can lift off or pivot there. Rounded ends rather than a
+  box: MuJoCo's box-box contact of a flat workpiece edge on a box slab stuck and slipped (the
+  box on a table, pushed, moved in jumps of up to 20x the drive speed); on the capsule it slides
+  at the drive speed, as in pymunk;
 * **manipulator contacts**: small driven fingertip circles touching at ``r_i`` and moving with
   the commanded contact velocity ``J_i thetadot = v_in n_i + v_it t_i`` (eq. 5) times
   ``speed_scale`` (slow motion; positive scaling leaves the quasistatic mode set unchanged);
@@ -30,7 +34,7 @@ import numpy as np
 from planner.errors import InputError
 from planner.model.system import System
 from planner.model.workpiece import point_in_convex_polygon, polygon_area_centroid
-from sim.scene import Body, BodyKind, Circle, ContactPair, Load, Polygon, Scene
+from sim.scene import Body, BodyKind, Capsule, Circle, ContactPair, Load, Polygon, Scene
 from sim.scenes.paper import constant_twist, workpiece_polygon
 
 #: Initial overlap of every contact, as a fraction of the scene size [-].
@@ -40,7 +44,7 @@ FINGER_RADIUS = 0.04
 #: How far an environment surface reaches beyond the workpiece / under it, fractions of size.
 ENV_REACH = 0.5
 ENV_INSET = 0.05
-#: Slab thickness of an environment surface, fraction of size.
+#: Thickness (capsule diameter) of an environment surface, fraction of size.
 ENV_THICKNESS = 0.1
 #: Mass [kg] of a derived workpiece (no ``workpiece`` key in the file).
 DEFAULT_MASS = 0.1
@@ -58,21 +62,21 @@ def _polygon_inertia(poly: np.ndarray, com: np.ndarray, mass: float) -> float:
     return mass * j / area
 
 
-def _environment_slab(r: np.ndarray, n: np.ndarray, poly: np.ndarray, size: float
-                      ) -> np.ndarray:
-    """Counter-clockwise slab (4, 2): top face on the tangent line through ``r`` shifted
-    ``PRELOAD * size`` into the workpiece, spanning the tangent interval described in the
-    module docstring, ``ENV_THICKNESS * size`` thick on the side away from the workpiece."""
+def environment_surface(r: np.ndarray, n: np.ndarray, poly: np.ndarray, size: float
+                        ) -> Capsule:
+    """The fixed surface of an environment contact at ``r`` (2,) [m] with inward normal ``n``:
+    a capsule whose flat top lies on the tangent line through ``r`` shifted ``PRELOAD * size``
+    into the workpiece, spanning the tangent interval described in the module docstring, of
+    radius ``ENV_THICKNESS * size / 2`` on the side away from the workpiece (world frame)."""
     t = np.array([-n[1], n[0]])
     along = (poly - r) @ t
     tol = 1e-9 * size
     lo = -ENV_REACH * size if along.min() >= -tol else -ENV_INSET * size
     hi = ENV_REACH * size if along.max() <= tol else ENV_INSET * size
-    top = r + PRELOAD * size * n
-    bottom = top - ENV_THICKNESS * size * n
-    # t = rot90(n): walking +t along the top face has the slab (at -n) on the left, so the
-    # top face is listed from lo to hi for a counter-clockwise outline.
-    return np.array([top + lo * t, top + hi * t, bottom + hi * t, bottom + lo * t])
+    radius = 0.5 * ENV_THICKNESS * size
+    axis = r + PRELOAD * size * n - radius * n
+    a, b = axis + lo * t, axis + hi * t
+    return Capsule((float(a[0]), float(a[1])), (float(b[0]), float(b[1])), radius)
 
 
 def system_scene(system: System, *, speed_scale: float = 1.0,
@@ -118,8 +122,10 @@ def system_scene(system: System, *, speed_scale: float = 1.0,
                              f"{r.tolist()} (polygon reaches {gap:.3g} m along the normal)")
     _, centroid = polygon_area_centroid(poly)
     inertia = _polygon_inertia(poly, com, mass)
-    work = Body("workpiece", (Polygon(tuple(map(tuple, (poly - com).tolist()))),), mass=mass,
-                com=(0.0, 0.0), inertia=inertia, pose=(float(com[0]), float(com[1]), 0.0))
+    # body frame = world frame at the start: the recorded pose is then the workpiece point at
+    # the world origin, whose velocity is the planner's qdot (docs/conventions.md)
+    work = Body("workpiece", (Polygon(tuple(map(tuple, poly.tolist()))),), mass=mass,
+                com=(float(com[0]), float(com[1])), inertia=inertia, pose=(0.0, 0.0, 0.0))
     vel = np.asarray(system.joint_inputs, dtype=float).reshape(-1, 2) * speed_scale
     radius = FINGER_RADIUS * size
     bodies = [work]
@@ -127,8 +133,7 @@ def system_scene(system: System, *, speed_scale: float = 1.0,
     for i in range(n_c):
         name = f"env{i + 1}" if env[i] else f"finger{i + 1}"
         if env[i]:
-            slab = _environment_slab(pts[i], nrm[i], poly, size)
-            bodies.append(Body(name, (Polygon(tuple(map(tuple, slab.tolist()))),),
+            bodies.append(Body(name, (environment_surface(pts[i], nrm[i], poly, size),),
                                kind=BodyKind.STATIC))
         else:
             v_world = vel[i, 0] * nrm[i] + vel[i, 1] * tng[i]
