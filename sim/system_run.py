@@ -41,6 +41,11 @@ ENGINE = {
 }
 #: A total normal force above this multiple of the load is a jam (as in the paper scenarios).
 JAM_FORCE_OF_LOAD = 20.0
+#: :func:`stick_slip_verdict`: relative twist error [-] within which the workpiece "moves as
+#: predicted", and the fraction of judged contact-steps missing above which the engine is
+#: said not to resolve the modes (pymunk runs of the box and the disc miss none).
+TWIST_TOLERANCE = 0.1
+LOST_FRACTION = 0.01
 
 
 @dataclass(frozen=True, eq=False)
@@ -75,11 +80,45 @@ def judge_recording(rec: Any, prediction: Any, engine: str, drive: float, load: 
         th = Thresholds.for_drive(drive, load, creep_floor=es["creep"], settle=es["settle"])
         modes: list[ObservedMode] = [m.mode for m in prediction.all_modes] or [JAM]
         verdict, observed = judge_run(rec, th, modes, jam_force=jam_force)  # type: ignore[call-arg,arg-type,unused-ignore]
-        return verdict, observed, th
-    th = Thresholds.for_drive(drive, load, creep_floor=es["creep"],  # type: ignore[call-arg,unused-ignore]
-                              settle=es["settle"], jam_force=jam_force, length_scale=size)
-    verdict, observed = judge_run(rec, th, list(prediction.all_modes))
-    return verdict, observed, th
+    else:
+        th = Thresholds.for_drive(drive, load, creep_floor=es["creep"],  # type: ignore[call-arg,unused-ignore]
+                                  settle=es["settle"], jam_force=jam_force, length_scale=size)
+        verdict, observed = judge_run(rec, th, list(prediction.all_modes))
+    return stick_slip_verdict(verdict, rec, prediction, es["settle"], size), observed, th
+
+
+def stick_slip_verdict(verdict: Verdict, rec: Any, prediction: Any, settle: float,
+                       size: float) -> Verdict:
+    """A ``disagreed`` label comparison becomes ``inconclusive`` when the engine measurably
+    cannot resolve the contact modes although the workpiece moves as predicted: the mean
+    workpiece twist over the judged steps (least-squares slope of the recorded pose) is within
+    ``TWIST_TOLERANCE`` of a predicted mode's ``qdot`` (relative, rotation weighted by the
+    scene size) while contacts go missing on more than ``LOST_FRACTION`` of the judged steps
+    (stick-slip or chatter; a resting contact is never missing in a sound run)."""
+    from dataclasses import replace
+
+    from sim.compare import Outcome
+
+    if verdict.outcome is not Outcome.DISAGREED or not prediction.all_modes:
+        return verdict
+    k = rec.times >= settle
+    if k.sum() < 3:
+        return verdict
+    iw = rec.body_names.index("workpiece")
+    pose = rec.poses[k, iw].copy()
+    pose[:, 2] = np.unwrap(pose[:, 2])
+    twist = np.polyfit(rec.times[k], pose, 1)[0]
+    wvec = np.array([1.0, 1.0, size])
+    errors = [float(np.linalg.norm((twist - np.asarray(m.qdot)) * wvec)
+                    / max(float(np.linalg.norm(np.asarray(m.qdot) * wvec)), 1e-300))
+              for m in prediction.all_modes]
+    lost = float(np.mean(~rec.present[k]))
+    if min(errors) > TWIST_TOLERANCE or lost <= LOST_FRACTION:
+        return verdict
+    return replace(verdict, outcome=Outcome.INCONCLUSIVE, reasons=verdict.reasons + (
+        f"the workpiece's mean twist is within {min(errors):.1%} of a predicted qdot but "
+        f"contacts are missing on {lost:.1%} of the judged steps (stick-slip or chatter): "
+        "this engine cannot resolve the contact modes here",))
 
 
 def simulate_system(system: System, engine: str, *, mu: Any = None, mu_kinetic: Any = None,

@@ -32,8 +32,10 @@ The observation is the simulator's own contact data (:mod:`sim.classify`); the p
 planner's, made at the scene's (slow-motion) contact speeds. MuJoCo's low push shows stick-slip:
 the box's mean velocity is the drive speed (twist within 3 % of the certificate's ``qdot``), but
 the table contacts slide above the slip threshold on only ~50 % of the steps and the finger
-touches on ~20 % (the box sticks, the soft finger contact loads up, the box jumps ahead). It is
-an expected failure (strict, so a fix shows up); docs/simulation.md has the measurement.
+touches on ~20 % (the box sticks, the soft finger contact loads up, the box jumps ahead). That
+run is ``inconclusive`` with this measured cause (:func:`sim.system_run.stick_slip_verdict`),
+never a pass; its negative control still disagrees (the tipping twist is far from the sliding
+one). docs/simulation.md has the measurement.
 """
 
 from __future__ import annotations
@@ -54,9 +56,10 @@ W, WEIGHT = 0.08, 0.981
 CASES = {"low": (0.06, 0.3, "S-1 S-2 R3"), "high": (0.10, 0.9, "B1 R2 S+3")}
 OTHER = {"low": "high", "high": "low"}
 DURATION = {"pymunk": 1.0, "mujoco": 2.0}
-MUJOCO_LOW = pytest.mark.xfail(
-    strict=True, reason="MuJoCo: stick-slip of the box sliding on the table (measured, "
-                        "docs/simulation.md)")
+#: What each run must show: agreed, except MuJoCo's low push, whose stick-slip is reported as
+#: inconclusive with its measured cause (module docstring) -- never as a pass.
+EXPECTED = {("low", "pymunk"): Outcome.AGREED, ("high", "pymunk"): Outcome.AGREED,
+            ("low", "mujoco"): Outcome.INCONCLUSIVE, ("high", "mujoco"): Outcome.AGREED}
 
 
 def box(case: str):
@@ -88,15 +91,14 @@ def run(case: str, engine: str):
     return _RUNS[key]
 
 
-PARAMS = [("low", "pymunk"), ("high", "pymunk"),
-          pytest.param("low", "mujoco", marks=MUJOCO_LOW), ("high", "mujoco")]
-
-
-@pytest.mark.parametrize("case,engine", PARAMS)
+@pytest.mark.parametrize("case,engine", sorted(EXPECTED))
 def test_box_agrees_and_negative_control_disagrees(case: str, engine: str) -> None:
     res = run(case, engine)
-    assert res.verdict.outcome is Outcome.AGREED, res.verdict.reason
-    assert res.summary["observed"]["counts"] == {CASES[case][2]: res.verdict.judged_steps}
+    assert res.verdict.outcome is EXPECTED[case, engine], res.verdict.reason
+    if EXPECTED[case, engine] is Outcome.AGREED:
+        assert res.summary["observed"]["counts"] == {CASES[case][2]: res.verdict.judged_steps}
+    else:
+        assert "stick-slip" in res.verdict.reason
     # the same recording judged at the other case's friction: the negative control
     other_mu = CASES[OTHER[case]][1]
     judged = feasible_modes(box(case).with_mu([other_mu, other_mu, 0.0]))
