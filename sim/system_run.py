@@ -9,7 +9,8 @@
    (the certificate's ``qdot`` is then the twist the run should show);
 2. **build** the scene (:func:`sim.scenes.system.system_scene`) at the simulated ``mu``;
 3. **run** it in slow motion (:func:`sim.run.run_scene`): the fastest contact moves at
-   ``RATE[engine] * size`` [m/s] (``size``: the scene's length scale) unless ``speed`` is given;
+   ``min(RATE[engine] * size, MAX_SPEED[engine])`` [m/s] (``size``: the scene's length scale)
+   unless ``speed`` is given;
 4. **classify** the simulator's own contact data (:mod:`sim.classify`) -- never the
    prediction -- and **compare** (:mod:`sim.compare`, one :class:`~sim.compare.Verdict`).
 
@@ -29,9 +30,11 @@ from planner.model.system import System
 from sim.compare import JAM, ObservedMode, Verdict
 
 #: Slow-motion drive rate per engine [1/s]: the fastest contact moves this many scene sizes per
-#: second (pymunk 2 mm/s and MuJoCo 0.5 mm/s for a 0.1 m scene, the paper examples' settings in
-#: ``scenarios/paper_sims.py``; SIM-NOTES: MuJoCo's sliding contacts chatter above 3-5 mm/s).
+#: second, at most ``MAX_SPEED`` [m/s] (pymunk 2 mm/s and MuJoCo 0.5 mm/s, the paper examples'
+#: settings in ``scenarios/paper_sims.py``; SIM-NOTES: MuJoCo's sliding contacts chatter above
+#: 3-5 mm/s whatever the scene size).
 RATE = {"pymunk": 0.02, "mujoco": 0.005}
+MAX_SPEED = {"pymunk": 2e-3, "mujoco": 5e-4}
 #: Time step [s], creep floor of a sticking contact [m/s], default duration and settling time
 #: [s] per engine (the creep floors are SIM-NOTES measurements; MuJoCo's soft contacts need a
 #: longer start transient).
@@ -151,7 +154,7 @@ def simulate_system(system: System, engine: str, *, mu: Any = None, mu_kinetic: 
     if not fastest > 0:
         raise InputError("simulate: expected at least one non-zero commanded contact velocity, "
                          "got none (nothing would move)")
-    drive = RATE[engine] * size if speed is None else float(speed)
+    drive = min(RATE[engine] * size, MAX_SPEED[engine]) if speed is None else float(speed)
     if not (np.isfinite(drive) and drive > 0):
         raise InputError(f"--speed: expected a finite speed > 0 [m/s], got {speed}")
     scale = drive / fastest
