@@ -135,6 +135,7 @@ def test_cli_judge_mu_negative_control(tmp_path, capsys) -> None:
                  "--out", str(out)]) == 0
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"] == "agreed" and summary["predicted"]["labels"] == ["B1 R2 S+3"]
+    assert summary["expect"] == "agree" and summary["passed"] is True
     assert summary["parameters"]["length"] > 0
     code = main(["simulate", f, "--engine", "pymunk", "--duration", "0.8",
                  "--judge-mu", "0.3,0.3,0"])

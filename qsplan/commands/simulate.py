@@ -89,7 +89,11 @@ def _run(args: argparse.Namespace, options: dict[str, Any], work: Path | None) -
 
     system = load_system(args.system)  # FileFormatError -> exit 2
     res = simulate_system(system, args.engine, **options)
-    summary = {"system": str(args.system), **res.summary}
+    from sim.compare import Expect
+
+    expect = Expect.DISAGREE if res.summary["parameters"]["negative_control"] else Expect.AGREE
+    summary = {"scenario": f"simulate {Path(args.system).name}", "system": str(args.system),
+               "expect": expect.value, **res.summary, "passed": res.verdict.held(expect)}
     if work is not None:
         if not args.no_render and len(res.recording.times):
             from sim.render import timeline_plot
