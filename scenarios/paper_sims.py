@@ -16,7 +16,7 @@ import numpy as np
 
 from planner.files.atomic import atomic_write_json
 from planner.files.system_file import load_system
-from scenarios.registry import DATA_DIR, Scenario, register
+from scenarios.registry import DATA_DIR, Parameter, Scenario, register
 from sim.backends import ENGINES
 from sim.compare import JAM, Expect, ObservedMode, Verdict, fault_verdict
 
@@ -107,8 +107,10 @@ def run_example(out_dir: Path, *, name: str, expect: Expect, data: str, scale: f
 def run_ruler(out_dir: Path, *, name: str, expect: Expect, mu_s: float, mu_k: float,
               predict_mu_k: float | None = None, engine: str = "pymunk",
               speed: float | None = None, length: float = 0.1, required: int = 5,
-              tolerance: float = 0.02, render: bool = True, **_: Any) -> dict[str, Any]:
-    """Ruler on two approaching fingers (Sec. 5.1); compares switch positions."""
+              tolerance: float = 0.02, render: bool = True, left: float = -0.4,
+              right: float = 0.25, **_: Any) -> dict[str, Any]:
+    """Ruler on two approaching fingers (Sec. 5.1); compares switch positions. ``left`` < 0 <
+    ``right``: finger positions from the centre of mass in rod lengths."""
     from sim.backends import make_backend
     from sim.classify import Thresholds, mode_of, window_tokens
     from sim.run import RunSettings, run_scene
@@ -124,7 +126,7 @@ def run_ruler(out_dir: Path, *, name: str, expect: Expect, mu_s: float, mu_k: fl
 
     speed = RULER_SPEED[engine] if speed is None else speed
     weight, mass, radius = 1.0, 0.1, 0.03 * length
-    x_left, x_right = -0.4 * length, 0.25 * length
+    x_left, x_right = left * length, right * length
     pk = mu_k if predict_mu_k is None else predict_mu_k
     min_d = 0.015 * length
     pred_pos, pred_sl = predicted_switches(-x_left, x_right, weight, THICKNESS_RATIO * length,
@@ -158,6 +160,7 @@ def run_ruler(out_dir: Path, *, name: str, expect: Expect, mu_s: float, mu_k: fl
         **verdict.to_dict(),
         "passed": verdict.held(expect),
         "parameters": {"mu_static": mu_s, "mu_kinetic": mu_k, "predict_mu_kinetic": pk,
+                       "length": length, "left": left, "right": right,
                        "length_m": length, "weight_N": weight, "mass_kg": mass,
                        "finger_x_m": [x_left, x_right], "speed_m_per_s": speed,
                        "finger_radius_m": radius, "duration_s": duration, "dt_s": dt,
@@ -205,7 +208,11 @@ def creep_verdict(verdict: Verdict, errors: list[float | None], predicted: list[
 
 
 def _example(name: str, summary: str, reference: str, expect: Expect, **kw: Any) -> None:
+    mu_param = Parameter("mu", "floats", tuple(kw["mu"]), "-", 0.0, 10.0,
+                         "simulated friction, one per contact (the prediction uses "
+                         + ("predict_mu" if "predict_mu" in kw else "the same mu") + ")")
     register(Scenario(name=name, summary=summary, reference=reference, expect=expect,
+                      parameters=(mu_param,),
                       run=lambda out_dir, _n=name, _e=expect, _kw=kw, **opt: run_example(
                           Path(out_dir), name=_n, expect=_e, **{**_kw, **opt}),
                       engines=ENGINES, tags=("sim", "paper")))
@@ -213,8 +220,18 @@ def _example(name: str, summary: str, reference: str, expect: Expect, **kw: Any)
 
 def _ruler(name: str, summary: str, expect: Expect, engines: tuple[str, ...] = ENGINES,
            **kw: Any) -> None:
+    params = (
+        Parameter("mu_s", "float", kw["mu_s"], "-", 0.0, 10.0, "static friction"),
+        Parameter("mu_k", "float", kw["mu_k"], "-", 0.0, 10.0,
+                  "kinetic friction (= mu_s: one Coulomb coefficient)"),
+        Parameter("left", "float", -0.4, "L", -0.5, -0.01,
+                  "left finger from the centre of mass, rod lengths"),
+        Parameter("right", "float", 0.25, "L", 0.01, 0.5,
+                  "right finger from the centre of mass, rod lengths"),
+        Parameter("speed", "float", None, "m/s", 1e-6, 0.01, "speed of each finger"),
+    )
     register(Scenario(name=name, summary=summary, reference="Sec. 5.1 (ruler on two fingers)",
-                      expect=expect,
+                      expect=expect, parameters=params,
                       run=lambda out_dir, _n=name, _e=expect, _kw=kw, **opt: run_ruler(
                           Path(out_dir), name=_n, expect=_e, **{**_kw, **opt}),
                       engines=engines, tags=("sim", "paper", "ruler")))

@@ -15,10 +15,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from planner.errors import InputError
 from sim.compare import Expect
 
-__all__ = ["DATA_DIR", "Expect", "Scenario", "all_scenarios", "get", "register", "shipped_file"]
+__all__ = ["DATA_DIR", "Expect", "Parameter", "Scenario", "all_scenarios", "get", "parse_settings",
+           "register", "shipped_file"]
 
 #: The shipped system and hand files (``example_4_1``, ``two_finger_hand``, ...).
 DATA_DIR = Path(__file__).resolve().parent / "data"
@@ -36,6 +39,51 @@ def shipped_file(name: str | os.PathLike[str], what: str = "hand") -> Path:
     known = sorted(f.stem for f in DATA_DIR.glob("*.json")
                    if ('"qsplan-hand"' in f.read_text()) == (what == "hand"))
     raise InputError(f"{what}: expected a {what} file path or one of {known}, got {str(name)!r}")
+
+
+#: Parameter types: ``float``, ``int``, ``str`` and ``floats`` (comma-separated numbers).
+PARAMETER_TYPES = ("float", "int", "str", "floats")
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """A typed scenario parameter set with ``--set name=value``.
+
+    ``kind`` one of :data:`PARAMETER_TYPES`; ``default`` its value when not set; ``unit`` for
+    display (``"-"`` dimensionless); ``lo``/``hi`` the closed range of every number (None: open).
+    """
+
+    name: str
+    kind: str
+    default: Any
+    unit: str = "-"
+    lo: float | None = None
+    hi: float | None = None
+    help: str = ""
+
+    def parse(self, text: str) -> Any:
+        """The typed value of ``text``; :class:`InputError` naming expected vs got."""
+        rng = f" in [{self.lo}, {self.hi}]" if self.lo is not None or self.hi is not None else ""
+        if self.kind == "str":
+            return text
+        parts = text.split(",") if self.kind == "floats" else [text]
+        values: list[Any] = []
+        for part in parts:
+            try:
+                v: Any = int(part) if self.kind == "int" else float(part)
+            except ValueError:
+                raise InputError(f"--set {self.name}: expected {self.describe()}{rng}, "
+                                 f"got {text!r}") from None
+            if not np.isfinite(v) or (self.lo is not None and v < self.lo) or (
+                    self.hi is not None and v > self.hi):
+                raise InputError(f"--set {self.name}: expected {self.describe()}{rng}, "
+                                 f"got {text!r}")
+            values.append(v)
+        return tuple(values) if self.kind == "floats" else values[0]
+
+    def describe(self) -> str:
+        return {"float": "a number", "int": "an integer", "str": "a string",
+                "floats": "comma-separated numbers"}[self.kind]
 
 
 @dataclass(frozen=True)
@@ -60,6 +108,8 @@ class Scenario:
     engines : tuple of str
         Engines it runs on (empty when it does not simulate).
     tags : tuple of str
+    parameters : tuple of Parameter
+        What ``--set`` may change; passed to ``run`` as keywords.
     """
 
     name: str
@@ -69,6 +119,29 @@ class Scenario:
     run: Callable[..., dict[str, Any]]
     engines: tuple[str, ...] = ()
     tags: tuple[str, ...] = field(default_factory=tuple)
+    parameters: tuple[Parameter, ...] = ()
+
+    def defaults(self) -> dict[str, Any]:
+        """``{name: default}`` of every parameter."""
+        return {p.name: p.default for p in self.parameters}
+
+
+def parse_settings(scenario: Scenario, settings: list[str] | None) -> dict[str, Any]:
+    """``["key=value", ...]`` -> typed ``{key: value}`` for ``scenario``; unknown keys and bad
+    values are :class:`InputError` naming what was expected and what came."""
+    known = {p.name: p for p in scenario.parameters}
+    out: dict[str, Any] = {}
+    for item in settings or []:
+        key, sep, value = item.partition("=")
+        key = key.strip()
+        if not sep:
+            raise InputError(f"--set: expected key=value, got {item!r}")
+        if key not in known:
+            names = ", ".join(known) or "none"
+            raise InputError(f"--set: unknown parameter {key!r} of scenario {scenario.name!r}; "
+                             f"expected one of: {names}")
+        out[key] = known[key].parse(value.strip())
+    return out
 
 
 _REGISTRY: dict[str, Scenario] = {}

@@ -242,8 +242,12 @@ class MujocoBackend:
         return (jacp @ self.data.qvel)[:2]
 
     def _read_contacts(self) -> dict[str, ContactReading]:
+        """One reading per pair. Several MuJoCo contacts of one pair (a vertex touching two
+        edge boxes, a flat edge on a surface) are summed: the pair's force is the sum of their
+        forces, its normal the deepest contact's, its point the normal-force-weighted mean
+        point (the deepest one when no force), its depth the largest."""
         m, d = self.model, self.data
-        out: dict[str, ContactReading] = {}
+        parts: dict[str, list[tuple[float, np.ndarray, np.ndarray, np.ndarray]]] = {}
         f6 = np.zeros(6)
         for i in range(d.ncon):
             con = d.contact[i]
@@ -251,19 +255,25 @@ class MujocoBackend:
             if key not in self._geom_pair:
                 continue
             name, sign = self._geom_pair[key]
-            pair = self.scene.pairs[self._pair_id[name]]
             mujoco.mj_contactForce(m, d, i, f6)
             frame = np.asarray(con.frame).reshape(3, 3)
             n3 = sign * frame[0]
             n = n3[:2] / max(np.linalg.norm(n3[:2]), 1e-300)
-            t = np.array([-n[1], n[0]])
             f_world = f6[0] * frame[0] + f6[1] * frame[1] + f6[2] * frame[2]
             f = f_world[:2]
             if float(f @ n) < 0:
                 f = -f
-            if name in out and out[name].depth >= -con.dist:
-                continue  # several edge boxes touch: keep the deepest contact
-            point = np.asarray(con.pos[:2], dtype=float)
+            parts.setdefault(name, []).append(
+                (float(-con.dist), np.asarray(con.pos[:2], dtype=float), n, f))
+        out: dict[str, ContactReading] = {}
+        for name, items in parts.items():
+            pair = self.scene.pairs[self._pair_id[name]]
+            depth, point, n, _ = max(items, key=lambda it: it[0])
+            t = np.array([-n[1], n[0]])
+            f = np.sum([it[3] for it in items], axis=0)
+            w = np.array([max(float(it[3] @ n), 0.0) for it in items])
+            if len(items) > 1 and w.sum() > 0:
+                point = np.sum([wi * it[1] for wi, it in zip(w, items)], axis=0) / w.sum()
             va = self._point_velocity(pair.body_a, point)
             vb = self._point_velocity(pair.body_b, point)
             out[name] = ContactReading(
@@ -273,7 +283,7 @@ class MujocoBackend:
                 normal_force=float(f @ n),
                 tangent_force=float(f @ t),
                 slip_velocity=float((vb - va) @ t),
-                depth=float(-con.dist),
+                depth=depth,
             )
         return out
 

@@ -1,0 +1,112 @@
+"""``qsplan simulate SYSTEM.json --engine pymunk|mujoco [--mu ..] [--mu-kinetic ..]
+[--judge-mu ..] [--duration S] [--speed V] [--out DIR]``: simulate any system file and judge
+the run against the planner's prediction (:func:`sim.system_run.simulate_system`).
+
+Exit codes: 0 agreed, 1 disagreed or inconclusive, 2 bad input, 3 simulator fault. The
+simulators are imported lazily inside :func:`run`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any
+
+from planner.errors import InputError
+from qsplan.options import MU_MAX, parse_number, parse_numbers
+
+ENGINES = ("pymunk", "mujoco")
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "simulate",
+        help="simulate a system file and compare observed with predicted contact modes",
+        description=(
+            "Predict the feasible contact modes of SYSTEM.json (as `qsplan modes`), build a "
+            "scene from it (the workpiece polygon of its `workpiece` key or one derived from "
+            "the contacts; `environment` contacts as fixed flat surfaces; the other contacts "
+            "as fingertips driven with their commanded velocities, in slow motion), run it in "
+            "the chosen engine, classify the observed modes from the simulator's contact data "
+            "and compare (docs/simulation.md). Exit 0 agreed, 1 disagreed or inconclusive, "
+            "2 bad input, 3 simulator fault."
+        ),
+        epilog=("examples:\n  qsplan simulate scenarios/data/box_on_table_high.json "
+                "--engine pymunk --out out/box\n"
+                "  qsplan simulate box.json --judge-mu 0.3,0.3,0   # negative control"),
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("system", help="system file (JSON; see docs/file-formats.md)")
+    p.add_argument("--engine", default="pymunk", help="pymunk or mujoco")
+    p.add_argument("--mu", help="friction to simulate: one value, or one per contact "
+                                "(default: the file's)")
+    p.add_argument("--mu-kinetic", help="kinetic friction (static = --mu): one value or one per "
+                                        "contact; default: a single Coulomb coefficient")
+    p.add_argument("--judge-mu", help="judge the run against the prediction at this friction "
+                                      "(a negative control); default: --mu")
+    p.add_argument("--duration", help="simulated time [s] (default per engine)")
+    p.add_argument("--speed", help="speed of the fastest contact [m/s] (default per engine, "
+                                   "scaled to the scene)")
+    p.add_argument("--out", help="output folder: summary.json (+ timeline.png); written into "
+                                 "place only when the run has finished")
+    p.add_argument("--no-render", action="store_true", help="skip the timeline plot")
+    p.set_defaults(func=run)
+
+
+def _mu(text: str | None, what: str) -> list[float] | float | None:
+    if text is None:
+        return None
+    values = parse_numbers(text, what, lo=0.0, hi=MU_MAX)
+    return values[0] if len(values) == 1 else values
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.engine not in ENGINES:
+        raise InputError(f"--engine: expected one of {', '.join(ENGINES)}, got {args.engine!r}")
+    options: dict[str, Any] = {
+        "mu": _mu(args.mu, "--mu"),
+        "mu_kinetic": _mu(args.mu_kinetic, "--mu-kinetic"),
+        "judge_mu": _mu(args.judge_mu, "--judge-mu"),
+        "duration": None if args.duration is None else parse_number(
+            args.duration, "--duration", lo=0.0, hi=600.0),
+        "speed": None if args.speed is None else parse_number(args.speed, "--speed",
+                                                              lo=0.0, hi=10.0),
+    }
+    if args.out is not None:
+        from planner.files.outputs import output_set
+
+        with output_set(args.out, "dir") as work:  # the destination is checked first
+            return _run(args, options, work)
+    return _run(args, options, None)
+
+
+def _run(args: argparse.Namespace, options: dict[str, Any], work: Path | None) -> int:
+    from planner.files.atomic import atomic_write_json
+    from planner.files.system_file import load_system
+    from sim.compare import Outcome
+    from sim.system_run import simulate_system
+
+    system = load_system(args.system)  # FileFormatError -> exit 2
+    res = simulate_system(system, args.engine, **options)
+    from sim.compare import Expect
+
+    expect = Expect.DISAGREE if res.summary["parameters"]["negative_control"] else Expect.AGREE
+    summary = {"scenario": f"simulate {Path(args.system).name}", "system": str(args.system),
+               "expect": expect.value, **res.summary, "passed": res.verdict.held(expect)}
+    if work is not None:
+        if not args.no_render and len(res.recording.times):
+            from sim.render import timeline_plot
+
+            summary["files"] = {"timeline": str(timeline_plot(
+                res.recording, res.observed, res.predicted, work / "timeline.png"))}
+        atomic_write_json(work / "summary.json", summary)
+    keys = ("engine", "status", "agreement", "judged_steps", "reason")
+    line = {k: summary[k] for k in keys}
+    line["predicted"] = summary["predicted"]["labels"]
+    line["observed"] = summary["observed"]["counts"]
+    print(json.dumps(line, default=str))
+    outcome = res.verdict.outcome
+    if outcome is Outcome.FAULT:
+        return 3
+    return 0 if outcome is Outcome.AGREED else 1
