@@ -97,7 +97,7 @@ class Segment:
 
 def _drive_joints(hand: Hand, drive: int, speed: float) -> list[dict[str, float]]:
     return [{"velocity": speed} if k == drive else {"effort": 0.0}
-            for k in range(hand.n_fingers)]
+            for k in range(hand.n_joints)]
 
 
 def mode_velocity(
@@ -145,8 +145,8 @@ def integrate_segment(
     """Integrate the quasistatic motion of ``mode`` from ``q0`` with joint ``drive`` at
     ``speed`` (rad/s) until an event or ``max_time`` (s); ``steps`` RK4 steps over ``max_time``.
     """
-    if not 0 <= drive < hand.n_fingers:
-        raise InputError(f"drive: expected a joint index in [0, {hand.n_fingers - 1}], got {drive}")
+    if not 0 <= drive < hand.n_joints:
+        raise InputError(f"drive: expected a joint index in [0, {hand.n_joints - 1}], got {drive}")
     if not np.isfinite(speed) or speed == 0:
         raise InputError(f"speed: expected a non-zero finite joint rate, got {speed!r}")
     if not (np.isfinite(max_time) and max_time > 0):
