@@ -60,9 +60,10 @@ class HandSetup(NamedTuple):
 
 @dataclass(frozen=True)
 class SegmentSpec:
-    """The hand file's ``segment`` section: joint ``drive`` driven at ``speed`` (rad/s) in
-    ``mode`` (family such as ``"4S"`` or a label) for at most ``max_time`` (s); the plan has
-    ``waypoints`` waypoints; ``steps`` integration steps."""
+    """The hand file's ``segment`` section: joint ``drive`` driven at ``speed`` (rad/s or m/s)
+    in ``mode`` (family such as ``"4S"`` or a label) for at most ``max_time`` (s); the plan has
+    ``waypoints`` waypoints; ``steps`` integration steps.  ``drives``/``speeds``: every driven
+    joint and its rate (``drive``/``speed`` are the first)."""
 
     drive: int
     speed: float
@@ -70,6 +71,8 @@ class SegmentSpec:
     max_time: float
     waypoints: int
     steps: int
+    drives: tuple[int, ...] = ()
+    speeds: tuple[float, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -257,21 +260,37 @@ def _segment(seg: Any, n_joints: int) -> SegmentSpec:
     seg = as_object(seg, "segment")
     check_keys(seg, "segment", required=("drive", "speed", "mode"),
                optional=tuple(SEGMENT_DEFAULTS), free=FREE_KEYS)
-    speed = number(seg["speed"], "segment.speed")
-    if speed == 0:
-        raise FileFormatError("segment.speed: expected a non-zero rate [rad/s], got 0")
     mode = string(seg["mode"], "segment.mode")
     if not mode.strip():
         raise FileFormatError("segment.mode: expected a mode family or label, got ''")
+    if isinstance(seg["drive"], list) or isinstance(seg["speed"], list):
+        raw_d, raw_s = seg["drive"], seg["speed"]
+        if not (isinstance(raw_d, list) and isinstance(raw_s, list) and raw_d
+                and len(raw_d) == len(raw_s)):
+            raise FileFormatError(
+                "segment.drive/speed: expected a joint index and a rate, or two lists of the same "
+                f"length, got {short(raw_d)} and {short(raw_s)}")
+        drives = tuple(integer(x, f"segment.drive[{i}]", 0, n_joints - 1)
+                       for i, x in enumerate(raw_d))
+        if len(set(drives)) != len(drives):
+            raise FileFormatError(f"segment.drive: expected distinct joints, got {list(drives)}")
+        speeds = tuple(number(x, f"segment.speed[{i}]") for i, x in enumerate(raw_s))
+    else:
+        drives = (integer(seg["drive"], "segment.drive", 0, n_joints - 1),)
+        speeds = (number(seg["speed"], "segment.speed"),)
+    if not any(speeds):
+        raise FileFormatError("segment.speed: expected a non-zero rate [rad/s], got 0")
     return SegmentSpec(
-        drive=integer(seg["drive"], "segment.drive", 0, n_joints - 1),
-        speed=speed,
+        drive=drives[0],
+        speed=speeds[0],
         mode=mode,
         max_time=number(seg.get("max_time", SEGMENT_DEFAULTS["max_time"]), "segment.max_time",
                         positive=True),
         waypoints=integer(seg.get("waypoints", SEGMENT_DEFAULTS["waypoints"]),
                           "segment.waypoints", 2),
         steps=integer(seg.get("steps", SEGMENT_DEFAULTS["steps"]), "segment.steps", 1),
+        drives=drives,
+        speeds=speeds,
     )
 
 
