@@ -152,3 +152,42 @@ def test_chebyshev_centre_of_a_box_and_of_an_empty_set():
     assert r == pytest.approx(1.0)
     _, r = chebyshev_centre(A, np.array([-1.0, 1.0, -1.0, 1.0]))
     assert r == -np.inf
+
+
+def test_qsplan_plan_refuses_hands_a_version_1_plan_cannot_hold():
+    from planner.errors import InputError
+    from planner.plan.segment_planner import plan_hand
+
+    with pytest.raises(InputError, match=r"three_finger_hand.json: plan files \(qsplan-plan "
+                                         r"version 1\) hold one velocity- and one effort-controlled "
+                                         r"joint, expected a hand with 2 joints and one driven "
+                                         r"joint, got 3 joints and drive 1; plan it with "
+                                         r"planner.plan.region_planner.plan_regions"):
+        plan_hand(DATA / "three_finger_hand.json")
+
+
+def test_an_empty_region_says_why():
+    """Friction up to 0.3 on every contact: with the left finger velocity-controlled no torque
+    pair on the right and top fingers keeps all five contacts sliding."""
+    from planner.errors import DegenerateError
+
+    hf = load_hand_file(DATA / "three_finger_hand.json")
+    system = hf.hand.system(hf.q0, 0.0, joint_inputs(hf.hand, (0,), [0.02]))
+    reg = torque_region(system, "5S", (0.0, 0.3))
+    assert reg.empty and "not guaranteed over the friction box" in reg.diagnosis["reason"]
+    # independent: at every torque pair of a grid some corner of the friction box admits
+    # another mode (or none)
+    base = np.array(system.joint_inputs)
+    corners, _ = box_points(np.zeros(5), np.full(5, 0.3), 2)
+    for t1 in np.linspace(-0.03, 0.03, 7):
+        for t2 in np.linspace(-0.03, 0.03, 7):
+            inputs = base.copy()
+            inputs[[1, 2]] = (t1, t2)
+            sys_t = system.with_joint_inputs(inputs)
+            assert any(feasible_modes(sys_t, mu).labels != [reg.claim] for mu in corners)
+    with pytest.raises(DegenerateError, match=r"no control partition guarantees S\+1 S\+2 S-3 "
+                                              r"S-4 S\+5: velocity joints \[0\]: no guaranteed "
+                                              r"torque at t = 0 s"):
+        s = hf.segment
+        plan_regions(hf.hand, hf.q0, drive=s.drives, speed=s.speeds, mode=s.mode,
+                     mu=(0.0, 0.3), max_time=s.max_time, waypoints=5, control=(0,))

@@ -149,6 +149,13 @@ def plan_hand(
         mu = tuple(mu_spec.get("interval", (0.0, 0.0)))
     if validate_mu is None:
         validate_mu = mu_spec.get("validate", [])
+    if hand.n_joints != 2 or isinstance(seg_spec.get("drive"), list):
+        raise InputError(
+            f"{path.name}: plan files (qsplan-plan version 1) hold one velocity- and one "
+            "effort-controlled joint, expected a hand with 2 joints and one driven joint, got "
+            f"{hand.n_joints} joints and drive {seg_spec.get('drive')!r}; plan it with "
+            "planner.plan.region_planner.plan_regions (docs/two-finger-task.md, 'Any hand')"
+        )
     drive = int(seg_spec.get("drive", 0))
     speed = float(seg_spec.get("speed", 0.01))
     mode = str(seg_spec.get("mode", "4S"))
