@@ -191,3 +191,36 @@ def test_an_empty_region_says_why():
         s = hf.segment
         plan_regions(hf.hand, hf.q0, drive=s.drives, speed=s.speeds, mode=s.mode,
                      mu=(0.0, 0.3), max_time=s.max_time, waypoints=5, control=(0,))
+
+
+def test_a_partial_plan_stops_where_no_region_exists_and_says_why():
+    hf = load_hand_file(DATA / "three_finger_hand.json")
+    hand, s = hf.hand, hf.segment
+    plan = plan_regions(hand, hf.q0, drive=s.drives, speed=s.speeds, mode=s.mode,
+                        mu=(0.0, 0.1), max_time=s.max_time, waypoints=s.waypoints,
+                        control=(2,), partial=True)
+    short = plan.shortfall
+    assert short is not None and 0 < short.index == len(plan.waypoints) < s.waypoints
+    assert short.t == plan.segment.t[short.index] and short.velocity_joints == (2,)
+    assert short.rival is not None and short.rival in short.reason
+    assert short.widest_mu is not None
+    lo, hi = (np.array(x) for x in short.widest_mu)
+    assert np.all(lo == 0.0) and 0.0 < hi[0] < 0.1
+    # The narrower interval works there: its region's centre, checked by the full enumeration.
+    q = plan.segment.q[short.index]
+    rates = plan.segment.thetadot[short.index, [2]]
+    system = hand.system(q, 0.0, joint_inputs(hand, (2,), rates))
+    reg = torque_region(system, plan.claim, np.stack([lo, hi], 1))
+    assert not reg.empty
+    inputs = np.array(system.joint_inputs)
+    inputs[[0, 1]] = reg.centre
+    sys_c = system.with_joint_inputs(inputs)
+    rng = np.random.default_rng(5)
+    for mu in _frictions(lo, hi, rng, 30):
+        assert feasible_modes(sys_c, mu).labels == [plan.claim]
+    # Without ``partial`` the same request is refused with every partition's reason.
+    from planner.errors import DegenerateError
+    with pytest.raises(DegenerateError, match=r"velocity joints \[2\]: no guaranteed torque at "
+                                              r"t = 1.95 s: rival"):
+        plan_regions(hand, hf.q0, drive=s.drives, speed=s.speeds, mode=s.mode, mu=(0.0, 0.1),
+                     max_time=s.max_time, waypoints=s.waypoints, control=(2,))

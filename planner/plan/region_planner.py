@@ -85,13 +85,31 @@ class PartitionResult:
     regions: tuple[TorqueRegion, ...]
 
 
+@dataclass(frozen=True)
+class Shortfall:
+    """Where a partial plan stops: waypoint ``index`` at ``t`` (s), with ``velocity_joints``
+    velocity-controlled; ``reason`` (the region's diagnosis: the covering ``rival`` and the
+    friction points ``mu`` where it is feasible, when known) and ``widest_mu``: the widest
+    friction interval ``(lo, hi')`` with the same lower ends (``hi'`` by bisection on a common
+    scale of the upper ends) for which a region exists there, None when even ``lo`` fails."""
+
+    index: int
+    t: float
+    velocity_joints: tuple[int, ...]
+    reason: str
+    rival: str | None
+    mu: tuple[tuple[float, ...], ...]
+    widest_mu: tuple[tuple[float, ...], tuple[float, ...]] | None
+
+
 @dataclass(frozen=True, eq=False)
 class RegionPlan:
     """A planned segment: ``segment`` (resampled), the chosen partition, ``waypoints``, every
     partition tried (``partitions``) and ``exact`` (every region exact, see
     :mod:`planner.plan.polytope`); ``mu_model`` the friction set the regions hold for:
     ``"common"`` (one coefficient for all contacts in the interval; one effort joint, today's
-    band) or ``"box"`` (each contact's coefficient anywhere in its interval)."""
+    band) or ``"box"`` (each contact's coefficient anywhere in its interval); ``shortfall``:
+    for a partial plan, where and why it stops (:class:`Shortfall`)."""
 
     claim: str
     segment: Segment
@@ -101,6 +119,7 @@ class RegionPlan:
     partitions: tuple[PartitionResult, ...]
     exact: bool
     mu_model: str = "box"
+    shortfall: Shortfall | None = None
 
     @property
     def min_margin(self) -> float:
@@ -140,11 +159,14 @@ def evaluate_partition_set(hand: Hand, seg: Segment, V: tuple[int, ...], E: tupl
 
 def plan_regions(hand: Hand, q0: Any, *, drive: Drive, speed: Speed, mode: str, mu: Any,
                  max_time: float = 60.0, steps: int = 200, waypoints: int = 41,
-                 model: str = "common", control: tuple[int, ...] | None = None) -> RegionPlan:
+                 model: str = "common", control: tuple[int, ...] | None = None,
+                 partial: bool = False) -> RegionPlan:
     """Plan one segment of any hand (module docstring).  ``drive``/``speed``: the joints that
     move the segment and their rates; ``control``: the velocity-controlled joints (default:
     every partition of :func:`control_partitions` is tried).  Raises
-    :class:`DegenerateError` naming every partition's reason when none is usable."""
+    :class:`DegenerateError` naming every partition's reason when none is usable -- unless
+    ``partial``: then the plan stops before the first waypoint without a region of the
+    partition that got furthest, and says where and why (:attr:`RegionPlan.shortfall`)."""
     lo, hi = friction_interval(mu, hand.n_contacts)
     if model == "common" and not (np.all(lo == lo[0]) and np.all(hi == hi[0])):
         model = "independent"  # per-contact intervals: the box
@@ -159,13 +181,21 @@ def plan_regions(hand: Hand, q0: Any, *, drive: Drive, speed: Speed, mode: str, 
                              f"{tuple(control)}")
     results = [evaluate_partition_set(hand, seg, V, E, mu, model) for V, E in parts]
     usable = [r for r in results if r.usable]
+    shortfall = None
     if not usable:
         why = "; ".join(f"velocity joints {list(r.velocity_joints)}: {r.reason}"
                         for r in results)
-        raise DegenerateError(f"no control partition guarantees {seg.mode}: {why}")
-    best = max(usable, key=lambda r: r.worst_relative_margin)
+        furthest = max(results, key=lambda r: sum(not g.empty for g in r.regions))
+        good = [g for g in furthest.regions if not g.empty]
+        if not partial or not good:
+            raise DegenerateError(f"no control partition guarantees {seg.mode}: {why}")
+        best = furthest
+        shortfall = _shortfall(hand, seg, furthest, len(good), lo, hi, model)
+        regs = tuple(good)
+    else:
+        best = max(usable, key=lambda r: r.worst_relative_margin)
+        regs = best.regions
     V, E = best.velocity_joints, best.effort_joints
-    regs = best.regions
     wps = []
     for k, reg in enumerate(regs):
         nxt = regs[min(k + 1, len(regs) - 1)]
@@ -177,4 +207,29 @@ def plan_regions(hand: Hand, q0: Any, *, drive: Drive, speed: Speed, mode: str, 
                                   np.asarray(centre, dtype=float), float(radius), reg))
     return RegionPlan(seg.mode, seg, V, E, tuple(wps), tuple(results),
                       all(r.exact for r in regs),
-                      "common" if model == "common" and len(E) == 1 else "box")
+                      "common" if model == "common" and len(E) == 1 else "box", shortfall)
+
+
+def _shortfall(hand: Hand, seg: Segment, part: PartitionResult, k: int, lo: np.ndarray,
+               hi: np.ndarray, model: str, steps: int = 12) -> Shortfall:
+    """Diagnosis at waypoint ``k`` (the first without a region) and the widest friction
+    interval ``[lo, lo + s (hi - lo)]`` that still has one (bisection on ``s``; the region
+    only grows as the box shrinks, so the search is monotone)."""
+    V = part.velocity_joints
+    system = hand.system(seg.q[k], 0.0, joint_inputs(hand, V, seg.thetadot[k, list(V)]))
+    reg = torque_region(system, seg.mode, np.stack([lo, hi], 1), model=model)
+    diag = reg.diagnosis
+
+    def works(frac: float) -> bool:
+        top = lo + frac * (hi - lo)
+        return not torque_region(system, seg.mode, np.stack([lo, top], 1), model=model).empty
+
+    widest = None
+    if works(0.0):
+        a, b = 0.0, 1.0
+        for _ in range(steps):
+            mid = 0.5 * (a + b)
+            a, b = (mid, b) if works(mid) else (a, mid)
+        widest = (tuple(float(x) for x in lo), tuple(float(x) for x in lo + a * (hi - lo)))
+    return Shortfall(k, float(seg.t[k]), V, str(diag.get("reason", part.reason)),
+                     diag.get("rival"), tuple(tuple(m) for m in diag.get("mu", [])), widest)
