@@ -224,3 +224,27 @@ def test_a_partial_plan_stops_where_no_region_exists_and_says_why():
                                               r"t = 1.95 s: rival"):
         plan_regions(hand, hf.q0, drive=s.drives, speed=s.speeds, mode=s.mode, mu=(0.0, 0.1),
                      max_time=s.max_time, waypoints=s.waypoints, control=(2,))
+
+
+@pytest.mark.parametrize("name", ["three_finger_hand", "table_push_hand"])
+def test_region_figures_are_written(tmp_path, name):
+    from planner.plots.bounds import plot_regions, slice_polygon
+
+    hf, rp, lo, hi = _plan(name)
+    paths = plot_regions(rp, tmp_path, hf.hand.joint_names())
+    assert paths[0].stat().st_size > 1000
+    if len(rp.effort_joints) == 2:
+        w = rp.waypoints[0]
+        poly = slice_polygon(w.region.A, w.region.b, w.torque_command, (0, 1))
+        assert len(poly) >= 3
+        # every vertex lies on the region (within rounding), the command inside the polygon
+        assert np.all(w.region.A @ poly.T <= w.region.b[:, None] + 1e-9)
+
+
+def test_slice_of_a_square():
+    from planner.plots.bounds import slice_polygon
+
+    A = np.vstack([np.eye(3), -np.eye(3)])
+    poly = slice_polygon(A, np.ones(6), np.zeros(3), (0, 2))
+    np.testing.assert_allclose(sorted(map(tuple, np.round(poly, 12))),
+                               [(-1, -1), (-1, 1), (1, -1), (1, 1)])

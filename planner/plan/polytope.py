@@ -240,9 +240,11 @@ def torque_region(system: System, claim: str, mu: Any, *, model: str = "common",
 
     ``mu``: ``(lo, hi)`` or per-contact pairs; ``model``: ``"common"`` or ``"independent"``
     (used with ``p = 1``; with ``p != 1`` the box is used, sound for both); ``grid``: points per
-    axis of the sampled checks; ``cap``: half-width of the box of commands (default: ten times
-    the largest finite torque bound of the claim, at least 1); ``method``: ``"auto"`` (today's
-    band when ``p = 1``) or ``"polytope"`` (the corner H-representation for any ``p``).
+    axis of the sampled checks; ``cap``: half-width of the box of commands (default: twice the
+    largest distance from zero torque to one of the claim's Coulomb hyperplanes, the problem's
+    torque scale -- a region open towards harder squeezing is cut there); ``method``:
+    ``"auto"`` (today's band when ``p = 1``) or ``"polytope"`` (the corner H-representation for
+    any ``p``).
     """
     if method not in ("auto", "polytope"):
         raise InputError(f"method: expected 'auto' or 'polytope', got {method!r}")
@@ -293,7 +295,7 @@ def torque_region(system: System, claim: str, mu: Any, *, model: str = "common",
         with np.errstate(divide="ignore", invalid="ignore"):
             bounds = np.abs(b) / np.linalg.norm(A, axis=1) if len(b) else np.zeros(0)
         fin = bounds[np.isfinite(bounds)]
-        cap = max(1.0, 10.0 * float(np.max(fin))) if fin.size else 1.0
+        cap = 2.0 * float(np.max(fin)) if fin.size and np.max(fin) > 0 else 1.0
     if p:
         A, b = _with_cap(A, b, cap)
     centre, radius = chebyshev_centre(A, b)
