@@ -8,6 +8,7 @@ full mode enumeration, not the region's rows) must find the claimed mode and not
 
 from __future__ import annotations
 
+import functools
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +25,7 @@ DATA = Path(__file__).resolve().parents[1] / "scenarios" / "data"
 HANDS = ["three_finger_hand", "prismatic_finger_hand", "two_link_finger_hand", "table_push_hand"]
 
 
+@functools.cache
 def _plan(name):
     hf = load_hand_file(DATA / f"{name}.json")
     s = hf.segment
@@ -36,7 +38,7 @@ def _plan(name):
     return hf, rp, lo, hi
 
 
-@pytest.fixture(scope="module", params=HANDS)
+@pytest.fixture(params=HANDS)
 def planned(request):
     return (request.param, *_plan(request.param))
 
@@ -74,18 +76,18 @@ def test_every_region_holds_under_dense_friction_sampling(planned):
     rng = np.random.default_rng(16)
     V, E = rp.velocity_joints, rp.effort_joints
     checked = 0
-    for w in rp.waypoints[::2]:
+    for w in rp.waypoints[::3]:
         base = hand.system(w.q, 0.0, joint_inputs(hand, V, w.velocity_commands))
         assert w.region.contains(w.region.centre, 1e-12)
         for tau in _torques_inside(w.region, rng, 4):
             inputs = np.array(base.joint_inputs)
             inputs[list(E)] = tau
             system = base.with_joint_inputs(inputs)
-            for mu in _frictions(lo, hi, rng, 40, rp.mu_model):
+            for mu in _frictions(lo, hi, rng, 24, rp.mu_model):
                 labels = feasible_modes(system, mu).labels
                 assert labels == [rp.claim], (name, w.t, tau, mu, labels)
                 checked += 1
-    assert checked >= 40 * len(rp.waypoints[::2])
+    assert checked >= 24 * len(rp.waypoints[::3])
 
 
 def test_commands_and_partition_shape(planned):
