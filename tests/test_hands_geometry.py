@@ -119,9 +119,25 @@ def test_side_contact_on_a_second_link_and_a_table_surface():
     (lambda d: d.update(environment=[{"name": "t", "edge": [[0, 0], [0, 0]]}]),
      r"environment\[0\]\.edge: expected two distinct points, got equal points"),
     (lambda d: d["segment"].update(drive=3), r"segment\.drive: expected an integer"),
+    (lambda d: d["segment"].update(drive=[1, 2], speed=[0.1]),
+     r"segment\.drive/speed: expected a joint index and a rate, or two lists of the same length, "
+     r"got \[1, 2\] and \[0\.1\]"),
+    (lambda d: d["segment"].update(drive=[1, 1], speed=[0.1, 0.0]),
+     r"segment\.drive: expected distinct joints, got \[1, 1\]"),
+    (lambda d: d["segment"].update(drive=[1, 2], speed=[0, 0.0]),
+     r"segment\.speed: expected a non-zero rate"),
 ])
 def test_chain_hand_errors_name_the_field(mutate, match):
     d = copy.deepcopy(TWO_LINK)
     mutate(d)
     with pytest.raises(InputError, match=match):
         hand_from_dict(d)
+
+
+def test_segment_with_several_driven_joints():
+    d = copy.deepcopy(TWO_LINK)
+    d["segment"].update(drive=[1, 2], speed=[0.02, 0.0])
+    from planner.files.hand_file import hand_file_from_dict
+    hf = hand_file_from_dict(d)
+    assert hf.segment.drives == (1, 2) and hf.segment.speeds == (0.02, 0.0)
+    assert hf.segment.drive == 1 and hf.segment.speed == 0.02
