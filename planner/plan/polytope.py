@@ -177,7 +177,8 @@ class TorqueRegion:
 
     @property
     def empty(self) -> bool:
-        return not self.margin >= 0.0
+        """True when no command has a positive margin (the region has no interior)."""
+        return not self.margin > 0.0
 
     def contains(self, tau: Any, slack: float = 0.0) -> bool:
         t = np.asarray(tau, dtype=float).reshape(len(self.effort_joints))
@@ -299,7 +300,7 @@ def torque_region(system: System, claim: str, mu: Any, *, model: str = "common",
     if p:
         A, b = _with_cap(A, b, cap)
     centre, radius = chebyshev_centre(A, b)
-    if radius < 0:
+    if not radius > 0:
         return _empty(label, p, E, {"reason": f"{label} is not guaranteed over the friction box "
                                               "for any torque (its own Coulomb rows conflict)"})
     excluded: list[str] = []
@@ -352,7 +353,7 @@ def _best_option(A: np.ndarray, b: np.ndarray, options: list[tuple[np.ndarray, n
         A2 = np.vstack([A, A_r]) if A_r.size else A
         b2 = np.concatenate([b, b_r]) if A_r.size else b
         c, r = chebyshev_centre(A2, b2)
-        if r >= 0 and (best is None or r > best[3]):
+        if r > 0 and (best is None or r > best[3]):  # an interior is needed: rivals are closed
             best = (A2, b2, c, r)
     return best
 

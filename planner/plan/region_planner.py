@@ -201,7 +201,7 @@ def plan_regions(hand: Hand, q0: Any, *, drive: Drive, speed: Speed, mode: str, 
         nxt = regs[min(k + 1, len(regs) - 1)]
         centre, radius = chebyshev_centre(np.vstack([reg.A, nxt.A]),
                                           np.concatenate([reg.b, nxt.b]))
-        if not radius >= 0:
+        if not radius > 0:
             centre, radius = reg.centre, reg.margin
         wps.append(RegionWaypoint(float(seg.t[k]), seg.q[k].copy(), seg.thetadot[k, list(V)],
                                   np.asarray(centre, dtype=float), float(radius), reg))
