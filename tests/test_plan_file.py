@@ -197,11 +197,11 @@ def test_cli_plan_per_contact_intervals(tmp_path, capsys):
     (lambda d: d["event"].pop("t"), "event: expected key 't'"),
     (lambda d: d["event"].update(t="late"), "event.t: expected a finite number"),
     (lambda d: d["hand"]["fingers"][0].update(type="prismatic"),
-     r"plan.hand: fingers\[0\]: expected a single revolute link per finger"),
+     r"plan.hand: fingers\[0\]\.type: expected \"revolute\" for a single-link finger"),
     (lambda d: d["hand"].update(tabel=1), "plan.hand: hand: unknown key 'tabel'"),
-    (lambda d: d["mu"]["intervals"].pop(), r"hand: expected 2 fingers \(one per control entry\) "
+    (lambda d: d["mu"]["intervals"].pop(), r"hand: expected 2 joints \(one per control entry\) "
                                            r"and 3 contacts \(one per mu interval\), got 2 "
-                                           "fingers and 4 contacts"),
+                                           "joints and 4 contacts"),
 ])
 def test_unknown_and_missing_plan_keys_are_named(saved, mutate, match):
     _rewrite(saved, mutate, redigest=True)

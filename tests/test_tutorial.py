@@ -248,7 +248,8 @@ NOTATION_MODULES = ("model.system", "model.modes", "predict.stages", "predict.fe
                     "friction.graphical", "predict.search", "sweeps.executor",
                     "predict.indeterminate", "model.hand", "plan.trajectory", "plan.bounds",
                     "plan.segment_planner", "plan.plan_file", "files.system_file",
-                    "plan.guarantee", "plan.intervals", "model.geometry", "files.hand_file")
+                    "plan.guarantee", "plan.intervals", "model.geometry", "files.hand_file",
+                    "plan.polytope", "plan.region_planner")
 
 
 def _member(obj, name):

@@ -5,8 +5,9 @@ in ``planner/files/schemas/hand.schema.json``.  Every file is read by
 :func:`planner.files.reader.read_json` (one size cap, one depth cap, strict JSON).  A missing
 key is an error unless the format gives a default; an unknown key is an error naming it
 (free-text keys :data:`planner.files.fields.FREE_KEYS` are allowed in every object).
-Fingers are single revolute links (Section 5.2): a finger with ``"type": "prismatic"`` or
-``"links"`` is refused, not silently planned as one revolute link.
+A finger is either the paper's single revolute link (``pivot``, ``length``, ``width``,
+``angle``; Section 5.2) or a chain ``"links": [...]`` of revolute and prismatic joints, each with
+its capsule link; fixed surfaces besides the palm (a table) are listed under ``environment``.
 
 Public: :func:`load_hand` / :func:`load_hand_file` (from a path), :func:`hand_from_dict` /
 :func:`hand_file_from_dict` (from parsed content) and :func:`hand_from_plan` (the hand a plan
@@ -35,7 +36,8 @@ from planner.files.fields import (
 )
 from planner.files.reader import read_json
 from planner.model.geometry import rot90
-from planner.model.hand import CONTACT_KINDS, ContactSpec, Finger, Hand, rotation
+from planner.model.hand import CONTACT_KINDS, JOINT_KINDS, ContactSpec, Finger, Hand, Link, rotation
+from planner.model.kinematics import REVOLUTE
 from planner.model.validation import friction_interval
 from planner.model.workpiece import check_convex_ccw
 
@@ -46,9 +48,6 @@ HAND_VERSION = 1
 FINGER_MASS = 0.05  # kg
 WORKPIECE_MASS = 0.1  # kg
 SEGMENT_DEFAULTS: Mapping[str, float | int] = {"max_time": 60.0, "waypoints": 41, "steps": 200}
-
-_UNSUPPORTED = ("expected a single revolute link per finger (prismatic joints and multi-link "
-                "fingers are not supported yet)")
 
 
 class HandSetup(NamedTuple):
@@ -61,9 +60,10 @@ class HandSetup(NamedTuple):
 
 @dataclass(frozen=True)
 class SegmentSpec:
-    """The hand file's ``segment`` section: joint ``drive`` driven at ``speed`` (rad/s) in
-    ``mode`` (family such as ``"4S"`` or a label) for at most ``max_time`` (s); the plan has
-    ``waypoints`` waypoints; ``steps`` integration steps."""
+    """The hand file's ``segment`` section: joint ``drive`` driven at ``speed`` (rad/s or m/s)
+    in ``mode`` (family such as ``"4S"`` or a label) for at most ``max_time`` (s); the plan has
+    ``waypoints`` waypoints; ``steps`` integration steps.  ``drives``/``speeds``: every driven
+    joint and its rate (``drive``/``speed`` are the first)."""
 
     drive: int
     speed: float
@@ -71,6 +71,8 @@ class SegmentSpec:
     max_time: float
     waypoints: int
     steps: int
+    drives: tuple[int, ...] = ()
+    speeds: tuple[float, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -144,38 +146,86 @@ def _point(value: Any, where: str) -> np.ndarray:
     return np.array([number(x, where) for x in value])
 
 
-def _finger(f: Any, k: int) -> tuple[Finger, float]:
+def _link(d: Any, where: str) -> tuple[Link, float]:
+    d = as_object(d, where)
+    check_keys(d, where, required=("type", "length", "width", "position"),
+               optional=("offset", "mass", "name"), free=FREE_KEYS)
+    kind = d["type"]
+    if kind not in JOINT_KINDS:
+        raise FileFormatError(f"{where}.type: expected one of {JOINT_KINDS}, got {short(kind)}")
+    link = Link(
+        kind=kind,
+        length=number(d["length"], f"{where}.length", positive=True),
+        width=number(d["width"], f"{where}.width", positive=True),
+        offset=number(d.get("offset", 0.0), f"{where}.offset"),
+        mass=number(d.get("mass", FINGER_MASS), f"{where}.mass", positive=True),
+        name=string(d.get("name", ""), f"{where}.name"),
+    )
+    return link, number(d["position"], f"{where}.position")
+
+
+def _finger(f: Any, k: int) -> tuple[Finger, list[float]]:
+    """A finger and its initial joint coordinates (rad for revolute, m for prismatic)."""
     where = f"fingers[{k}]"
     f = as_object(f, where)
+    name = string(f.get("name", f"finger{k + 1}"), f"{where}.name")
     if "links" in f:
-        links = f["links"]
-        got = f"{len(links)} links" if isinstance(links, list) else type_name(links)
-        raise FileFormatError(f"{where}: {_UNSUPPORTED}, got \"links\" ({got})")
-    if "type" in f and f["type"] != "revolute":
-        raise FileFormatError(f"{where}: {_UNSUPPORTED}, got \"type\": {short(f['type'])}")
+        check_keys(f, where, required=("pivot", "links"), optional=("name",), free=FREE_KEYS)
+        raw = f["links"]
+        if not isinstance(raw, list) or not raw:
+            raise FileFormatError(f"{where}.links: expected a non-empty list, got {short(raw)}")
+        parsed = [_link(d, f"{where}.links[{j}]") for j, d in enumerate(raw)]
+        links = tuple(lk for lk, _ in parsed)
+        pivot = _point(f["pivot"], f"{where}.pivot")
+        first = links[0]
+        return Finger(name=name, pivot=(float(pivot[0]), float(pivot[1])), length=first.length,
+                      width=first.width, mass=first.mass, links=links), [x for _, x in parsed]
+    if "type" in f and f["type"] != REVOLUTE:
+        raise FileFormatError(
+            f"{where}.type: expected \"revolute\" for a single-link finger (a prismatic joint "
+            f"goes in \"links\": [...]), got {short(f['type'])}"
+        )
     check_keys(f, where, required=("pivot", "length", "width", "angle"),
                optional=("name", "mass", "type"), free=FREE_KEYS)
     pivot = _point(f["pivot"], f"{where}.pivot")
     finger = Finger(
-        name=string(f.get("name", f"finger{k + 1}"), f"{where}.name"),
+        name=name,
         pivot=(float(pivot[0]), float(pivot[1])),
         length=number(f["length"], f"{where}.length", positive=True),
         width=number(f["width"], f"{where}.width", positive=True),
         mass=number(f.get("mass", FINGER_MASS), f"{where}.mass", positive=True),
     )
-    return finger, number(f["angle"], f"{where}.angle")
+    return finger, [number(f["angle"], f"{where}.angle")]
 
 
-def _contact(d: Any, i: int, n_v: int, n_f: int) -> ContactSpec:
+def _environment(raw: Any) -> tuple[tuple[str, np.ndarray], ...]:
+    if not isinstance(raw, list):
+        raise FileFormatError(f"environment: expected a list of surfaces, got {short(raw)}")
+    out = []
+    for e, d in enumerate(raw):
+        where = f"environment[{e}]"
+        d = as_object(d, where)
+        check_keys(d, where, required=("edge",), free=FREE_KEYS)
+        ends = _points(d["edge"], f"{where}.edge", 2)
+        if np.linalg.norm(ends[1] - ends[0]) <= 0:
+            raise FileFormatError(f"{where}.edge: expected two distinct points, got equal points")
+        out.append((string(d.get("name", f"surface{e + 1}"), f"{where}.name"), ends))
+    return tuple(out)
+
+
+def _contact(d: Any, i: int, n_v: int, fingers: list[Finger],
+             env: tuple[tuple[str, np.ndarray], ...]) -> ContactSpec:
     where = f"contacts[{i}]"
+    n_f = len(fingers)
     d = as_object(d, where)
-    check_keys(d, where, required=("kind",), optional=("vertex", "edge", "finger", "side"),
-               free=FREE_KEYS)
+    check_keys(d, where, required=("kind",),
+               optional=("vertex", "edge", "finger", "side", "link", "surface"), free=FREE_KEYS)
     kind = d["kind"]
     if kind not in CONTACT_KINDS:
         raise FileFormatError(f"{where}.kind: expected one of {CONTACT_KINDS}, got {short(kind)}")
-    keys = {"palm": ("vertex",), "side": ("vertex", "finger"), "tip": ("edge", "finger")}[kind]
-    opt = ("side",) if kind == "side" else ()
+    keys = {"palm": ("vertex",), "surface": ("vertex", "surface"), "side": ("vertex", "finger"),
+            "tip": ("edge", "finger")}[kind]
+    opt = ("side", "link") if kind == "side" else ()
     check_keys(d, f"{where} ({kind})", required=("kind", *keys), optional=opt, free=FREE_KEYS)
 
     def index(key: str, n: int) -> int:
@@ -183,34 +233,64 @@ def _contact(d: Any, i: int, n_v: int, n_f: int) -> ContactSpec:
 
     if kind == "palm":
         return ContactSpec("palm", vertex=index("vertex", n_v))
+    if kind == "surface":
+        if not env:
+            raise FileFormatError(f"{where}.surface: expected an 'environment' list to refer to, "
+                                  "got none")
+        names = [name for name, _ in env]
+        surf = d["surface"]
+        k = names.index(surf) if isinstance(surf, str) and surf in names else (
+            index("surface", len(env)) if not isinstance(surf, str) else -1)
+        if k < 0:
+            raise FileFormatError(f"{where}.surface: expected an index or one of {names}, "
+                                  f"got {short(surf)}")
+        return ContactSpec("surface", vertex=index("vertex", n_v), surface=k)
     if kind == "side":
         side = d.get("side", 1)
         if isinstance(side, bool) or side not in (1, -1):
             raise FileFormatError(f"{where}.side: expected +1 or -1, got {short(side)}")
-        return ContactSpec("side", vertex=index("vertex", n_v), finger=index("finger", n_f),
-                           side=int(side))
+        finger = index("finger", n_f)
+        link = integer(d.get("link", 0), f"{where}.link", 0, fingers[finger].n_joints - 1)
+        return ContactSpec("side", vertex=index("vertex", n_v), finger=finger, side=int(side),
+                           link=link)
     return ContactSpec("tip", edge=index("edge", n_v), finger=index("finger", n_f))
 
 
-def _segment(seg: Any, n_f: int) -> SegmentSpec:
+def _segment(seg: Any, n_joints: int) -> SegmentSpec:
     seg = as_object(seg, "segment")
     check_keys(seg, "segment", required=("drive", "speed", "mode"),
                optional=tuple(SEGMENT_DEFAULTS), free=FREE_KEYS)
-    speed = number(seg["speed"], "segment.speed")
-    if speed == 0:
-        raise FileFormatError("segment.speed: expected a non-zero rate [rad/s], got 0")
     mode = string(seg["mode"], "segment.mode")
     if not mode.strip():
         raise FileFormatError("segment.mode: expected a mode family or label, got ''")
+    if isinstance(seg["drive"], list) or isinstance(seg["speed"], list):
+        raw_d, raw_s = seg["drive"], seg["speed"]
+        if not (isinstance(raw_d, list) and isinstance(raw_s, list) and raw_d
+                and len(raw_d) == len(raw_s)):
+            raise FileFormatError(
+                "segment.drive/speed: expected a joint index and a rate, or two lists of the same "
+                f"length, got {short(raw_d)} and {short(raw_s)}")
+        drives = tuple(integer(x, f"segment.drive[{i}]", 0, n_joints - 1)
+                       for i, x in enumerate(raw_d))
+        if len(set(drives)) != len(drives):
+            raise FileFormatError(f"segment.drive: expected distinct joints, got {list(drives)}")
+        speeds = tuple(number(x, f"segment.speed[{i}]") for i, x in enumerate(raw_s))
+    else:
+        drives = (integer(seg["drive"], "segment.drive", 0, n_joints - 1),)
+        speeds = (number(seg["speed"], "segment.speed"),)
+    if not any(speeds):
+        raise FileFormatError("segment.speed: expected a non-zero rate [rad/s], got 0")
     return SegmentSpec(
-        drive=integer(seg["drive"], "segment.drive", 0, n_f - 1),
-        speed=speed,
+        drive=drives[0],
+        speed=speeds[0],
         mode=mode,
         max_time=number(seg.get("max_time", SEGMENT_DEFAULTS["max_time"]), "segment.max_time",
                         positive=True),
         waypoints=integer(seg.get("waypoints", SEGMENT_DEFAULTS["waypoints"]),
                           "segment.waypoints", 2),
         steps=integer(seg.get("steps", SEGMENT_DEFAULTS["steps"]), "segment.steps", 1),
+        drives=drives,
+        speeds=speeds,
     )
 
 
@@ -241,7 +321,8 @@ def _mu_section(mu: Any, n_c: int) -> tuple[tuple[tuple[float, float], ...] | No
 def _hand_file(data: Any) -> HandFile:
     data = as_object(data, "hand")
     check_keys(data, "hand", required=("palm", "fingers", "workpiece", "contacts"),
-               optional=("format", "version", "load", "segment", "mu"), free=FREE_KEYS)
+               optional=("format", "version", "load", "segment", "mu", "environment"),
+               free=FREE_KEYS)
     fmt, ver = data.get("format", HAND_FORMAT), data.get("version", HAND_VERSION)
     if fmt != HAND_FORMAT or ver != HAND_VERSION or isinstance(ver, bool):
         raise FileFormatError(
@@ -258,7 +339,8 @@ def _hand_file(data: Any) -> HandFile:
         raise FileFormatError(f"fingers: expected a non-empty list, got {short(fingers_raw)}")
     parsed = [_finger(f, k) for k, f in enumerate(fingers_raw)]
     fingers = [f for f, _ in parsed]
-    angles = [a for _, a in parsed]
+    angles = [a for _, q in parsed for a in q]
+    env = _environment(data["environment"]) if "environment" in data else ()
     wp = as_object(data["workpiece"], "workpiece")
     check_keys(wp, "workpiece", required=("vertices", "pose"), optional=("com", "mass"),
                free=FREE_KEYS)
@@ -271,7 +353,7 @@ def _hand_file(data: Any) -> HandFile:
     contacts_raw = data["contacts"]
     if not isinstance(contacts_raw, list) or not contacts_raw:
         raise FileFormatError(f"contacts: expected a non-empty list, got {short(contacts_raw)}")
-    contacts = tuple(_contact(c, i, len(V), len(fingers)) for i, c in enumerate(contacts_raw))
+    contacts = tuple(_contact(c, i, len(V), fingers, env) for i, c in enumerate(contacts_raw))
     force = np.zeros(2)
     if "load" in data:
         load = as_object(data["load"], "load")
@@ -287,6 +369,7 @@ def _hand_file(data: Any) -> HandFile:
         load_force=force,
         name=string(data.get("name", "hand"), "name"),
         meta={k: data[k] for k in ("description", "load") if k in data},
+        environment=env,
     )
     centroid = V.mean(axis=0) @ rotation(pose[2]).T + pose[:2]
     if rot90(palm[1] - palm[0]) @ (centroid - palm[0]) <= 0:
@@ -294,11 +377,11 @@ def _hand_file(data: Any) -> HandFile:
             "palm.edge: expected the workpiece on the inward side (left of first->second point), "
             "got it on the other side"
         )
-    segment = _segment(data["segment"], len(fingers)) if "segment" in data else None
+    segment = _segment(data["segment"], hand.n_joints) if "segment" in data else None
     interval, validate = _mu_section(data["mu"], len(contacts)) if "mu" in data else (None, ())
     q0 = np.concatenate([pose, angles])
-    fixed = hand.default_fixed()
     try:
+        fixed = hand.default_fixed(q0)
         q0 = hand.close(q0, fixed=fixed)
     except (DegenerateError, InputError) as exc:
         raise FileFormatError(f"initial configuration: {exc}") from None

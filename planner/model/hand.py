@@ -1,23 +1,31 @@
 """Palm-and-fingers hands: geometry -> :class:`planner.model.system.System` at any configuration.
 
-The Section 5.2 system (Figure 9): a fixed straight palm, single-link fingers on revolute
-joints, and a convex polygonal workpiece that touches the palm and the fingers at point
-contacts.  Everything about a particular hand lives in a data file (e.g.
+The Section 5.2 system (Figure 9): a fixed straight palm, fingers, and a convex polygonal
+workpiece that touches the palm, the fingers and fixed environment surfaces (a table) at point
+contacts.  A finger is a planar serial chain of revolute and prismatic joints, each moving one
+capsule link (:class:`Link`); the paper's fingers are single revolute links.  Everything about
+a particular hand lives in a data file (e.g.
 ``scenarios/data/two_finger_hand.json``, format in ``docs/two-finger-task.md``, read by
 :mod:`planner.files.hand_file`); this module holds the geometry and works for any such hand.
 
-Configuration ``q = (x, y, phi, theta_1, ..., theta_F)``: workpiece pose (position of the
-workpiece body-frame origin, orientation; world frame, docs/conventions.md) and finger joint
-angles (angle of each link's axis from world ``+x``, counter-clockwise).
+Configuration ``q = (x, y, phi, theta_1, ..., theta_n)``: workpiece pose (position of the
+workpiece body-frame origin, orientation; world frame, docs/conventions.md) and the joint
+coordinates of every finger in turn (finger 0's joints from the pivot out, then finger 1's...).
+A revolute joint's coordinate is its link's angle relative to the previous link's axis plus the
+link's fixed ``offset`` (for a finger's first link: the angle of the link's axis from world
+``+x``, counter-clockwise, rad); a prismatic joint's coordinate is the slide (m) of its link's
+start along the direction ``previous axis + offset``.  Link ``j`` is the capsule from its start
+along its axis, ``length`` long, radius ``width/2``; link ``j + 1`` starts at link ``j``'s end.
 
 Contact kinds (each contact keeps its feature pair for the whole segment):
 
 * ``palm`` - a workpiece vertex on the palm line.  Normal: the palm's inward normal.
-* ``side`` - a workpiece vertex on the straight side of a finger.  A finger is a capsule
-  (segment from the pivot along the axis, radius ``width/2``); ``side = +1`` is the side to the
-  left of the axis (``rot90`` of the axis direction), ``-1`` the right side.  Normal:
-  ``side * rot90(d)``.
-* ``tip`` - a finger's rounded tip (circle of radius ``width/2`` at the link end) on a
+* ``surface`` - a workpiece vertex on fixed environment surface ``surface`` (a table: a
+  straight segment like the palm, its inward normal ``rot90`` of first -> second point).
+* ``side`` - a workpiece vertex on the straight side of link ``link`` of a finger (a capsule,
+  radius ``width/2``); ``side = +1`` is the side to the left of the link axis (``rot90`` of the
+  axis direction), ``-1`` the right side.  Normal: ``side * rot90(d)``.
+* ``tip`` - a finger's rounded tip (circle of radius ``width/2`` at its last link's end) on a
   workpiece edge ``e`` (vertex ``e`` to ``e + 1``, counter-clockwise).  Normal: the edge's
   inward normal ``rot90(edge direction)``; contact point on the edge.
 
@@ -25,6 +33,9 @@ For each contact a signed gap ``g`` (positive = apart, metres) is defined.  Its 
 is the relative normal velocity ``v_in = w_in^T qdot - j_in thetadot`` of eq. (5), so the
 Jacobians used by the planner are the exact derivatives of the gaps (tested against finite
 differences).
+
+The parts (:class:`Link`, :class:`Finger`, :class:`ContactSpec`) live in
+:mod:`planner.model.hand_parts` and are re-exported here.
 """
 
 from __future__ import annotations
@@ -38,45 +49,19 @@ import numpy as np
 
 from planner.errors import DegenerateError, InputError
 from planner.model.geometry import rot90
+from planner.model.hand_parts import (
+    CONTACT_KINDS,
+    JOINT_KINDS,
+    ContactSpec,
+    Finger,
+    Link,
+    capsule_distance,
+    polygon_distance,
+    rotation,
+)
+from planner.model.kinematics import REVOLUTE
 from planner.model.system import System
 from planner.model.validation import as_array
-
-CONTACT_KINDS = ("palm", "side", "tip")
-
-
-def rotation(phi: float) -> np.ndarray:
-    """(2, 2) rotation matrix by ``phi`` [rad], counter-clockwise."""
-    c, s = math.cos(phi), math.sin(phi)
-    return np.array([[c, -s], [s, c]])
-
-
-@dataclass(frozen=True)
-class Finger:
-    """One single-link finger: revolute joint at ``pivot`` (world, m), link ``length`` (m),
-    capsule ``width`` (m, tip radius ``width/2``), link ``mass`` (kg, simulators only)."""
-
-    name: str
-    pivot: tuple[float, float]
-    length: float
-    width: float
-    mass: float = 0.05
-
-    @property
-    def radius(self) -> float:
-        return 0.5 * self.width
-
-
-@dataclass(frozen=True)
-class ContactSpec:
-    """One contact's feature pair.  ``kind`` in :data:`CONTACT_KINDS`; ``vertex`` (palm, side)
-    or ``edge`` (tip) indexes the workpiece polygon; ``finger`` indexes the fingers (side,
-    tip); ``side`` is +1/-1 for ``side`` contacts."""
-
-    kind: str
-    vertex: int = -1
-    edge: int = -1
-    finger: int = -1
-    side: int = 1
 
 
 @dataclass(frozen=True, eq=False)
@@ -86,8 +71,9 @@ class Hand:
     ``palm``: (2, 2) endpoints of the palm surface; its inward normal is ``rot90`` of the
     direction from the first to the second point and must point to the workpiece.
     ``vertices``: (V, 2) workpiece polygon in its body frame, counter-clockwise, convex.
-    ``com``: (2,) workpiece centre of mass, body frame.  ``g_obj``: (3,) external wrench on the
-    workpiece about the world origin *at the initial pose* (see :meth:`g_obj_at`).
+    ``com``: (2,) workpiece centre of mass, body frame.  ``load_force``: (2,) N, the constant
+    external force at the centre of mass (:meth:`g_obj_at`).  ``environment``: fixed surfaces
+    besides the palm, each ``(name, (2, 2) endpoints)`` with the same normal rule as the palm.
     """
 
     palm: np.ndarray
@@ -99,11 +85,31 @@ class Hand:
     load_force: np.ndarray
     name: str = "hand"
     meta: Mapping[str, Any] = field(default_factory=dict)
+    environment: tuple[tuple[str, np.ndarray], ...] = ()
 
     # ---- geometry --------------------------------------------------------------------------
     @property
     def n_fingers(self) -> int:
         return len(self.fingers)
+
+    @property
+    def n_joints(self) -> int:
+        """Number of finger joints ``n_theta`` (one per link)."""
+        return sum(f.n_joints for f in self.fingers)
+
+    def joint_index(self, finger: int, link: int = 0) -> int:
+        """Index in ``q`` of the joint of ``link`` of ``finger`` (``3 + ...``)."""
+        return 3 + sum(f.n_joints for f in self.fingers[:finger]) + link
+
+    def joint_names(self) -> tuple[str, ...]:
+        """One name per joint: the finger's name, with ``.link`` for multi-link fingers."""
+        out = []
+        for f in self.fingers:
+            if f.n_joints == 1:
+                out.append(f.name)
+            else:
+                out.extend(f"{f.name}.{lk.name or j}" for j, lk in enumerate(f.chain_links))
+        return tuple(out)
 
     @property
     def n_contacts(self) -> int:
@@ -119,19 +125,48 @@ class Hand:
         d = self.palm[1] - self.palm[0]
         return rot90(d / np.linalg.norm(d))
 
+    def surface(self, c: ContactSpec) -> tuple[np.ndarray, np.ndarray]:
+        """``((2, 2) endpoints, inward normal)`` of the fixed surface of a palm/surface contact."""
+        if c.kind == "palm":
+            return self.palm, self.palm_normal
+        ends = self.environment[c.surface][1]
+        d = ends[1] - ends[0]
+        return ends, rot90(d / np.linalg.norm(d))
+
     def check_q(self, q: Any) -> np.ndarray:
-        return as_array(q, (3 + self.n_fingers,), "configuration q (x, y, phi, finger angles)")
+        return as_array(q, (3 + self.n_joints,), "configuration q (x, y, phi, joint coordinates)")
 
     def world_vertices(self, q: np.ndarray) -> np.ndarray:
         """(V, 2) workpiece vertices in the world at configuration ``q``."""
         return self.vertices @ rotation(q[2]).T + q[:2]
 
+    def links_at(self, q: np.ndarray, k: int) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Per link of finger ``k``: ``(start (2,), unit axis (2,))`` in the world (m)."""
+        f = self.fingers[k]
+        j0 = self.joint_index(k)
+        start = np.asarray(f.pivot)
+        a = 0.0
+        out = []
+        for j, link in enumerate(f.chain_links):
+            a = a + link.offset
+            if link.kind == REVOLUTE:
+                a = a + q[j0 + j]
+                d = np.array([math.cos(a), math.sin(a)])
+            else:
+                d = np.array([math.cos(a), math.sin(a)])
+                start = start + q[j0 + j] * d
+            out.append((start, d))
+            start = start + link.length * d
+        return out
+
     def axis(self, q: np.ndarray, k: int) -> np.ndarray:
-        return np.array([math.cos(q[3 + k]), math.sin(q[3 + k])])
+        """Unit axis (2,) of finger ``k``'s last link."""
+        return self.links_at(q, k)[-1][1]
 
     def tip_centre(self, q: np.ndarray, k: int) -> np.ndarray:
-        f = self.fingers[k]
-        return np.asarray(f.pivot) + f.length * self.axis(q, k)
+        """Centre (2,) of finger ``k``'s rounded tip (end of its last link), m."""
+        start, d = self.links_at(q, k)[-1]
+        return start + self.fingers[k].chain_links[-1].length * d
 
     def edge(self, q: np.ndarray, e: int) -> tuple[np.ndarray, np.ndarray]:
         """World endpoints of workpiece edge ``e`` (vertex e -> e+1)."""
@@ -142,33 +177,33 @@ class Hand:
         """Contact ``i`` at ``q``: ``(point, inward normal, gap, s)``.
 
         ``s`` is the contact point's position along its supporting feature as a fraction:
-        0..1 along the palm, along the finger axis, or along the workpiece edge; outside
-        [0, 1] the feature pair has come apart (lost contact).
+        0..1 along the palm or surface, along the link axis, or along the workpiece edge;
+        outside [0, 1] the feature pair has come apart (lost contact).
         """
         q = np.asarray(q, dtype=float)
         c = self.contacts[i]
-        if c.kind == "palm":
+        if c.kind in ("palm", "surface"):
             p = self.world_vertices(q)[c.vertex]
-            n = self.palm_normal
-            a, b = self.palm
+            (a, b), n = self.surface(c)
             gap = float(n @ (p - a))
             s = float((p - a) @ (b - a) / ((b - a) @ (b - a)))
             return p, n, gap, s
         f = self.fingers[c.finger]
-        pivot = np.asarray(f.pivot)
-        d = self.axis(q, c.finger)
         if c.kind == "side":
+            link = f.chain_links[c.link]
+            start, d = self.links_at(q, c.finger)[c.link]
             p = self.world_vertices(q)[c.vertex]
             n = c.side * rot90(d)
-            gap = float(n @ (p - pivot)) - f.radius
-            s = float((p - pivot) @ d / f.length)
+            gap = float(n @ (p - start)) - link.radius
+            s = float((p - start) @ d / link.length)
             return p, n, gap, s
         a, b = self.edge(q, c.edge)
         e = (b - a) / np.linalg.norm(b - a)
         n = rot90(e)
-        T = pivot + f.length * d
-        gap = float(-(n @ (T - a))) - f.radius
-        p = T + f.radius * n
+        T = self.tip_centre(q, c.finger)
+        r = f.tip_radius
+        gap = float(-(n @ (T - a))) - r
+        p = T + r * n
         s = float((p - a) @ (b - a) / ((b - a) @ (b - a)))
         return p, n, gap, s
 
@@ -185,20 +220,29 @@ class Hand:
         return pts, nrm, s
 
     def jacobian(self, q: Any) -> np.ndarray:
-        """(n_c, 2, F) manipulator contact-point velocities per joint rate, contact frame (eq. 5).
+        """(n_c, 2, n_theta) manipulator contact-point velocities per joint rate, contact frame
+        (eqs. 3, 5).
 
-        The finger's material point at the contact moves with ``rot90(p - pivot) thetadot``;
-        palm contacts have zero rows (the palm is fixed).
+        The finger point at the contact moves with the chain's point Jacobian
+        (:meth:`planner.model.kinematics.Chain.point_jacobian`: ``rot90(p - o_j)`` per revolute
+        joint at ``o_j``, the slide axis per prismatic joint); rows ``n^T J_p`` and ``t^T J_p``.
+        Palm and surface contacts have zero rows (fixed).
         """
         q = np.asarray(q, dtype=float)
         pts, nrm, _ = self.contact_geometry(q)
-        J = np.zeros((self.n_contacts, 2, self.n_fingers))
+        J = np.zeros((self.n_contacts, 2, self.n_joints))
         for i, c in enumerate(self.contacts):
-            if c.kind == "palm":
+            if c.kind in ("palm", "surface"):
                 continue
-            u = rot90(pts[i] - np.asarray(self.fingers[c.finger].pivot))
-            J[i, 0, c.finger] = nrm[i] @ u
-            J[i, 1, c.finger] = rot90(nrm[i]) @ u
+            f = self.fingers[c.finger]
+            j0 = self.joint_index(c.finger) - 3
+            body = c.link if c.kind == "side" else f.n_joints - 1
+            Jp = f.chain().point_jacobian(q[3 + j0:3 + j0 + f.n_joints], body, pts[i])
+            t = rot90(nrm[i])
+            for j in range(f.n_joints):
+                u = Jp[:, j].copy()
+                J[i, 0, j0 + j] = nrm[i] @ u
+                J[i, 1, j0 + j] = t @ u
         return J
 
     def g_obj_at(self, q: Any) -> np.ndarray:
@@ -209,20 +253,27 @@ class Hand:
         f = self.load_force
         return np.array([f[0], f[1], r[0] * f[1] - r[1] * f[0]])
 
-    def default_fixed(self) -> list[int]:
+    def default_fixed(self, q: Any = None) -> list[int]:
         """Coordinates kept when closing the initial configuration (:meth:`close`): the
         workpiece ``x`` and, if there are more free coordinates than contacts, the first
-        fingers' angles.  Raises :class:`InputError` when there are too many contacts."""
-        n_free = 3 + self.n_fingers
+        joints' coordinates -- at ``q`` (when given) only joints whose removal leaves the gap
+        Jacobian of the free coordinates with full rank.  Raises :class:`InputError` when there
+        are too many contacts."""
+        n_free = 3 + self.n_joints
         fixed = [0]
+        G = None if q is None else self.gap_jacobian(self.check_q(q))
         k = 0
-        while n_free - len(fixed) > self.n_contacts and k < self.n_fingers:
-            fixed.append(3 + k)
+        while n_free - len(fixed) > self.n_contacts and k < self.n_joints:
+            trial = [*fixed, 3 + k]
+            free = [j for j in range(n_free) if j not in trial]
+            if G is None or np.linalg.matrix_rank(G[:, free]) == min(self.n_contacts, len(free)):
+                fixed = trial
             k += 1
-        if n_free - len(fixed) < self.n_contacts:
+        if n_free - len(fixed) != self.n_contacts:
             raise InputError(
-                f"contacts: expected at most {n_free - 1} contacts for {self.n_fingers} fingers, "
-                f"got {self.n_contacts}"
+                f"contacts: expected at most {n_free - 1} contacts for {self.n_joints} joints "
+                f"(and joints that can be held while the contacts close), got "
+                f"{self.n_contacts}"
             )
         return fixed
 
@@ -234,7 +285,7 @@ class Hand:
     ) -> System:
         """The planner :class:`System` at configuration ``q`` (eqs. 1-5).
 
-        ``joints``: per finger ``{"velocity": rad/s}`` or ``{"effort": N m}``.
+        ``joints``: per joint ``{"velocity": rad/s or m/s}`` or ``{"effort": N m or N}``.
         """
         q = self.check_q(q)
         pts, nrm, _ = self.contact_geometry(q)
@@ -291,7 +342,7 @@ class Hand:
         q = np.asarray(q, dtype=float)
         pts, nrm, _ = self.contact_geometry(q)
         Jn = self.jacobian(q)[:, 0, :]
-        out = np.zeros((self.n_contacts, 3 + self.n_fingers))
+        out = np.zeros((self.n_contacts, 3 + self.n_joints))
         o = q[:2]
         for i in range(self.n_contacts):
             n, p = nrm[i], pts[i]
@@ -315,52 +366,43 @@ class Hand:
     def clearances(self, q: Any) -> dict[str, float]:
         """Signed distances (m) of feature pairs that are *not* declared contacts.
 
-        Workpiece vertices against the palm line (within the palm) and against each finger
-        capsule; finger tips against the workpiece polygon.  A value <= 0 means a new contact
-        (an event that ends a quasistatic segment).
+        Workpiece vertices against the palm and surface lines (within them) and against each
+        link capsule; finger tips against the workpiece polygon.  A value <= 0 means a new
+        contact (an event that ends a quasistatic segment).
         """
         q = np.asarray(q, dtype=float)
         V = self.world_vertices(q)
-        taken = {(c.kind if c.kind != "side" else "finger", c.vertex, c.finger)
-                 for c in self.contacts if c.kind in ("palm", "side")}
+        on_fixed = {(c.kind, c.surface, c.vertex) for c in self.contacts
+                    if c.kind in ("palm", "surface")}
+        on_link = {(c.vertex, c.finger, c.link) for c in self.contacts if c.kind == "side"}
+        fixed = [("palm", -1, "palm", self.palm, self.palm_normal)]
+        for e, (name, ends) in enumerate(self.environment):
+            d = ends[1] - ends[0]
+            fixed.append(("surface", e, name, ends, rot90(d / np.linalg.norm(d))))
+        links = [self.links_at(q, k) for k in range(self.n_fingers)]
         out: dict[str, float] = {}
-        a, b = self.palm
-        n = self.palm_normal
         for v in range(len(V)):
-            if ("palm", v, -1) not in taken:
+            for kind, e, name, (a, b), n in fixed:
+                if (kind, e, v) in on_fixed:
+                    continue
                 s = (V[v] - a) @ (b - a) / ((b - a) @ (b - a))
                 if 0.0 <= s <= 1.0:
-                    out[f"vertex {v} - palm"] = float(n @ (V[v] - a))
+                    out[f"vertex {v} - {name}"] = float(n @ (V[v] - a))
             for k, f in enumerate(self.fingers):
-                if ("finger", v, k) in taken:
-                    continue
-                out[f"vertex {v} - {f.name}"] = _capsule_distance(
-                    V[v], np.asarray(f.pivot), self.tip_centre(q, k), f.radius)
+                for j, link in enumerate(f.chain_links):
+                    if (v, k, j) in on_link:
+                        continue
+                    start, d = links[k][j]
+                    where = f.name if f.n_joints == 1 else f"{f.name} link {j}"
+                    out[f"vertex {v} - {where}"] = capsule_distance(
+                        V[v], start, start + link.length * d, link.radius)
         tips = {c.finger for c in self.contacts if c.kind == "tip"}
         for k, f in enumerate(self.fingers):
             if k in tips:
                 continue
             tip = self.tip_centre(q, k)
-            out[f"{f.name} tip - workpiece"] = _polygon_distance(tip, V) - f.radius
+            out[f"{f.name} tip - workpiece"] = polygon_distance(tip, V) - f.tip_radius
         return out
 
 
-def _capsule_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray, r: float) -> float:
-    ab = b - a
-    t = float(np.clip((p - a) @ ab / (ab @ ab), 0.0, 1.0))
-    return float(np.linalg.norm(p - (a + t * ab))) - r
-
-
-def _polygon_distance(p: np.ndarray, V: np.ndarray) -> float:
-    """Signed distance of ``p`` to a convex counter-clockwise polygon (negative inside)."""
-    n = len(V)
-    inside = True
-    best = np.inf
-    for i in range(n):
-        a, b = V[i], V[(i + 1) % n]
-        ab = b - a
-        if (ab[0] * (p - a)[1] - ab[1] * (p - a)[0]) < 0:
-            inside = False
-        t = float(np.clip((p - a) @ ab / (ab @ ab), 0.0, 1.0))
-        best = min(best, float(np.linalg.norm(p - (a + t * ab))))
-    return -best if inside else best
+__all__ = ["CONTACT_KINDS", "JOINT_KINDS", "ContactSpec", "Finger", "Hand", "Link", "rotation"]

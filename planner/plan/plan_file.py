@@ -377,10 +377,10 @@ def plan_from_dict(data: Any) -> Plan:
         extra=extra,
     )
     model_hand = plan.hand_model.hand  # checks the embedded hand once; cached on the plan
-    if model_hand.n_fingers != n_f or model_hand.n_contacts != len(ivs):
+    if model_hand.n_joints != n_f or model_hand.n_contacts != len(ivs):
         raise FileFormatError(
-            f"hand: expected {n_f} fingers (one per control entry) and {len(ivs)} contacts "
-            f"(one per mu interval), got {model_hand.n_fingers} fingers and "
+            f"hand: expected {n_f} joints (one per control entry) and {len(ivs)} contacts "
+            f"(one per mu interval), got {model_hand.n_joints} joints and "
             f"{model_hand.n_contacts} contacts"
         )
     return plan

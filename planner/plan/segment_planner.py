@@ -99,7 +99,7 @@ def evaluate_partition(
         if abs(rate) <= 1e-12 * max(1.0, abs(seg.speed)):
             return PartitionReport(vel, False, f"joint {vel} does not move at t = {seg.t[k]:.3g} s",
                                    -math.inf, tuple(gs))
-        system = hand.system(seg.q[k], 0.0, _joints(hand.n_fingers, vel, rate))
+        system = hand.system(seg.q[k], 0.0, _joints(hand.n_joints, vel, rate))
         try:
             g = guarantee(system, seg.mode, mu, model=model)
         except DegenerateError as exc:
@@ -149,6 +149,13 @@ def plan_hand(
         mu = tuple(mu_spec.get("interval", (0.0, 0.0)))
     if validate_mu is None:
         validate_mu = mu_spec.get("validate", [])
+    if hand.n_joints != 2 or isinstance(seg_spec.get("drive"), list):
+        raise InputError(
+            f"{path.name}: plan files (qsplan-plan version 1) hold one velocity- and one "
+            "effort-controlled joint, expected a hand with 2 joints and one driven joint, got "
+            f"{hand.n_joints} joints and drive {seg_spec.get('drive')!r}; plan it with "
+            "planner.plan.region_planner.plan_regions (docs/two-finger-task.md, 'Any hand')"
+        )
     drive = int(seg_spec.get("drive", 0))
     speed = float(seg_spec.get("speed", 0.01))
     mode = str(seg_spec.get("mode", "4S"))
@@ -161,12 +168,12 @@ def plan_hand(
     seg = seg.resample(hand, n_wp)
     # Control partition (Section 3.2).
     if control == "auto":
-        reports = [evaluate_partition(hand, seg, v, mu, model) for v in range(hand.n_fingers)]
+        reports = [evaluate_partition(hand, seg, v, mu, model) for v in range(hand.n_joints)]
     else:
         v = int(control)
-        if not 0 <= v < hand.n_fingers:
+        if not 0 <= v < hand.n_joints:
             raise InputError(
-                f"control: expected 'auto' or a joint index < {hand.n_fingers}, got {v}"
+                f"control: expected 'auto' or a joint index < {hand.n_joints}, got {v}"
             )
         reports = [evaluate_partition(hand, seg, v, mu, model)]
     usable = [r for r in reports if r.usable]
@@ -177,7 +184,7 @@ def plan_hand(
         raise DegenerateError(f"no control partition guarantees {seg.mode}: {why}")
     best = max(usable, key=lambda r: r.worst_relative_margin)
     vel = best.velocity_joint
-    eff = next(k for k in range(hand.n_fingers) if k != vel)
+    eff = next(k for k in range(hand.n_joints) if k != vel)
     gs = best.guarantees
     pieces: list[Interval] = []
     prev = None
@@ -207,7 +214,8 @@ def plan_hand(
             predicted=predicted[k],
             rivals=gs[k].rivals,
         ))
-    control_t = tuple("velocity" if k == vel else "effort" for k in range(hand.n_fingers))
+    names = hand.joint_names()
+    control_t = tuple("velocity" if k == vel else "effort" for k in range(hand.n_joints))
     curves = _curves(seg, gs, at_lo, at_hi, mu_lo, mu_hi)
     return Plan(
         hand=data,
@@ -220,8 +228,8 @@ def plan_hand(
         event={"kind": seg.event.kind, "detail": seg.event.detail, "t": seg.event.t},
         waypoints=tuple(wps),
         exact=all(g.exact for g in gs),
-        notes=(f"joint {vel} ({hand.fingers[vel].name}) velocity-controlled, joint {eff} "
-               f"({hand.fingers[eff].name}) effort-controlled; partitions: "
+        notes=(f"joint {vel} ({names[vel]}) velocity-controlled, joint {eff} "
+               f"({names[eff]}) effort-controlled; partitions: "
                + "; ".join(f"joint {r.velocity_joint} velocity: "
                            + ("usable, worst relative margin "
                               f"{r.worst_relative_margin:.3g}" if r.usable else r.reason)
@@ -242,7 +250,7 @@ def _bands_at_ends(hand: Hand, seg: Segment, vel: int, mu_lo: np.ndarray, mu_hi:
     at_hi: BandsAt = []
     for k in range(len(seg.t)):
         system = hand.system(seg.q[k], 0.0,
-                             _joints(hand.n_fingers, vel, float(seg.thetadot[k, vel])))
+                             _joints(hand.n_joints, vel, float(seg.thetadot[k, vel])))
         for mu_v, out in ((mu_lo, at_lo), (mu_hi, at_hi)):
             bands = mode_bands(system, np.stack([mu_v, mu_v], 1))
             out.append({b.label: (b.mode.family, b.possible) for b in bands})

@@ -1,11 +1,12 @@
 """Quasistatic trajectory of a hand segment: integrate the predicted velocities (Section 5.2).
 
-A segment keeps one contact mode (e.g. ``4S``, all four contacts sliding) while one joint is
-driven at a constant rate.  At every step the kinematic stage (eqs. 13-16, 23-25; independent
+A segment keeps one contact mode (e.g. ``4S``, all four contacts sliding) while one joint (or
+several: ``drive`` a list, ``speed`` one rate each, zero = held) is driven at a constant rate.
+At every step the kinematic stage (eqs. 13-16, 23-25; independent
 of friction and of the effort inputs) gives the mode's workpiece twist ``qdot`` and the
 velocities of the effort-controlled joints; the state ``q = (x, y, phi, theta_1..theta_F)``
 advances by fourth-order Runge-Kutta and is then projected back onto the contact manifold
-(:meth:`planner.model.hand.Hand.close` with the driven joint held), so the contacts never drift.
+(:meth:`planner.model.hand.Hand.close` with the driven joints held), so the contacts never drift.
 Contact points move along their features as the state moves (vertex-edge contacts).
 
 The segment ends at the first event:
@@ -22,6 +23,7 @@ Events are located by bisection on the driven joint's angle to ``1e-9`` of a ste
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -51,7 +53,8 @@ class Segment:
 
     ``t (n,)`` s; ``q (n, 3 + F)`` configurations; ``qdot (n, 3)`` workpiece twist about the
     world origin; ``thetadot (n, F)`` joint rates; ``mode`` the label kept (with its sliding
-    directions); ``drive`` index of the driven joint and its ``speed`` (rad/s); ``event``.
+    directions); ``drive`` index of the (first) driven joint and its ``speed`` (rad/s or m/s);
+    ``drives``/``speeds`` every driven joint and its rate; ``event``.
     """
 
     t: np.ndarray
@@ -62,6 +65,13 @@ class Segment:
     drive: int
     speed: float
     event: Event
+    drives: tuple[int, ...] = ()
+    speeds: tuple[float, ...] = ()
+
+    def __post_init__(self) -> None:
+        if not self.drives:
+            object.__setattr__(self, "drives", (self.drive,))
+            object.__setattr__(self, "speeds", (self.speed,))
 
     @property
     def duration(self) -> float:
@@ -83,28 +93,47 @@ class Segment:
             k = int(np.clip(np.searchsorted(self.t, t, side="right") - 1, 0, len(self.t) - 2))
             a = (t - self.t[k]) / (self.t[k + 1] - self.t[k])
             q = (1 - a) * self.q[k] + a * self.q[k + 1]
-            q[3 + self.drive] = self.q[0, 3 + self.drive] + self.speed * t
-            q = hand.close(q, fixed=[3 + self.drive])
-            vel = mode_velocity(hand, q, self.drive, self.speed, self.mode)
+            for d, v in zip(self.drives, self.speeds):
+                q[3 + d] = self.q[0, 3 + d] + v * t
+            q = hand.close(q, fixed=[3 + d for d in self.drives])
+            vel = mode_velocity(hand, q, self.drives, self.speeds, self.mode)
             if vel is None:  # the event state itself may sit on the boundary: keep last rates
                 vel = (qd[-1], td[-1]) if qd else (self.qdot[k], self.thetadot[k])
             qs.append(q)
             qd.append(vel[0])
             td.append(vel[1])
         return Segment(ts, np.array(qs), np.array(qd), np.array(td), self.mode, self.drive,
-                       self.speed, self.event)
+                       self.speed, self.event, self.drives, self.speeds)
 
 
-def _drive_joints(hand: Hand, drive: int, speed: float) -> list[dict[str, float]]:
-    return [{"velocity": speed} if k == drive else {"effort": 0.0}
-            for k in range(hand.n_fingers)]
+Drive = int | Sequence[int]
+Speed = float | Sequence[float]
+
+
+def drive_rates(drive: Drive, speed: Speed) -> tuple[tuple[int, ...], tuple[float, ...]]:
+    """``(joints, rates)``: one driven joint and its rate, or lists of both (same length)."""
+    drives = (int(drive),) if isinstance(drive, (int, np.integer)) else tuple(int(d) for d in drive)
+    speeds = ((float(speed),) if isinstance(speed, (int, float, np.floating))
+              else tuple(float(v) for v in speed))
+    if len(drives) != len(speeds) or not drives:
+        raise InputError(f"drive/speed: expected one rate per driven joint, got {len(drives)} "
+                         f"joints and {len(speeds)} rates")
+    return drives, speeds
+
+
+def _drive_joints(hand: Hand, drive: Drive, speed: Speed) -> list[dict[str, float]]:
+    drives, speeds = drive_rates(drive, speed)
+    rate = dict(zip(drives, speeds))
+    return [{"velocity": rate[k]} if k in rate else {"effort": 0.0}
+            for k in range(hand.n_joints)]
 
 
 def mode_velocity(
-    hand: Hand, q: np.ndarray, drive: int, speed: float, mode: str, *, tol: float = DEFAULT_TOL,
+    hand: Hand, q: np.ndarray, drive: Drive, speed: Speed, mode: str, *,
+    tol: float = DEFAULT_TOL,
 ) -> tuple[np.ndarray, np.ndarray] | None:
     """``(qdot, thetadot)`` of ``mode`` (a label, or a family such as ``"4S"``) at ``q`` with
-    joint ``drive`` at ``speed`` and the others effort-controlled; None if not admissible."""
+    joint(s) ``drive`` at ``speed`` and the others effort-controlled; None if not admissible."""
     system = hand.system(q, 0.0, _drive_joints(hand, drive, speed))
     cand = enumerate_modes(system.n_contacts, system.dof)
     ks = kinematic_stage(system, cand, tol=tol)
@@ -115,7 +144,7 @@ def mode_velocity(
     return None
 
 
-def _mode_label(hand: Hand, q: np.ndarray, drive: int, speed: float, family: str) -> str:
+def _mode_label(hand: Hand, q: np.ndarray, drive: Drive, speed: Speed, family: str) -> str:
     system = hand.system(q, 0.0, _drive_joints(hand, drive, speed))
     cand = enumerate_modes(system.n_contacts, system.dof)
     ks = kinematic_stage(system, cand)
@@ -136,28 +165,32 @@ def integrate_segment(
     hand: Hand,
     q0: Any,
     *,
-    drive: int,
-    speed: float,
+    drive: Drive,
+    speed: Speed,
     mode: str = "4S",
     max_time: float,
     steps: int = 400,
 ) -> Segment:
     """Integrate the quasistatic motion of ``mode`` from ``q0`` with joint ``drive`` at
-    ``speed`` (rad/s) until an event or ``max_time`` (s); ``steps`` RK4 steps over ``max_time``.
+    ``speed`` (rad/s or m/s; or lists: several driven joints, a zero rate holds a joint) until
+    an event or ``max_time`` (s); ``steps`` RK4 steps over ``max_time``.
     """
-    if not 0 <= drive < hand.n_fingers:
-        raise InputError(f"drive: expected a joint index in [0, {hand.n_fingers - 1}], got {drive}")
-    if not np.isfinite(speed) or speed == 0:
+    drives, speeds = drive_rates(drive, speed)
+    for d in drives:
+        if not 0 <= d < hand.n_joints:
+            raise InputError(f"drive: expected a joint index in [0, {hand.n_joints - 1}], "
+                             f"got {d}")
+    if not all(np.isfinite(speeds)) or not any(speeds):
         raise InputError(f"speed: expected a non-zero finite joint rate, got {speed!r}")
     if not (np.isfinite(max_time) and max_time > 0):
         raise InputError(f"max_time: expected a positive duration, got {max_time!r}")
-    q = hand.close(hand.check_q(q0), fixed=[3 + drive])
-    label = _mode_label(hand, q, drive, speed, mode)
+    fixed = [3 + d for d in drives]
+    q = hand.close(hand.check_q(q0), fixed=fixed)
+    label = _mode_label(hand, q, drives, speeds, mode)
     h = max_time / steps
-    fixed = [3 + drive]
 
     def rate(qq: np.ndarray) -> Rate | None:
-        vel = mode_velocity(hand, qq, drive, speed, label)
+        vel = mode_velocity(hand, qq, drives, speeds, label)
         if vel is None:
             return None
         qd, td = vel
@@ -177,7 +210,8 @@ def integrate_segment(
         if k4 is None:
             return None
         nxt = qq + dt / 6.0 * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0])
-        nxt[3 + drive] = qq[3 + drive] + speed * dt
+        for d, v in zip(drives, speeds):
+            nxt[3 + d] = qq[3 + d] + v * dt
         try:
             return hand.close(nxt, fixed=fixed)
         except DegenerateError:
@@ -245,5 +279,5 @@ def integrate_segment(
         break
     if len(ts) < 2:
         raise DegenerateError(f"segment ended at its start: {event.detail}")
-    return Segment(np.array(ts), np.array(qs), np.array(qds), np.array(tds), label, drive,
-                   float(speed), event)
+    return Segment(np.array(ts), np.array(qs), np.array(qds), np.array(tds), label, drives[0],
+                   speeds[0], event, drives, speeds)

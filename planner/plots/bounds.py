@@ -141,3 +141,84 @@ def margin_summary(plan: Plan) -> dict[str, float]:
     t = np.abs(plan.torques())
     rel = m / np.where(t > 0, t, math.inf)
     return {"min_margin": float(np.min(m)), "min_relative_margin": float(np.min(rel))}
+
+
+def slice_polygon(A: np.ndarray, b: np.ndarray, centre: np.ndarray, axes: tuple[int, int]
+                  ) -> np.ndarray:
+    """Vertices ``(m, 2)`` (counter-clockwise) of the slice of ``{x : A x <= b}`` through
+    ``centre`` in the coordinates ``axes`` (the others held at the centre); empty when the slice
+    is empty.  Half-space intersection (scipy) from the slice's Chebyshev centre."""
+    from scipy.spatial import HalfspaceIntersection
+
+    from planner.plan.polytope import chebyshev_centre
+
+    i, j = axes
+    others = [k for k in range(A.shape[1]) if k not in axes]
+    A2 = A[:, [i, j]]
+    b2 = b - (A[:, others] @ centre[others] if others else 0.0)
+    keep = np.linalg.norm(A2, axis=1) > 0
+    if np.any(~keep & (b2 < 0)):
+        return np.zeros((0, 2))
+    A2, b2 = A2[keep], b2[keep]
+    c, r = chebyshev_centre(A2, b2)
+    if not r > 0:
+        return np.zeros((0, 2))
+    hs = HalfspaceIntersection(np.hstack([A2, -b2[:, None]]), c)
+    v = hs.intersections
+    ang = np.arctan2(v[:, 1] - c[1], v[:, 0] - c[0])
+    return np.asarray(v[np.argsort(ang)])
+
+
+def plot_regions(plan: Any, out_dir: str | Path, names: tuple[str, ...] = ()) -> list[Path]:
+    """Torque regions of a :class:`planner.plan.region_planner.RegionPlan` into ``out_dir``:
+    ``regions.png``.  One effort joint: the band and the commands against travel (as Fig. 13);
+    several: slices through each drawn waypoint's command in the first two effort joints' plane
+    (the others held at the command), every other waypoint, shaded by time; none: the margin
+    (smallest normalised Coulomb slack) against travel.  ``names``: joint names for the axes."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    E = plan.effort_joints
+
+    def nm(j: int) -> str:
+        return names[j] if j < len(names) else f"joint {j}"
+
+    q = np.array([w.q for w in plan.waypoints])
+    x = 1e3 * np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(q[:, :2], axis=0),
+                                                               axis=1))])
+    fig, ax = plt.subplots(figsize=(6.4, 4.6), dpi=110)
+    title = f"{plan.claim}: guaranteed over the friction {plan.mu_model}"
+    if len(E) == 0:
+        ax.plot(x, [w.margin for w in plan.waypoints], "k.-")
+        ax.set_xlabel("workpiece travel (mm)")
+        ax.set_ylabel("margin (smallest normalised Coulomb slack)")
+    elif len(E) == 1:
+        lo = [-w.region.b[1] for w in plan.waypoints]
+        hi = [w.region.b[0] for w in plan.waypoints]
+        ax.fill_between(x, lo, hi, color="tab:blue", alpha=0.3, label="guaranteed")
+        ax.plot(x, [w.torque_command[0] for w in plan.waypoints], "k.-", label="command")
+        ax.set_xlabel("workpiece travel (mm)")
+        ax.set_ylabel(f"effort of {nm(E[0])}")
+        ax.legend(fontsize=7)
+    else:
+        cmap = plt.get_cmap("viridis")
+        shown = plan.waypoints[::2]
+        for n, w in enumerate(shown):
+            poly = slice_polygon(w.region.A, w.region.b, w.torque_command, (0, 1))
+            colour = cmap(n / max(1, len(shown) - 1))
+            if len(poly):
+                ax.fill(poly[:, 0], poly[:, 1], color=colour, alpha=0.25, lw=0.8,
+                        ec=colour, label=f"t = {w.t:.2f} s")
+            ax.plot(*w.torque_command[:2], "o", color=colour, ms=3)
+        ax.set_xlabel(f"effort of {nm(E[0])}")
+        ax.set_ylabel(f"effort of {nm(E[1])}")
+        ax.legend(fontsize=6, loc="best")
+        title += " (slices through the commands)"
+    ax.set_title(title, fontsize=9)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    path = save_figure(fig, Path(out_dir) / "regions.png")
+    plt.close(fig)
+    return [path]
