@@ -72,6 +72,7 @@ def refusal_seconds(fx) -> dict[str, float]:  # type: ignore[no-untyped-def]
         "muspace": ["muspace", str(fx.system), "--vary", "1,2", "--out", "/dev/null"],
         "plan": ["plan", str(fx.hand), "--out", "/dev/null"],
         "validate": ["validate", str(fx.plan), "--out", "/dev/null"],
+        "simulate": ["simulate", str(fx.system), "--out", "/dev/null"],
         "demo": ["demo", "--out", "/dev/null"],
         "scenarios": ["scenarios", "run", "ex41_3s", "--out", "/dev/null"],
         "sweep": ["sweep", "mu", str(fx.system), "--out", "/dev/null"],

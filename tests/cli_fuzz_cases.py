@@ -18,7 +18,8 @@ from pathlib import Path
 
 from cli_fuzz_inputs import OLD, Fixtures, output_path, write_input
 
-COMMANDS = ("modes", "muspace", "plan", "validate", "demo", "scenarios", "sweep", "report")
+COMMANDS = ("modes", "muspace", "plan", "validate", "simulate", "demo", "scenarios", "sweep",
+            "report")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -154,6 +155,44 @@ def case_validate(fx: Fixtures, rng: random.Random, p: float) -> Case:
     return Case("validate", ["validate", plan, "--out", out] + argv_tail, True, ((out, "dir"),))
 
 
+def case_simulate(fx: Fixtures, rng: random.Random, p: float) -> Case:
+    """Always with one surely bad part (a good run simulates for a second or more)."""
+    parts = rng.sample(["system", "engine", "mu", "judge", "duration", "out"], rng.randint(1, 3))
+    system, out, argv_tail = str(fx.system), str(fx.fresh("sim")), ["--no-render"]
+    bad: list[bool | None] = []
+    if "system" in parts:
+        for _ in range(20):
+            system, b = write_input(fx, rng, fx.system)
+            if b:
+                break
+        bad.append(b)
+    if "engine" in parts:
+        argv_tail += ["--engine", rng.choice(["bullet", "", "PYMUNK", "nan"])]
+        bad.append(True)
+    if "mu" in parts:
+        argv_tail += [rng.choice(["--mu", "--mu-kinetic"]),
+                      rng.choice(NUM_BAD + [",".join(["0.1"] * 200)])]
+        bad.append(True)
+    if "judge" in parts:
+        argv_tail += ["--judge-mu", rng.choice(NUM_BAD)]
+        bad.append(True)
+    if "duration" in parts:
+        argv_tail += [rng.choice(["--duration", "--speed"]),
+                      rng.choice(["0", "-1", "nan", "inf", "1e308", "x", ""])]
+        bad.append(True)
+    if "out" in parts:
+        for _ in range(20):
+            out, b = output_path(fx, rng, "dir", ("summary.json",))
+            if b:
+                break
+        bad.append(b)
+    if not any(b is True for b in bad):  # make sure: a bad engine
+        argv_tail += ["--engine", "bullet"]
+        bad.append(True)
+    return Case("simulate", ["simulate", system, "--out", out] + argv_tail, True,
+                ((out, "dir"),))
+
+
 def case_demo(fx: Fixtures, rng: random.Random, p: float) -> Case:
     """Always with one surely bad part (a good demo runs for minutes)."""
     out, b_out = output_path(fx, rng, "dir", ("checks.json", "REPORT.md"))
@@ -240,8 +279,8 @@ def case_report(fx: Fixtures, rng: random.Random, p: float) -> Case:
 
 
 GENERATORS = {"modes": case_modes, "muspace": case_muspace, "plan": case_plan,
-              "validate": case_validate, "demo": case_demo, "scenarios": case_scenarios,
-              "sweep": case_sweep, "report": case_report}
+              "validate": case_validate, "simulate": case_simulate, "demo": case_demo,
+              "scenarios": case_scenarios, "sweep": case_sweep, "report": case_report}
 
 
 def generate(fx: Fixtures, seed: int, per_command: int, p_bad: float = 0.6,

@@ -43,7 +43,8 @@ def _log_dir(tmp_path, monkeypatch):
 
 
 # Cheap commands get more inputs; plan costs ~0.5 s per accepted input.
-SHORT = {"modes": 40, "muspace": 14, "plan": 6, "validate": 10, "demo": 8, "scenarios": 10,
+SHORT = {"modes": 40, "muspace": 14, "plan": 6, "validate": 10, "simulate": 10, "demo": 8,
+         "scenarios": 10,
          "sweep": 12, "report": 12}
 
 
