@@ -221,7 +221,7 @@ class HighsLp:
     (SciPy's bundled binding) so that bound changes re-solve from the previous basis."""
 
     def __init__(self, A: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> None:
-        from scipy.optimize._highspy import _core  # type: ignore[import-untyped]
+        from scipy.optimize._highspy import _core
 
         self._core = _core
         inf = _core.kHighsInf
@@ -309,7 +309,7 @@ class LinprogLp:
         self.col_lower[j], self.col_upper[j] = lo, hi
 
     def solve(self) -> Any:
-        from scipy.optimize import linprog  # type: ignore[import-untyped]
+        from scipy.optimize import linprog
 
         eq = self.lower == self.upper
         up = ~eq & np.isfinite(self.upper)
