@@ -14,16 +14,22 @@ absolute times; the ratios are measured in the same run):
   (target: <= 3 s);
 * ``boxes``: boxes on 8 and 12 supports pushed low by one finger (expected: the sliding mode,
   never jammed);
-* ``search`` (with ``--search``): ``search_modes`` at ``n_c = 20`` on ten seeded systems,
-  serial (issue 15's worst-case target <= 10 s; not improved this session).
+* ``search`` (with ``--search``): ``search_modes`` at ``n_c = 20`` (``--search-nc 20,24``) on
+  ten seeded systems, serial, one process per system with a timeout (issue 15's targets: worst
+  of ten at ``n_c = 20`` <= 10 s, median at 24 <= 60 s); ``--search-baseline DIR`` times
+  another checkout (e.g. ``git worktree add /tmp/old <commit>``) on the same system right
+  before, in the same run.
 
     PYTHONPATH=. python benchmarks/bench_issue15.py [--search] [--out FILE]
+    PYTHONPATH=. python benchmarks/bench_issue15.py --only-search --search-nc 20 \\
+        --search-baseline /tmp/old --out benchmarks/results/bench_issue15_search.json
 """
 
 from __future__ import annotations
 
 import argparse
 import copy
+import json
 import os
 import platform
 import sys
@@ -151,18 +157,61 @@ def boxes() -> list[dict]:
     return out
 
 
-def search(n_c: int, seeds: int) -> list[dict]:
+#: Child process of :func:`search`: one system, wall and CPU time, statistics, modes (JSON).
+#: Imports both package layouts, so a checkout of an older version can be the baseline.
+_SEARCH_CHILD = """
+import json, os, sys, time
+try:
     from planner.predict.search import search_modes
+    from planner.sweeps.random_systems import random_system
+except ImportError:
+    from planner.search import search_modes
+    from planner.random_systems import random_system
+search_modes(random_system(0, 6))  # warm-up: imports and HiGHS initialisation
+system = random_system(int(sys.argv[2]), int(sys.argv[1]))
+t0, c0 = time.perf_counter(), time.process_time()
+res = search_modes(system, indeterminate=False)
+print(json.dumps({"seconds": time.perf_counter() - t0, "cpu_s": time.process_time() - c0,
+                  "modes": res.prediction.labels, **res.stats.to_dict()}))
+"""
 
+
+def search(n_cs: list[int], seeds: int, timeout: float, baseline: str | None) -> list[dict]:
+    """``search_modes`` on ``seeds`` random systems per ``n_c``, serial, one process per system
+    (BLAS on one thread), killed after ``timeout`` s; with ``baseline`` (the root of another
+    checkout) the same system is searched by that version right before, in the same run."""
+    import subprocess
+
+    here = str(Path(__file__).resolve().parents[1])
+    versions = ([("baseline", baseline)] if baseline else []) + [("this", here)]
+    env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1",
+           "MKL_NUM_THREADS": "1"}
     out = []
-    for seed in range(seeds):
-        system = random_system(seed, n_c)
-        t0 = time.perf_counter()
-        res = search_modes(system, indeterminate=False)
-        dt = time.perf_counter() - t0
-        print(f"search n_c={n_c} seed={seed}: {dt:.2f} s, {res.prediction.labels}")
-        out.append({"n_c": n_c, "seed": seed, "seconds": dt, "modes": res.prediction.labels,
-                    **res.stats.to_dict()})
+    for n_c in n_cs:
+        for seed in range(seeds):
+            row: dict = {"n_c": n_c, "seed": seed}
+            for name, root in versions:
+                try:
+                    proc = subprocess.run(
+                        [sys.executable, "-c", _SEARCH_CHILD, str(n_c), str(seed)], cwd=root,
+                        env={**env, "PYTHONPATH": root}, capture_output=True, text=True,
+                        timeout=timeout, check=True)
+                    res = json.loads(proc.stdout.strip().splitlines()[-1])
+                except subprocess.TimeoutExpired:
+                    res = {"timeout_s": timeout}
+                except subprocess.CalledProcessError as err:
+                    res = {"error": err.stderr.strip().splitlines()[-1:]}
+                res["load_1min"] = os.getloadavg()[0]
+                row[name] = res
+                print(f"search n_c={n_c} seed={seed} {name}: "
+                      + (f"{res['seconds']:.2f} s (CPU {res['cpu_s']:.2f} s), "
+                         f"{res['lp_solves']} LPs" if "seconds" in res
+                         else f"failed: {res['error']}" if "error" in res
+                         else f"over {timeout:.0f} s") + f", load {res['load_1min']:.1f}",
+                      flush=True)
+            if baseline and "modes" in row["baseline"] and "modes" in row["this"]:
+                row["same_modes"] = row["baseline"]["modes"] == row["this"]["modes"]
+            out.append(row)
     return out
 
 
@@ -172,7 +221,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--repeat", type=int, default=30, help="timing repeats (median)")
     ap.add_argument("--waypoints", type=int, default=1000)
     ap.add_argument("--map-n", type=int, default=200)
-    ap.add_argument("--search", action="store_true", help="also n_c = 20 search (slow)")
+    ap.add_argument("--search", action="store_true", help="also the n_c = 20 search (slow)")
+    ap.add_argument("--search-nc", default="20", help="n_c values of --search, e.g. 20,24")
+    ap.add_argument("--search-seeds", type=int, default=10)
+    ap.add_argument("--search-timeout", type=float, default=300.0, help="per system [s]")
+    ap.add_argument("--search-baseline", default=None,
+                    help="root of another checkout, timed alternately in the same run")
+    ap.add_argument("--only-search", action="store_true", help="skip the other parts")
     ap.add_argument("--out", default="benchmarks/results/bench_issue15.json")
     args = ap.parse_args(argv)
     load_start = os.getloadavg()
@@ -181,13 +236,15 @@ def main(argv: list[str] | None = None) -> int:
         "command": "PYTHONPATH=. python benchmarks/bench_issue15.py " + " ".join(sys.argv[1:]),
         "machine": {"python": platform.python_version(), "processor": platform.processor(),
                     "cpus": os.cpu_count(), "numpy": np.__version__},
-        "latency": latency(args.seeds, args.repeat),
-        "batch": batch(args.waypoints, 3),
-        "map": maps(args.map_n),
-        "boxes": boxes(),
     }
-    if args.search:
-        out["search"] = search(20, 10)
+    if not args.only_search:
+        out["latency"] = latency(args.seeds, args.repeat)
+        out["batch"] = batch(args.waypoints, 3)
+        out["map"] = maps(args.map_n)
+        out["boxes"] = boxes()
+    if args.search or args.only_search:
+        out["search"] = search([int(x) for x in args.search_nc.split(",")], args.search_seeds,
+                               args.search_timeout, args.search_baseline)
     out["load_average_1_5_15"] = {"start": list(load_start), "end": list(os.getloadavg())}
     print(f"load average at start {load_start}, at end {os.getloadavg()}")
     atomic_write_json(args.out, out)

@@ -207,8 +207,13 @@ class Pruner:
 _INFEASIBLE = object()
 
 
-#: HiGHS options of the pruning LPs (docs/scaling.md, "Cost").
-_HIGHS_OPTIONS: dict[str, Any] = {"simplex_update_limit": 50}
+#: HiGHS options of the pruning LPs (docs/scaling.md, "Cost").  The LP has no objective, so the
+#: dual simplex's random cost perturbation only moves it off the vertex it starts from:
+#: without it 9 % less CPU time (n_c = 20, seeds 0, 2, 8, 9, two rounds, every pair faster).
+_HIGHS_OPTIONS: dict[str, Any] = {
+    "simplex_update_limit": 50,
+    "dual_simplex_cost_perturbation_multiplier": 0.0,
+}
 
 
 class HighsLp:
