@@ -12,6 +12,12 @@ from dataclasses import dataclass
 from planner.errors import InputError
 from sim.scene import Backend
 
+#: MuJoCo solimp ``(d0, dwidth, width [m], midpoint, power)`` of every contact pair with a
+#: static body (a resting support: a table, a palm). The stiff default impedance (0.99-0.999)
+#: made a box pushed along a table stick and jump; 0.9 slides it at the drive speed
+#: (docs/simulation.md, "MuJoCo: resting supports").
+SUPPORT_SOLIMP = (0.9, 0.9, 0.001, 0.5, 2.0)
+
 #: Every engine :func:`make_backend` knows, in the order reports list them.
 ENGINES = ("pymunk", "mujoco")
 
@@ -25,9 +31,11 @@ class EngineSettings:
     comparison; ``mass_scale`` factor on the scene's masses (dynamics only: loads are explicit
     forces, so the quasistatic prediction does not depend on mass); ``ramp`` [s] command ramp at
     plan waypoints; ``record_every`` steps. Backend options: ``iterations`` (pymunk solver
-    iterations); ``solref`` (MuJoCo contact time constant [s], damping ratio) and
+    iterations); ``solref`` (MuJoCo contact time constant [s], damping ratio),
     ``z_stiffness`` [N/m] (MuJoCo spring holding dynamic bodies in the plane; their
-    out-of-plane slide exists only for noslip).
+    out-of-plane slide exists only for noslip) and ``support_solimp`` (MuJoCo solimp of every
+    pair with a static body -- a table, a palm; :data:`SUPPORT_SOLIMP`, measured in
+    docs/simulation.md; ``None``: the stiff default of all other pairs).
     """
 
     dt: float = 1e-3
@@ -39,6 +47,7 @@ class EngineSettings:
     iterations: int = 60
     solref: tuple[float, float] = (0.004, 1.0)
     z_stiffness: float = 0.0
+    support_solimp: tuple[float, ...] | None = SUPPORT_SOLIMP
 
 
 def check_engine(engine: str) -> str:
@@ -57,4 +66,5 @@ def make_backend(engine: str, settings: EngineSettings | None = None) -> Backend
         return PymunkBackend(iterations=es.iterations)
     from sim.backends.mujoco_engine import MujocoBackend
 
-    return MujocoBackend(solref=es.solref, out_of_plane_stiffness=es.z_stiffness)
+    return MujocoBackend(solref=es.solref, out_of_plane_stiffness=es.z_stiffness,
+                         support_solimp=es.support_solimp)

@@ -26,6 +26,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
+from sim.backends import SUPPORT_SOLIMP
 from sim.scene import (
     ABSENT,
     BodyKind,
@@ -50,8 +51,12 @@ class MujocoBackend:
     def __init__(self, noslip_iterations: int = 20,
                  solref: tuple[float, float] = (0.004, 1.0),
                  solimp: tuple[float, ...] = (0.99, 0.999, 0.001, 0.5, 2.0),
-                 impratio: float = 1.0, out_of_plane_stiffness: float = 0.0) -> None:
+                 impratio: float = 1.0, out_of_plane_stiffness: float = 0.0,
+                 support_solimp: tuple[float, ...] | None = SUPPORT_SOLIMP) -> None:
         self.impratio = impratio
+        #: solimp of every pair with a static body (a resting support: a table, a palm);
+        #: ``None`` uses ``solimp`` (module docstring)
+        self.support_solimp = support_solimp
         #: spring [N/m] (critically damped) holding dynamic bodies' out-of-plane slide at z = 0:
         #: a sphere touching a capsule is unstable out of the plane when friction is ~0.
         self.out_of_plane_stiffness = out_of_plane_stiffness
@@ -147,14 +152,18 @@ class MujocoBackend:
                 self._geoms[(b.name, k)] = [gname]
         self._subpairs: dict[str, list[int]] = {}
         n_sub = 0
+        static = {b.name for b in scene.bodies if b.kind == BodyKind.STATIC}
         for p in scene.pairs:
             self._subpairs[p.name] = []
+            solimp = self.solimp
+            if self.support_solimp is not None and static & {p.body_a, p.body_b}:
+                solimp = self.support_solimp
             for ga in self._geoms[(p.body_a, p.shape_a)]:
                 for gb in self._geoms[(p.body_b, p.shape_b)]:
                     spec.add_pair(name=f"{p.name}#{n_sub}", geomname1=ga, geomname2=gb,
                                   condim=3,
                                   friction=[p.mu_static, p.mu_static, 0.005, 1e-4, 1e-4],
-                                  solref=list(self.solref), solimp=list(self.solimp))
+                                  solref=list(self.solref), solimp=list(solimp))
                     self._subpairs[p.name].append(n_sub)
                     n_sub += 1
         self.model = spec.compile()
