@@ -17,7 +17,7 @@ from __future__ import annotations
 import itertools
 from collections.abc import Iterator
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cached_property, lru_cache
 from math import comb
 
 import numpy as np
@@ -28,6 +28,7 @@ BREAK, SLIDE, ROLL = 0, 1, 2
 _CODE_LETTER = {BREAK: "B", SLIDE: "S", ROLL: "R"}
 
 
+@lru_cache(maxsize=1024)
 def candidate_count(n_contacts: int, dof: int) -> int:
     """Number of contact modes tested, eq. (49).
 
@@ -73,6 +74,17 @@ class CandidateSet:
 
     def __len__(self) -> int:
         return self.codes.shape[0]
+
+    @cached_property
+    def masks(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(breaking, sliding, rolling)``: ``(M, n_c)`` bool masks of :attr:`codes` (computed
+        once per candidate set; :func:`enumerate_modes` sets are shared)."""
+        return self.codes == BREAK, self.codes == SLIDE, self.codes == ROLL
+
+    @cached_property
+    def tangent_rows(self) -> np.ndarray:
+        """``(M, n_rows)``: the tangent row ``2 i + 1`` of each row's contact ``i``."""
+        return 2 * self.contact + 1
 
 
 @lru_cache(maxsize=64)

@@ -19,6 +19,7 @@ import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from enum import Enum
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
@@ -131,6 +132,7 @@ class System:
             arr = np.array(getattr(self, name), dtype=float)
             arr.setflags(write=False)
             object.__setattr__(self, name, arr)
+        object.__setattr__(self, "control", tuple(self.control))
         n_c = self.n_contacts
         if self.mu.shape != (n_c,):
             raise InputError(f"mu: expected {n_c} coefficients, got shape {self.mu.shape}")
@@ -168,22 +170,19 @@ class System:
 
     @property
     def effort_joints(self) -> np.ndarray:
-        """Indices of effort-controlled joints (``tau_I`` is input, Section 3.2)."""
-        return np.array(
-            [j for j, c in enumerate(self.control) if c is JointControl.EFFORT], dtype=int
-        )
+        """Indices of effort-controlled joints (``tau_I`` is input, Section 3.2); read-only,
+        shared by every system with the same :attr:`control`."""
+        return joint_partition(self.control)[0]
 
     @property
     def velocity_joints(self) -> np.ndarray:
-        """Indices of velocity-controlled joints (``zdot_II`` is input, eq. 24)."""
-        return np.array(
-            [j for j, c in enumerate(self.control) if c is JointControl.VELOCITY], dtype=int
-        )
+        """Indices of velocity-controlled joints (``zdot_II`` is input, eq. 24); read-only."""
+        return joint_partition(self.control)[1]
 
     @property
     def dof(self) -> int:
         """``3 + |tau_I|``: kinematic constraints every candidate mode must supply (Sec. 4.7)."""
-        return 3 + len(self.effort_joints)
+        return 3 + len(joint_partition(self.control)[0])
 
     @property
     def tangents(self) -> np.ndarray:
@@ -350,6 +349,17 @@ class System:
             points=points, normals=normals, virtual_joints=virtual, workpiece=workpiece,
             environment=() if environment is None else environment,  # type: ignore[arg-type]
         )
+
+
+@lru_cache(maxsize=256)
+def joint_partition(control: tuple[JointControl, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """``(effort_joints, velocity_joints)``: read-only index arrays of a control partition
+    (Section 3.2), cached per partition (it depends on nothing else)."""
+    E = np.array([j for j, c in enumerate(control) if c is JointControl.EFFORT], dtype=int)
+    V = np.array([j for j, c in enumerate(control) if c is JointControl.VELOCITY], dtype=int)
+    E.setflags(write=False)
+    V.setflags(write=False)
+    return E, V
 
 
 def parse_joint(spec: Any, index: int) -> tuple[JointControl, float]:

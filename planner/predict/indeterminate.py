@@ -159,9 +159,8 @@ def generation_thresholds(system: System, tol: float) -> tuple[np.ndarray, float
     sliding contact's tangent must exceed (eqs. 16, 25: ``tol`` times the velocity scale), and
     the size below which a row counts as vanishing (:data:`GEN_TOL`)."""
     eq = equilibrated_kinematics(system)
-    b_scale = float(np.max(np.abs(eq.bn))) if eq.bn.size else 0.0
     scale = eq.velocity_scale if eq.velocity_scale > 0 else 1.0
-    return tol * scale / eq.row, GEN_TOL * b_scale
+    return tol * scale / eq.row, GEN_TOL * eq.b_scale
 
 
 def codes_from_velocities(
@@ -218,15 +217,20 @@ def closed_bases_suffice(system: System) -> bool:
     no normal does (Gram determinant of ``[n_j; n_a; t_a; ...]`` above ``SPAN_TOL^2``); e.g.
     a pinch grasp (opposite normals on one line) fails it.  Answers False
     (scan everything) when that takes more than :data:`MAX_STRUCTURE_TESTS` tests."""
-    n_c, k = system.n_contacts, system.dof
-    p_max = (k - 1) // 2
-    if sum(n_c * comb(n_c - 1, p) for p in range(1, p_max + 1)) > MAX_STRUCTURE_TESTS:
-        return False
     hit = _CLOSED_BASES.get(system)
     if hit is None:
-        hit = _CLOSED_BASES[system] = _no_normal_in_pair_span(
-            equilibrated_kinematics(system).Kn, n_c, p_max)
+        n_c, k = system.n_contacts, system.dof
+        hit = _CLOSED_BASES[system] = structure_tests_fit(n_c, k) and _no_normal_in_pair_span(
+            equilibrated_kinematics(system).Kn, n_c, (k - 1) // 2)
     return hit
+
+
+@lru_cache(maxsize=256)
+def structure_tests_fit(n_c: int, k: int) -> bool:
+    """True when :func:`closed_bases_suffice`'s rank tests at ``n_c`` contacts and ``k = 3 +
+    |tau_I|`` number at most :data:`MAX_STRUCTURE_TESTS`."""
+    tests = sum(n_c * comb(n_c - 1, p) for p in range(1, (k - 1) // 2 + 1))
+    return tests <= MAX_STRUCTURE_TESTS
 
 
 #: Per-system cache of :func:`closed_bases_suffice` (friction-independent).

@@ -109,7 +109,7 @@ def transposed_det_solve(AT: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.
     and one right side ``b (k,)``."""
     M, k, _ = AT.shape
     if M <= SMALL_BATCH:
-        hit = _lapack(AT.transpose(0, 2, 1), np.broadcast_to(b, (M, k)))
+        hit = _lapack(np.ascontiguousarray(AT.transpose(0, 2, 1)), b)
         if hit is not None:
             return hit
     det = np.zeros(M)
@@ -126,7 +126,8 @@ def transposed_det_solve(AT: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.
 
 
 def _lapack(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
-    """LAPACK ``getrf``-based ``(det, solution)``; None when a matrix is exactly singular
+    """LAPACK ``getrf``-based ``(det, solution)`` of ``A (M, k, k)`` and ``b (M, k)`` or one
+    right side ``b (k,)`` for all; None when a matrix is exactly singular
     (``numpy.linalg.solve`` refuses the whole batch then) or not finite."""
     if A.shape[0] == 0:
         return np.zeros(0), np.zeros((0, A.shape[-1]))

@@ -15,21 +15,15 @@ from typing import Any
 
 import numpy as np
 
-from planner.model.modes import (
-    BREAK,
-    ROLL,
-    SLIDE,
-    CandidateSet,
-    Mode,
-    enumerate_modes,
-)
+from planner.model.modes import CandidateSet, Mode, enumerate_modes
 from planner.model.system import System
 from planner.predict.linalg import LU_CHUNK, det_solve, lu_det_solve, transposed_det_solve
 
 __all__ = [
     "DEFAULT_SINGULAR_TOL", "DEFAULT_TOL", "EquilibratedKinematics", "FeasibleMode",
-    "ForceStage", "KinematicStage", "LU_CHUNK", "equilibrated_kinematics", "force_matrices",
-    "force_rhs", "force_stage", "kinematic_stage", "lu_det_solve",
+    "ForceSetup", "ForceStage", "KinematicStage", "LU_CHUNK", "equilibrated_kinematics",
+    "force_matrices", "force_rhs", "force_stage", "kinematic_stage", "lu_det_solve",
+    "system_setup",
 ]
 
 #: Default relative tolerance on normalised constraint slacks.
@@ -130,18 +124,12 @@ class KinematicStage:
     velocity_scale: float
 
 
-def _velocity_input(system: System) -> np.ndarray:
-    """``J_V thetadot_V`` per constraint row, (2 n_c,): the prescribed contact-point motion."""
-    V = joint_partition(system)[1]
-    return system.J[:, V] @ system.joint_inputs[V]
-
-
 @dataclass(frozen=True, eq=False)
 class EquilibratedKinematics:
     """``K = [W^T  -J_E]`` (2 n_c, 3 + |tau_I|) scaled for rank tests: ``Kn = diag(1/row) K
     diag(1/col)`` with unit-max columns then unit rows, ``bn = rhs / row`` where ``rhs`` is
     ``J_V thetadot_V`` (eq. 24's right side per constraint row).  A solution ``z'`` of the
-    scaled rows gives ``z = z' / col``."""
+    scaled rows gives ``z = z' / col``.  ``b_scale`` is ``max |bn|`` (0 without rows)."""
 
     Kn: np.ndarray
     bn: np.ndarray
@@ -149,48 +137,62 @@ class EquilibratedKinematics:
     row: np.ndarray
     rhs: np.ndarray
     velocity_scale: float
+    b_scale: float = 0.0
 
 
-#: Per-system cache of :func:`joint_partition` and :func:`equilibrated_kinematics` (a System's
-#: arrays are read-only).
-_PARTITION: weakref.WeakKeyDictionary[System, tuple[np.ndarray, np.ndarray]] = (
+@dataclass(frozen=True, eq=False)
+class ForceSetup:
+    """Friction-independent data of eq. (26) for one system: ``G = [W^T  J_E]``
+    (2 n_c, 3 + |tau_I|), whose rows are the loads of unit contact-force components, the
+    global row scaling ``rs`` of ``Q`` (largest ``|G|`` per column, 0 -> 1), the right side
+    ``rhs = [-g_obj; tau_I - g_man_I]`` (:func:`force_rhs`) and ``rhs / rs``."""
+
+    G: np.ndarray
+    rs: np.ndarray
+    rhs: np.ndarray
+    rhs_scaled: np.ndarray
+
+
+#: Per-system cache of :func:`equilibrated_kinematics` and :func:`force_setup` (a System's
+#: arrays are read-only; keyed by identity, so copies of a System do not share it).
+_SETUP: weakref.WeakKeyDictionary[System, tuple[EquilibratedKinematics, ForceSetup]] = (
     weakref.WeakKeyDictionary()
 )
 
 
-def joint_partition(system: System) -> tuple[np.ndarray, np.ndarray]:
-    """``(effort_joints, velocity_joints)`` index arrays of ``system`` (cached)."""
-    hit = _PARTITION.get(system)
+def system_setup(system: System) -> tuple[EquilibratedKinematics, ForceSetup]:
+    """:class:`EquilibratedKinematics` and :class:`ForceSetup` of ``system`` (built together
+    once per system: ``K`` and ``G`` differ only in the sign of the ``J_E`` columns)."""
+    hit = _SETUP.get(system)
     if hit is None:
-        hit = _PARTITION[system] = (system.effort_joints, system.velocity_joints)
+        hit = _SETUP[system] = _build_setup(system)
     return hit
-
-
-
-_EQUILIBRATED: weakref.WeakKeyDictionary[System, EquilibratedKinematics] = (
-    weakref.WeakKeyDictionary()
-)
 
 
 def equilibrated_kinematics(system: System) -> EquilibratedKinematics:
     """Build :class:`EquilibratedKinematics` (shared by every kinematic test; cached per
     system, whose arrays are read-only)."""
-    hit = _EQUILIBRATED.get(system)
-    if hit is None:
-        hit = _EQUILIBRATED[system] = _equilibrate(system)
-    return hit
+    return system_setup(system)[0]
 
 
-def _equilibrate(system: System) -> EquilibratedKinematics:
-    K = np.concatenate([system.W.T, -system.J[:, joint_partition(system)[0]]], axis=1)
-    rhs = _velocity_input(system)
-    vel_scale = float(np.max(np.abs(rhs))) if rhs.size else 0.0
-    col = np.max(np.abs(K), axis=0)
+def _build_setup(system: System) -> tuple[EquilibratedKinematics, ForceSetup]:
+    E, V = system.effort_joints, system.velocity_joints
+    WT, J_E = system.W.T, system.J[:, E]
+    K = np.concatenate([WT, -J_E], axis=1)
+    rhs = system.J[:, V] @ system.joint_inputs[V]  # J_V thetadot_V per constraint row
+    vel_scale = float(np.abs(rhs).max()) if rhs.size else 0.0
+    col = np.abs(K).max(axis=0)
     col[col == 0] = 1.0
     Kc = K / col
-    row = np.linalg.norm(Kc, axis=1)
+    row = np.sqrt(np.add.reduce(Kc * Kc, axis=1))  # numpy.linalg.norm(Kc, axis=1)
     row[row == 0] = 1.0
-    return EquilibratedKinematics(Kc / row[:, None], rhs / row, col, row, rhs, vel_scale)
+    bn = rhs / row
+    b_scale = float(np.abs(bn).max()) if bn.size else 0.0
+    eq = EquilibratedKinematics(Kc / row[:, None], bn, col, row, rhs, vel_scale, b_scale)
+    # G's column maxima equal K's (|-x| = |x|): rs is col.
+    f_rhs = np.concatenate([-system.g_obj, system.joint_inputs[E] - system.g_man[E]])
+    G = np.concatenate([WT, J_E], axis=1)
+    return eq, ForceSetup(G, col, f_rhs, f_rhs / col)
 
 
 def kinematic_stage(
@@ -207,37 +209,39 @@ def kinematic_stage(
     side is ``J_AV thetadot_V``.
     """
     cand = candidates if candidates is not None else enumerate_modes(system.n_contacts, system.dof)
-    E, V = joint_partition(system)
+    E, V = system.effort_joints, system.velocity_joints
     n_c = system.n_contacts
     M = len(cand)
     # Equilibrate: global column scaling, then unit rows (rows of P_AI are rows of K).
     eq = equilibrated_kinematics(system)
-    Kn, bn, col, vel_scale = eq.Kn, eq.bn, eq.col, eq.velocity_scale
-
-    # P_AI = Kn[rows] and its right side bn[rows], gathered chunk by chunk straight into the
-    # layout of lu_det_solve; one LU per candidate gives both |det| (30-32) and z (eq. 24).
-    det, z = det_solve(Kn, bn, cand.rows)
-    det = np.abs(det)
-    nonsingular = det > singular_tol
-    z[~nonsingular] = np.nan
-    z = z / col
+    vel_scale = eq.velocity_scale
+    # P_AI = Kn[rows] and its right side bn[rows]; one LU per candidate gives both |det|
+    # (30-32) and z (eq. 24).
+    det, z = det_solve(eq.Kn, eq.bn, cand.rows)
+    nonsingular = np.abs(det) > singular_tol
+    all_nonsingular = bool(nonsingular.all())
+    if not all_nonsingular:
+        z[~nonsingular] = np.nan
+    z /= eq.col
     qdot = z[:, :3]
     thetadot = np.empty((M, system.n_joints))
     thetadot[:, V] = system.joint_inputs[V]
     thetadot[:, E] = z[:, 3:]
     v = qdot @ system.W - thetadot @ system.J.T  # (M, 2 n_c), eq. (5)
     v_n, v_t = v[:, 0::2], v[:, 1::2]
-    codes = cand.codes
-    is_slide = codes == SLIDE
+    is_break, is_slide, _ = cand.masks
     scale = vel_scale if vel_scale > 0 else 1.0
-    strict = np.where(codes == BREAK, v_n, np.where(is_slide, np.abs(v_t), np.inf))
-    margin = np.min(strict, axis=1) / scale if n_c else np.full(M, np.inf)
-    margin = np.where(nonsingular, margin, -np.inf)
+    strict = np.where(is_break, v_n, np.where(is_slide, np.abs(v_t), np.inf))
+    margin = strict.min(axis=1) / scale if n_c else np.full(M, np.inf)
     # xi = sgn(v_t) (eq. 16) at sliding contacts of nonsingular candidates; NaN counts as 0.
     xi = (v_t > 0).view(np.int8) - (v_t < 0).view(np.int8)
-    xi *= is_slide & nonsingular[:, None]
-    ok = nonsingular & (margin > tol)
-    boundary = nonsingular & (np.abs(margin) <= tol)
+    if all_nonsingular:
+        xi *= is_slide
+    else:
+        margin[~nonsingular] = -np.inf
+        xi *= is_slide & nonsingular[:, None]
+    ok = margin > tol  # singular candidates have margin -inf
+    boundary = np.abs(margin) <= tol
     return KinematicStage(cand, nonsingular, qdot, thetadot, v, xi, margin, ok, boundary, vel_scale)
 
 
@@ -262,27 +266,13 @@ class ForceStage:
 
 def force_rhs(system: System) -> np.ndarray:
     """Right side of eq. (26): ``[-g_obj; tau_I - g_man_I]``, shape (3 + |tau_I|,)."""
-    E = joint_partition(system)[0]
-    return np.concatenate([-system.g_obj, system.joint_inputs[E] - system.g_man[E]])
-
-
-#: Per-system cache of :func:`force_setup`.
-_FORCE_SETUP: weakref.WeakKeyDictionary[System, tuple[np.ndarray, np.ndarray, np.ndarray]] = (
-    weakref.WeakKeyDictionary()
-)
+    return system_setup(system)[1].rhs.copy()
 
 
 def force_setup(system: System) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(G, rs, rhs)``: ``G = [W^T  J_E]`` (2 n_c, 3 + |tau_I|) whose rows are the loads of
-    unit contact-force components (eq. 26), the global row scaling ``rs`` of ``Q`` (largest
-    ``|G|`` per column, 0 -> 1) and :func:`force_rhs` (cached per system)."""
-    hit = _FORCE_SETUP.get(system)
-    if hit is None:
-        G = np.concatenate([system.W.T, system.J[:, joint_partition(system)[0]]], axis=1)
-        rs = np.max(np.abs(G), axis=0)
-        rs[rs == 0] = 1.0
-        hit = _FORCE_SETUP[system] = (G, rs, force_rhs(system))
-    return hit
+    """``(G, rs, rhs)`` of :class:`ForceSetup` (cached per system)."""
+    fs = system_setup(system)[1]
+    return fs.G, fs.rs, fs.rhs
 
 
 def force_matrices(
@@ -306,9 +296,16 @@ def force_matrices(
         Row ``j`` is the wrench and effort-joint load of unit ``c_A[j]``: ``[w; j_E]`` of its
         row, minus ``mu_i xi_i [w_t; j_tE]`` when it is a sliding contact's normal (eq. 17).
     """
-    G = force_setup(system)[0]  # (2 n_c, 3+|E|)
+    return _force_matrices(system_setup(system)[1].G, rows, sliding, contact,
+                           2 * contact + 1, xi, mu)
+
+
+def _force_matrices(
+    G: np.ndarray, rows: np.ndarray, sliding: np.ndarray, contact: np.ndarray,
+    tangent_rows: np.ndarray, xi: np.ndarray, mu: np.ndarray,
+) -> np.ndarray:
     base = G[rows]  # (m, k, q)
-    tang = G[2 * contact + 1]  # tangent row of the same contact
+    tang = G[tangent_rows]  # tangent row of the same contact
     xi_rows = xi[np.arange(xi.shape[0])[:, None], contact].astype(float)  # (m, k)
     coef = mu[:, contact] * (xi_rows * sliding)[None]  # (L, m, k)
     return base[None] - coef[..., None] * tang[None]
@@ -331,44 +328,44 @@ def force_stage(
     L = mu2.shape[0]
     n_c, k = system.n_contacts, candidates.n_rows
     rows = candidates.rows[index]
-    sliding = candidates.sliding[index]
     contact = candidates.contact[index]
-    codes = candidates.codes[index]
+    _, slide_mask, roll_mask = candidates.masks
+    is_s, is_r = slide_mask[index], roll_mask[index]
     m = rows.shape[0]
-    QT = force_matrices(system, rows, sliding, contact, xi, mu2)  # (L, m, k, k)
+    setup = system_setup(system)[1]
+    QT = _force_matrices(setup.G, rows, candidates.sliding[index], contact,
+                         candidates.tangent_rows[index], xi, mu2)  # (L, m, k, k)
     # Equilibrate: global scaling of Q's rows (columns of QT), unit columns of Q per mode.
-    _, rs, rhs = force_setup(system)
-    QTn = QT / rs
-    cn = np.sqrt(np.einsum("...i,...i->...", QTn, QTn))  # (L, m, k) column norms
+    QT /= setup.rs
+    cn = np.sqrt(np.einsum("...i,...i->...", QT, QT))  # (L, m, k) column norms
     cn[cn == 0] = 1.0
-    QTn = QTn / cn[..., None]
+    QT /= cn[..., None]
     # Q_AI = QTn^T per mode: one LU per matrix gives |det| (30-32) and y (eq. 26).
-    det, y = transposed_det_solve(QTn.reshape(L * m, k, k), rhs / rs)
-    det = np.abs(det)
-    det = det.reshape(L, m)
+    det, y = transposed_det_solve(QT.reshape(L * m, k, k), setup.rhs_scaled)
+    nonsingular = (np.abs(det) > singular_tol).reshape(L, m)
     y = y.reshape(L, m, k)
-    nonsingular = det > singular_tol
-    y[~nonsingular] = np.nan
+    all_nonsingular = bool(nonsingular.all())
+    if not all_nonsingular:
+        y[~nonsingular] = np.nan
     c_A = y / cn
     # Scatter to full contact forces; sliding tangential force c_t = -mu xi c_n (eq. 17).
     c_full = np.zeros((L, m, 2 * n_c))
     c_full[:, np.arange(m)[:, None], rows] = c_A
     cn_all = c_full[..., 0::2]
-    is_s = codes == SLIDE
-    c_full[..., 1::2] += np.where(is_s[None], -mu2[:, None, :] * xi[None] * cn_all, 0.0)
+    c_full[..., 1::2] += np.where(is_s, -mu2[:, None, :] * xi * cn_all, 0.0)
     forces = c_full.reshape(L, m, n_c, 2)
     efforts = c_full @ system.J + system.g_man  # eq. (3): tau = J^T c + g_man
     # Coulomb (eqs. 21-22): rolling mu c_n - |c_t| >= 0, sliding c_n >= 0.
     fn, ft = forces[..., 0], forces[..., 1]
     # A rolling contact also needs c_n >= 0 (implied by the cone only when mu > 0).
     slack = np.where(
-        codes[None] == ROLL, np.minimum(mu2[:, None, :] * fn - np.abs(ft), fn),
-        np.where(is_s[None], fn, np.inf),
+        is_r, np.minimum(mu2[:, None, :] * fn - np.abs(ft), fn), np.where(is_s, fn, np.inf),
     )
-    f_scale = np.max(np.abs(c_A), axis=-1) if k else np.zeros((L, m))
-    f_scale = np.where(f_scale > 0, f_scale, 1.0)
-    margin = np.min(slack, axis=-1) / f_scale if n_c else np.full((L, m), np.inf)
-    margin = np.where(nonsingular, margin, -np.inf)
+    f_scale = np.abs(c_A).max(axis=-1) if k else np.zeros((L, m))
+    f_scale[~(f_scale > 0)] = 1.0  # zero or NaN (singular)
+    margin = slack.min(axis=-1) / f_scale if n_c else np.full((L, m), np.inf)
+    if not all_nonsingular:
+        margin[~nonsingular] = -np.inf
     return ForceStage(c_A, forces, efforts, margin, nonsingular)
 
 
