@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 
 from planner.files.hand_file import load_hand_file
-from planner.plan.bounds import mode_bands
+from planner.plan.bounds import box_points, mode_bands
 from planner.plan.guarantee import guarantee
-from planner.plan.polytope import box_points, chebyshev_centre, torque_region
+from planner.plan.polytope import chebyshev_centre, torque_region
 from planner.plan.region_planner import control_partitions, joint_inputs, plan_regions
 from planner.predict.feasibility import feasible_modes
 

@@ -94,53 +94,82 @@ def admissible_modes(system: System, *, tol: float = DEFAULT_TOL):
 
 
 def mode_rows(system: System, mu: Any, *, stage=None, index=None) -> ModeRows:
-    """Affine Coulomb rows (eqs. 21-22, 26, 28) of the admissible modes at ``mu`` ``(L, n_c)``."""
+    """Affine Coulomb rows (eqs. 21-22, 26, 28) of the admissible modes at ``mu`` ``(L, n_c)``:
+    :func:`affine_rows` with its one effort-controlled torque."""
     _check_one_effort(system)
+    rows = affine_rows(system, mu, stage=stage, index=index)
+    return ModeRows(rows.modes, rows.s0, rows.s1[..., 0], rows.active, rows.det, rows.scale)
+
+
+@dataclass(frozen=True, eq=False)
+class AffineRows:
+    """Coulomb rows ``s0 + s1 . tau_I >= 0`` of the admissible modes at friction vectors ``mu``.
+
+    ``s0 (L, m, 3 n_c)``, ``s1 (L, m, 3 n_c, p)``; ``active (m, 3 n_c)``; ``det (L, m)``;
+    ``scale (L, m)`` force scale (tolerances); ``modes`` the ``m`` modes.  Rows per contact as in
+    :class:`ModeRows`.
+    """
+
+    modes: tuple[Mode, ...]
+    s0: np.ndarray
+    s1: np.ndarray
+    active: np.ndarray
+    det: np.ndarray
+    scale: np.ndarray
+
+
+def affine_rows(system: System, mu: Any, *, stage: Any = None, index: Any = None) -> AffineRows:
+    """Eqs. (21-22, 26, 28) of every admissible determinate mode at each row of ``mu (L, n_c)``,
+    affine in the ``p`` effort-controlled torques."""
     mu2 = np.atleast_2d(np.asarray(mu, dtype=float))
-    if mu2.shape[1] != system.n_contacts:
-        raise InputError(
-            f"mu: expected {system.n_contacts} coefficients per row, got shape {mu2.shape}"
-        )
+    n_c = system.n_contacts
+    if mu2.shape[1] != n_c:
+        raise InputError(f"mu: expected {n_c} coefficients per row, got shape {mu2.shape}")
     if stage is None:
         stage, index = admissible_modes(system)
+    E = system.effort_joints
+    p = len(E)
     cand = stage.candidates
-    L, m, n_c = mu2.shape[0], len(index), system.n_contacts
+    L, m = mu2.shape[0], len(index)
     modes = tuple(Mode(tuple(int(c) for c in cand.codes[i]), tuple(int(x) for x in stage.xi[i]))
                   for i in index)
     if m == 0:
-        z = np.zeros((L, 0, 3 * n_c))
-        return ModeRows(modes, z, z, np.zeros((0, 3 * n_c), bool), np.zeros((L, 0)),
-                        np.ones((L, 0)))
+        return AffineRows(modes, np.zeros((L, 0, 3 * n_c)), np.zeros((L, 0, 3 * n_c, p)),
+                          np.zeros((0, 3 * n_c), bool), np.zeros((L, 0)), np.ones((L, 0)))
     rows, sliding, contact = cand.rows[index], cand.sliding[index], cand.contact[index]
     codes = cand.codes[index]
-    xi = stage.xi[index]
-    QT = force_matrices(system, rows, sliding, contact, xi, mu2)  # (L, m, k, k)
-    Q = np.swapaxes(QT, -1, -2)
+    QT = force_matrices(system, rows, sliding, contact, stage.xi[index], mu2)
+    Q = np.swapaxes(QT, -1, -2)  # (L, m, k, k), k = 3 + p
     k = Q.shape[-1]
-    E = system.effort_joints
-    r0 = np.concatenate([-system.g_obj, -system.g_man[E]])
-    e = np.zeros(k)
-    e[3] = 1.0
-    rhs = np.stack([r0, e], axis=-1)  # (k, 2)
+    rhs = np.zeros((k, 1 + p))
+    rhs[:, 0] = np.concatenate([-system.g_obj, -system.g_man[E]])
+    rhs[3:, 1:] = np.eye(p)
     det = np.linalg.det(Q)
     with np.errstate(all="ignore"):
         sol = np.linalg.solve(np.where(np.abs(det)[..., None, None] > 0, Q, np.eye(k)),
-                              np.broadcast_to(rhs, (L, m, k, 2)))  # (L, m, k, 2)
-    c = np.zeros((L, m, 2 * n_c, 2))
-    np.put_along_axis(c, np.broadcast_to(rows[None, :, :, None], (L, m, k, 2)), sol, axis=2)
-    cn, ct = c[:, :, 0::2], c[:, :, 1::2]  # (L, m, n_c, 2)
+                              np.broadcast_to(rhs, (L, m, k, 1 + p)))
+    c = np.zeros((L, m, 2 * n_c, 1 + p))
+    np.put_along_axis(c, np.broadcast_to(rows[None, :, :, None], (L, m, k, 1 + p)), sol, axis=2)
+    cn, ct = c[:, :, 0::2], c[:, :, 1::2]
     mu_b = mu2[:, None, :, None]
     roll = (codes == ROLL)[None, :, :, None]
     slide = (codes == SLIDE)[None, :, :, None]
     row_a = np.where(roll, mu_b * cn - ct, np.where(slide, cn, 0.0))
     row_b = np.where(roll, mu_b * cn + ct, 0.0)
     row_c = np.where(roll, cn, 0.0)
-    slack = np.stack([row_a, row_b, row_c], axis=3).reshape(L, m, 3 * n_c, 2)
-    active = np.stack([codes != BREAK, codes == ROLL, codes == ROLL],
-                      axis=2).reshape(m, 3 * n_c)
+    slack = np.stack([row_a, row_b, row_c], axis=3).reshape(L, m, 3 * n_c, 1 + p)
+    active = np.stack([codes != BREAK, codes == ROLL, codes == ROLL], axis=2).reshape(m, 3 * n_c)
     scale = np.max(np.abs(sol), axis=(2, 3))
     scale = np.where(scale > 0, scale, 1.0)
-    return ModeRows(modes, slack[..., 0], slack[..., 1], active, det, scale)
+    return AffineRows(modes, slack[..., 0], slack[..., 1:], active, det, scale)
+
+
+def box_points(mu_lo: np.ndarray, mu_hi: np.ndarray, grid: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(corners (2^n, n), grid points (grid^n, n))`` of the friction box."""
+    corners = np.array(list(itertools.product(*zip(mu_lo, mu_hi))), dtype=float)
+    axes = [np.linspace(a, b, grid) for a, b in zip(mu_lo, mu_hi)]
+    g = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, len(mu_lo))
+    return corners, g
 
 
 def intervals(rows: ModeRows, *, tol: float = DEFAULT_TOL) -> tuple[np.ndarray, np.ndarray]:
@@ -244,14 +273,6 @@ def critical_mus(system: System, lo: float, hi: float, *, stage=None, index=None
     return np.unique(np.concatenate([pts_arr, side]))
 
 
-def _box_points(mu_lo: np.ndarray, mu_hi: np.ndarray, grid: int) -> tuple[np.ndarray, np.ndarray]:
-    n = len(mu_lo)
-    corners = np.array(list(itertools.product(*[(a, b) for a, b in zip(mu_lo, mu_hi)])))
-    axes = [np.linspace(a, b, grid) for a, b in zip(mu_lo, mu_hi)]
-    g = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, n)
-    return corners, g
-
-
 def mode_bands(
     system: System,
     mu: Any,
@@ -286,7 +307,7 @@ def mode_bands(
             pts = np.repeat(xs[:, None], n_c, axis=1)
         inter_pts = union_pts = pts
     else:
-        corners, g = _box_points(mu_lo, mu_hi, grid)
+        corners, g = box_points(mu_lo, mu_hi, grid)
         inter_pts = corners
         union_pts = np.concatenate([corners, g])
         r = mode_rows(system, corners, stage=stage, index=index)

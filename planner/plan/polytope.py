@@ -39,7 +39,6 @@ Units: ``tau_I`` in the joints' units (N m revolute, N prismatic); ``margin`` in
 
 from __future__ import annotations
 
-import itertools
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -47,10 +46,9 @@ import numpy as np
 from scipy.optimize import linprog
 
 from planner.errors import DegenerateError, InputError
-from planner.model.modes import BREAK, ROLL, SLIDE, Mode
 from planner.model.system import System
 from planner.model.validation import friction_interval
-from planner.plan.bounds import admissible_modes
+from planner.plan.bounds import AffineRows, admissible_modes, affine_rows, box_points
 from planner.plan.guarantee import guarantee, resolve_claim
 from planner.predict.indeterminate import (
     IndeterminateKinematics,
@@ -58,77 +56,6 @@ from planner.predict.indeterminate import (
     indeterminate_kinematics,
 )
 from planner.predict.stages import DEFAULT_TOL, force_matrices
-
-
-@dataclass(frozen=True, eq=False)
-class AffineRows:
-    """Coulomb rows ``s0 + s1 . tau_I >= 0`` of the admissible modes at friction vectors ``mu``.
-
-    ``s0 (L, m, 3 n_c)``, ``s1 (L, m, 3 n_c, p)``; ``active (m, 3 n_c)``; ``det (L, m)``;
-    ``scale (L, m)`` force scale (tolerances); ``modes`` the ``m`` modes.  Rows per contact as in
-    :class:`planner.plan.bounds.ModeRows`.
-    """
-
-    modes: tuple[Mode, ...]
-    s0: np.ndarray
-    s1: np.ndarray
-    active: np.ndarray
-    det: np.ndarray
-    scale: np.ndarray
-
-
-def affine_rows(system: System, mu: Any, *, stage: Any = None, index: Any = None) -> AffineRows:
-    """Eqs. (21-22, 26, 28) of every admissible determinate mode at each row of ``mu (L, n_c)``,
-    affine in the ``p`` effort-controlled torques."""
-    mu2 = np.atleast_2d(np.asarray(mu, dtype=float))
-    n_c = system.n_contacts
-    if mu2.shape[1] != n_c:
-        raise InputError(f"mu: expected {n_c} coefficients per row, got shape {mu2.shape}")
-    if stage is None:
-        stage, index = admissible_modes(system)
-    E = system.effort_joints
-    p = len(E)
-    cand = stage.candidates
-    L, m = mu2.shape[0], len(index)
-    modes = tuple(Mode(tuple(int(c) for c in cand.codes[i]), tuple(int(x) for x in stage.xi[i]))
-                  for i in index)
-    if m == 0:
-        return AffineRows(modes, np.zeros((L, 0, 3 * n_c)), np.zeros((L, 0, 3 * n_c, p)),
-                          np.zeros((0, 3 * n_c), bool), np.zeros((L, 0)), np.ones((L, 0)))
-    rows, sliding, contact = cand.rows[index], cand.sliding[index], cand.contact[index]
-    codes = cand.codes[index]
-    QT = force_matrices(system, rows, sliding, contact, stage.xi[index], mu2)
-    Q = np.swapaxes(QT, -1, -2)  # (L, m, k, k), k = 3 + p
-    k = Q.shape[-1]
-    rhs = np.zeros((k, 1 + p))
-    rhs[:, 0] = np.concatenate([-system.g_obj, -system.g_man[E]])
-    rhs[3:, 1:] = np.eye(p)
-    det = np.linalg.det(Q)
-    with np.errstate(all="ignore"):
-        sol = np.linalg.solve(np.where(np.abs(det)[..., None, None] > 0, Q, np.eye(k)),
-                              np.broadcast_to(rhs, (L, m, k, 1 + p)))
-    c = np.zeros((L, m, 2 * n_c, 1 + p))
-    np.put_along_axis(c, np.broadcast_to(rows[None, :, :, None], (L, m, k, 1 + p)), sol, axis=2)
-    cn, ct = c[:, :, 0::2], c[:, :, 1::2]
-    mu_b = mu2[:, None, :, None]
-    roll = (codes == ROLL)[None, :, :, None]
-    slide = (codes == SLIDE)[None, :, :, None]
-    row_a = np.where(roll, mu_b * cn - ct, np.where(slide, cn, 0.0))
-    row_b = np.where(roll, mu_b * cn + ct, 0.0)
-    row_c = np.where(roll, cn, 0.0)
-    slack = np.stack([row_a, row_b, row_c], axis=3).reshape(L, m, 3 * n_c, 1 + p)
-    active = np.stack([codes != BREAK, codes == ROLL, codes == ROLL], axis=2).reshape(m, 3 * n_c)
-    scale = np.max(np.abs(sol), axis=(2, 3))
-    scale = np.where(scale > 0, scale, 1.0)
-    return AffineRows(modes, slack[..., 0], slack[..., 1:], active, det, scale)
-
-
-def box_points(mu_lo: np.ndarray, mu_hi: np.ndarray, grid: int) -> tuple[np.ndarray, np.ndarray]:
-    """``(corners (2^n, n), grid points (grid^n, n))`` of the friction box."""
-    corners = np.array(list(itertools.product(*zip(mu_lo, mu_hi))), dtype=float)
-    axes = [np.linspace(a, b, grid) for a, b in zip(mu_lo, mu_hi)]
-    g = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, len(mu_lo))
-    return corners, g
 
 
 def chebyshev_centre(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, float]:
