@@ -13,6 +13,7 @@ import os
 import random
 import stat
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -126,16 +127,22 @@ def case_plan(fx: Fixtures, rng: random.Random, p: float) -> Case:
     return Case("plan", argv, _combine(b0, b1, b2, b3, b4, b5, b6, b7), tuple(outputs))
 
 
+def _likely_bad(make: Callable[[], tuple[str, bool | None]]) -> tuple[str, bool | None]:
+    """Up to 20 draws of ``make()`` until one is surely bad; the last draw otherwise."""
+    for _ in range(20):
+        value, bad = make()
+        if bad:
+            break
+    return value, bad
+
+
 def case_validate(fx: Fixtures, rng: random.Random, p: float) -> Case:
     """Always with one surely bad part (a good run simulates for many seconds)."""
     parts = rng.sample(["plan", "engine", "mu", "out"], rng.randint(1, 2))
     plan, out, argv_tail = str(fx.plan), str(fx.fresh("val")), ["--no-render"]
     bad: list[bool | None] = []
     if "plan" in parts:
-        for _ in range(20):
-            plan, b = write_input(fx, rng, fx.plan)
-            if b:
-                break
+        plan, b = _likely_bad(lambda: write_input(fx, rng, fx.plan))
         bad.append(b)
     if "engine" in parts:
         argv_tail += ["--engine", rng.choice(["bullet", "", "PYMUNK", "nan"])]
@@ -144,10 +151,7 @@ def case_validate(fx: Fixtures, rng: random.Random, p: float) -> Case:
         argv_tail += ["--mu", rng.choice(NUM_BAD + [",".join(["0.1"] * 200)])]
         bad.append(True)
     if "out" in parts:
-        for _ in range(20):
-            out, b = output_path(fx, rng, "dir", ("summary.json",))
-            if b:
-                break
+        out, b = _likely_bad(lambda: output_path(fx, rng, "dir", ("summary.json",)))
         bad.append(b)
     if not any(b is True for b in bad):  # make sure: a bad engine
         argv_tail += ["--engine", "bullet"]
@@ -161,10 +165,7 @@ def case_simulate(fx: Fixtures, rng: random.Random, p: float) -> Case:
     system, out, argv_tail = str(fx.system), str(fx.fresh("sim")), ["--no-render"]
     bad: list[bool | None] = []
     if "system" in parts:
-        for _ in range(20):
-            system, b = write_input(fx, rng, fx.system)
-            if b:
-                break
+        system, b = _likely_bad(lambda: write_input(fx, rng, fx.system))
         bad.append(b)
     if "engine" in parts:
         argv_tail += ["--engine", rng.choice(["bullet", "", "PYMUNK", "nan"])]
@@ -181,10 +182,7 @@ def case_simulate(fx: Fixtures, rng: random.Random, p: float) -> Case:
                       rng.choice(["0", "-1", "nan", "inf", "1e308", "x", ""])]
         bad.append(True)
     if "out" in parts:
-        for _ in range(20):
-            out, b = output_path(fx, rng, "dir", ("summary.json",))
-            if b:
-                break
+        out, b = _likely_bad(lambda: output_path(fx, rng, "dir", ("summary.json",)))
         bad.append(b)
     if not any(b is True for b in bad):  # make sure: a bad engine
         argv_tail += ["--engine", "bullet"]
@@ -203,10 +201,7 @@ def case_demo(fx: Fixtures, rng: random.Random, p: float) -> Case:
     elif what == "jobs":
         argv += ["--jobs", rng.choice(["0", "-1", "x", "65", "1e3"])]
     elif what == "scenario":
-        for _ in range(20):
-            hand, b = write_input(fx, rng, fx.hand)
-            if b:
-                break
+        hand, b = _likely_bad(lambda: write_input(fx, rng, fx.hand))
         argv += ["--scenario", rng.choice([hand, "no_such_hand"])]
     elif not b_out:
         argv += ["--engines", "bullet"]
