@@ -33,6 +33,7 @@ from scipy.optimize import linprog
 from planner.model.modes import BREAK, ROLL, SLIDE
 from planner.model.system import System
 from planner.predict.indeterminate import IndeterminateKinematics, force_lp
+from planner.predict.prune_lp import set_rowwise_matrix
 from planner.predict.stages import DEFAULT_SINGULAR_TOL, force_rhs
 
 #: Grid points within this relative distance of an interval end are tested one by one.
@@ -71,14 +72,7 @@ class _Lp:
         lp.col_upper_ = np.array([inf if hi is None else hi for _, hi in bounds], dtype=float)
         lp.row_lower_ = np.r_[np.full(A_ub.shape[0], -inf), np.zeros(A_eq.shape[0])]
         lp.row_upper_ = np.zeros(A.shape[0])
-        nz = A != 0
-        mat = lp.a_matrix_
-        mat.format_ = core.MatrixFormat.kRowwise
-        mat.start_ = np.concatenate([[0], np.cumsum(nz.sum(axis=1))]).astype(np.int32)
-        mat.index_ = np.nonzero(nz)[1].astype(np.int32)
-        mat.value_ = A[nz]
-        mat.num_col_, mat.num_row_ = A.shape[1], A.shape[0]
-        lp.a_matrix_ = mat
+        set_rowwise_matrix(lp, A, core)
         self._h.clearModel()
         self._h.passModel(lp)
         self._h.run()

@@ -216,6 +216,19 @@ _HIGHS_OPTIONS: dict[str, Any] = {
 }
 
 
+def set_rowwise_matrix(lp: Any, A: np.ndarray, core: Any) -> None:
+    """Store the dense constraint matrix ``A (rows, cols)`` in the HiGHS model ``lp`` in
+    row-wise sparse form (only the nonzeros; HiGHS's time per solve grows with them)."""
+    nz = A != 0
+    mat = lp.a_matrix_
+    mat.format_ = core.MatrixFormat.kRowwise
+    mat.start_ = np.concatenate([[0], np.cumsum(nz.sum(axis=1))]).astype(np.int32)
+    mat.index_ = np.nonzero(nz)[1].astype(np.int32)
+    mat.value_ = A[nz]
+    mat.num_col_, mat.num_row_ = A.shape[1], A.shape[0]
+    lp.a_matrix_ = mat
+
+
 class HighsLp:
     """One LP ``row_lower <= A x <= row_upper``, ``col bounds``, zero objective, kept in HiGHS
     (SciPy's bundled binding) so that bound changes re-solve from the previous basis."""
@@ -233,14 +246,7 @@ class HighsLp:
         lp.col_upper_ = np.full(nv, inf)
         lp.row_lower_ = np.where(np.isfinite(lower), lower, -inf)
         lp.row_upper_ = np.where(np.isfinite(upper), upper, inf)
-        nz = A != 0
-        mat = lp.a_matrix_
-        mat.format_ = _core.MatrixFormat.kRowwise
-        mat.start_ = np.concatenate([[0], np.cumsum(nz.sum(axis=1))]).astype(np.int32)
-        mat.index_ = np.nonzero(nz)[1].astype(np.int32)
-        mat.value_ = A[nz]
-        mat.num_col_, mat.num_row_ = nv, A.shape[0]
-        lp.a_matrix_ = mat
+        set_rowwise_matrix(lp, A, _core)
         self._h = _core._Highs()
         self._h.setOptionValue("output_flag", False)
         self._h.setOptionValue("presolve", "off")
