@@ -12,7 +12,8 @@ degree of freedom on every dynamic body (noslip does nothing in a strictly plana
   inertia.
 * Driven body: slide x, slide y, hinge z, mass ``1e6`` times the heaviest dynamic body, with
   ``qpos``/``qvel`` overwritten before every step (mocap bodies do not transmit friction).
-* Joint to the base: hinge z (revolute) or slide along ``axis`` (prismatic) at ``anchor``;
+* Joint to the base: hinge z (revolute) or slide along ``axis`` (prismatic) at ``anchor``; a
+  joint on a parent body (a chain link): the body nested in its parent, same joint types;
   velocity-controlled joints get a huge armature and their ``qpos``/``qvel`` overwritten every step;
   effort-controlled joints get the effort in ``qfrc_applied``.
 * Loads: ``xfrc_applied`` (force at the body COM and a torque about z).
@@ -22,6 +23,8 @@ velocities of contact points with ``mj_jac``.
 """
 
 from __future__ import annotations
+
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -83,14 +86,16 @@ class MujocoBackend:
         joints_of = {j.body: j for j in scene.joints}
         self._geoms: dict[tuple[str, int], list[str]] = {}
         self._dofs: dict[str, list[str]] = {}
+        created: dict[str, Any] = {}
         for b in scene.bodies:
             x, y, th = b.pose
             if b.kind == BodyKind.STATIC:
                 body = spec.worldbody.add_body(name=b.name, pos=[x, y, 0.0],
                                                quat=[np.cos(th / 2), 0, 0, np.sin(th / 2)])
             else:
-                body = spec.worldbody.add_body(name=b.name, pos=[x, y, 0.0],
-                                               quat=[np.cos(th / 2), 0, 0, np.sin(th / 2)])
+                host, (rx, ry, rth) = self._chain_host(spec, scene, b.name, created)
+                body = host.add_body(name=b.name, pos=[rx, ry, 0.0],
+                                     quat=[np.cos(rth / 2), 0, 0, np.sin(rth / 2)])
                 mass = heavy if b.kind == BodyKind.DRIVEN else b.mass
                 izz = b.inertia if b.inertia is not None else mass * scene.length_scale ** 2 / 6
                 if b.kind == BodyKind.DRIVEN:
@@ -130,6 +135,7 @@ class MujocoBackend:
                             jn.damping = [2.0 * np.sqrt(k * mass), 0.0, 0.0]
                         names.append(f"{b.name}:{suffix}")
                 self._dofs[b.name] = names
+            created[b.name] = body
             for k, shp in enumerate(b.shapes):
                 gname = f"{b.name}:g{k}"
                 if isinstance(shp, Polygon):
@@ -185,6 +191,22 @@ class MujocoBackend:
         self._target = {nm: float(self.data.qpos[a]) for nm, a in self._qadr.items()}
         mujoco.mj_forward(m, self.data)
         self._readings: dict[str, ContactReading] = {}
+
+    # -- chains: a link body nested in its parent link --------------------------------
+    @staticmethod
+    def _chain_host(spec: Any, scene: Scene, name: str, created: dict[str, Any]
+                    ) -> tuple[Any, tuple[float, float, float]]:
+        """Where to attach body ``name``: the MjSpec body of its joint's parent (a chain link
+        nests in the previous link, so MuJoCo's joint acts between the two) and its pose
+        relative to that parent; the world body and its world pose otherwise."""
+        joint = next((j for j in scene.joints if j.body == name), None)
+        x, y, th = scene.body(name).pose
+        if joint is None or joint.parent is None:
+            return spec.worldbody, (x, y, th)
+        px, py, pth = scene.body(joint.parent).pose
+        c, s = np.cos(pth), np.sin(pth)
+        dx, dy = x - px, y - py
+        return created[joint.parent], (c * dx + s * dy, -s * dx + c * dy, th - pth)
 
     @staticmethod
     def _polygon_geoms(body, gname: str, shp: Polygon, depth: float, length: float) -> list:
