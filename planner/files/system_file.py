@@ -33,6 +33,7 @@ object and ignored.  Units: SI (m, N, N m, rad, s, kg).  Files are read by
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from collections.abc import Mapping
 from pathlib import Path
@@ -52,6 +53,7 @@ from planner.files.fields import (
     type_name,
 )
 from planner.files.reader import parse_json, read_json
+from planner.model.chain_geometry import ChainGeometry
 from planner.model.kinematics import chain_from_dict
 from planner.model.system import JointControl, System
 from planner.model.workpiece import WorkpieceGeometry
@@ -160,10 +162,12 @@ def _system(data: Any) -> System:
                     f"each contact carries its own {key!r}, got a top-level {key!r} as well"
                 )
         pts, nrm, mu, env = _contacts(data["contacts"])
+        geom = None
         if form == "chain":
-            kwargs["jacobian"] = _chain_jacobian(manip, pts, nrm, env)
+            kwargs["jacobian"], geom = _chain_jacobian(manip, pts, nrm, env)
             kwargs["joints"] = manip.get("joints")
-        return System.from_contacts(points=pts, normals=nrm, mu=mu, environment=env, **kwargs)
+        system = System.from_contacts(points=pts, normals=nrm, mu=mu, environment=env, **kwargs)
+        return system if geom is None else dataclasses.replace(system, chain=geom)
     if "mu" not in data:
         raise FileFormatError(
             "'wrench_matrix': expected a top-level 'mu' (one per contact) beside it, got no 'mu'"
@@ -185,10 +189,12 @@ def _system(data: Any) -> System:
             raise FileFormatError(
                 f"environment: expected {n_c} flags (one per contact), got {len(env)}"
             )
-        kwargs["jacobian"] = _chain_jacobian(
+        kwargs["jacobian"], geom = _chain_jacobian(
             manip, contact_points_from_wrench(Wm).tolist(), Wm[0:2, 0::2].T.tolist(), env
         )
         kwargs["joints"] = manip.get("joints")
+        return dataclasses.replace(System.from_wrench_matrix(
+            W, _numbers(data["mu"], "mu"), environment=env_raw, **kwargs), chain=geom)
     return System.from_wrench_matrix(W, _numbers(data["mu"], "mu"), environment=env_raw,
                                      **kwargs)
 
@@ -220,7 +226,10 @@ def _workpiece(raw: Any) -> WorkpieceGeometry:
     return WorkpieceGeometry(_numbers(wp["polygon"], "workpiece.polygon"), mass, com)
 
 
-def _chain_jacobian(manip: Mapping[str, Any], pts: Any, nrm: Any, env: list[bool]) -> np.ndarray:
+def _chain_jacobian(manip: Mapping[str, Any], pts: Any, nrm: Any, env: list[bool]
+                    ) -> tuple[np.ndarray, ChainGeometry]:
+    """The contact Jacobians (n_c, 2, n_theta) of a ``manipulator.chain`` and the chain's
+    geometry (scene data for the simulators)."""
     chain_raw = as_object(manip["chain"], "manipulator.chain")
     check_keys(chain_raw, "manipulator.chain", required=("joints",), optional=("base_pose",),
                free=FREE_KEYS)
@@ -252,7 +261,8 @@ def _chain_jacobian(manip: Mapping[str, Any], pts: Any, nrm: Any, env: list[bool
     if moving:
         out[moving] = chain.contact_jacobian(q, [links[i] for i in moving],
                                              [pts[i] for i in moving], [nrm[i] for i in moving])
-    return out
+    return out, ChainGeometry(chain, q, tuple(None if env[i] else links[i]
+                                              for i in range(len(pts))))
 
 
 def system_to_dict(system: System) -> dict[str, Any]:

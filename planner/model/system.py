@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from planner.errors import InputError
+from planner.model.chain_geometry import ChainGeometry
 from planner.model.geometry import (
     check_wrench_matrix,
     contact_points_from_wrench,
@@ -112,6 +113,9 @@ class System:
     environment : tuple of bool, length n_c
         True for a contact with the fixed environment (its manipulator velocity is zero:
         zero Jacobian rows, or a zero contact velocity); scene data, changes no prediction.
+    chain : ChainGeometry or None
+        The chain, joint positions and contact links a ``manipulator.chain`` system file gave
+        ``J`` from; scene data for simulators, changes no prediction.
     """
 
     W: np.ndarray
@@ -126,6 +130,7 @@ class System:
     virtual_joints: bool = False
     workpiece: WorkpieceGeometry | None = None
     environment: tuple[bool, ...] = ()
+    chain: ChainGeometry | None = None
 
     def __post_init__(self) -> None:
         for name in ("W", "mu", "g_obj", "J", "joint_inputs", "g_man", "points", "normals"):
