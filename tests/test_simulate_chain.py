@@ -73,16 +73,28 @@ def _raw(name):
     return json.loads((DATA / f"{name}.json").read_text())
 
 
+#: file -> (judging friction of its negative control, the mode predicted there)
+NEGATIVE = {"two_link_finger_box": ([2.0, 2.0, 0.0], "B1 R2 S+3"),
+            "prismatic_finger_box": ([2.0, 2.0, 0.0], "B1 R2 S+3"),
+            "two_link_effort_finger_box": ([2.0, 2.0, 0.5], "B1 R2 R3")}
+
+
 @pytest.mark.parametrize("engine", ENGINES)
-@pytest.mark.parametrize("name", FILES)
+@pytest.mark.parametrize("name", list(NEGATIVE))
 def test_chain_pushing_a_box_agrees_and_its_negative_control_disagrees(name, engine):
     system = load_system(DATA / f"{name}.json")
+    judge, rival = NEGATIVE[name]
     assert feasible_modes(system).labels == ["S-1 S-2 R3"]
-    assert feasible_modes(system.with_mu([2.0, 2.0, 0.0])).labels == ["B1 R2 S+3"]
+    assert feasible_modes(system.with_mu(judge)).labels == [rival]
     run = simulate_system(system, engine)
     assert run.verdict.outcome is Outcome.AGREED, run.verdict.reasons
     assert run.verdict.judged_steps > 500
-    neg = simulate_system(system, engine, judge_mu=[2.0, 2.0, 0.0])
+    if name == "two_link_effort_finger_box":
+        # the distal joint's effort reaches the tip: c_3t = tau_2 / 0.12 m (eq. 3; file note)
+        rec = run.recording
+        late = rec.times > 0.5 * rec.times[-1]
+        assert np.mean(rec.tangent_force[late, 2]) == pytest.approx(0.01 / 0.12, rel=0.02)
+    neg = simulate_system(system, engine, judge_mu=judge)
     assert neg.verdict.outcome is Outcome.DISAGREED, neg.verdict.reasons
     assert neg.summary["parameters"]["negative_control"]
 
