@@ -121,3 +121,13 @@ def test_cli_simulates_a_chain_system(tmp_path):
                           str(DATA / "prismatic_finger_box.json"), "--engine", "pymunk",
                           "--judge-mu", "2,2,0"], capture_output=True, text=True, timeout=300)
     assert neg.returncode == 1 and '"status": "disagreed"' in neg.stdout
+
+
+def test_a_saved_chain_system_keeps_its_chain(tmp_path):
+    from planner.files.system_file import save_system
+
+    system = load_system(DATA / "two_link_effort_finger_box.json")
+    again = load_system(save_system(system, tmp_path / "s.json"))
+    assert again.chain is not None and again.chain.contact_links == (None, None, 1)
+    assert np.allclose(again.J, system.J) and np.allclose(again.joint_inputs, system.joint_inputs)
+    assert np.allclose(again.chain.body_poses(), system.chain.body_poses())

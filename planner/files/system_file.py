@@ -290,6 +290,21 @@ def system_to_dict(system: System) -> dict[str, Any]:
         }
         if np.any(system.g_man != 0):
             out["manipulator"]["joint_loads"] = system.g_man.tolist()
+    elif system.chain is not None:  # the geometry it came from (simulators build the links)
+        geom = system.chain
+        out["manipulator"] = {
+            "chain": {"joints": [{"type": j.kind, "parent": j.parent, "origin": list(j.origin),
+                                  "angle": j.angle, **({"name": j.name} if j.name else {})}
+                                 for j in geom.chain.joints],
+                      "base_pose": list(geom.chain.base_pose)},
+            "q": list(geom.q),
+            "contact_links": list(geom.contact_links),
+            "joints": [
+                {"velocity" if c is JointControl.VELOCITY else "effort": float(v)}
+                for c, v in zip(system.control, system.joint_inputs)
+            ],
+            "joint_loads": system.g_man.tolist(),
+        }
     else:
         out["manipulator"] = {
             "jacobian": system.J.reshape(system.n_contacts, 2, -1).tolist(),
