@@ -44,17 +44,21 @@ def run_region_plan(plan: Any, hand: Hand, q0: np.ndarray, engine: str,
                     mu: float | Sequence[float] | np.ndarray, *,
                     settings: EngineSettings | None = None,
                     torques: np.ndarray | None = None,
-                    expect: Expect | str = Expect.AGREE, name: str | None = None) -> PlanRun:
+                    expect: Expect | str = Expect.AGREE, name: str | None = None,
+                    waypoints: int | None = None) -> PlanRun:
     """Execute region plan ``plan`` of ``hand`` (closed initial configuration ``q0``) in
     ``engine`` at friction ``mu`` (scalar or per contact) and judge it (module docstring).
 
     ``torques`` (n_waypoints, p) replaces the planned torque vectors (negative controls);
+    ``waypoints``: run only the first so many (a shorter run of the same plan);
     ``expect`` ``agree`` or ``disagree``: the summary's ``passed`` says whether it held."""
     exp = Expect.parse(expect)
     if exp is Expect.INFO:
         raise InputError("expect: expected 'agree' or 'disagree' for a plan run, got 'info'")
     check_engine(engine)
     sched = Schedule.from_region_plan(plan, hand.n_contacts, torques)
+    if waypoints is not None:
+        sched = sched.truncated(waypoints)
     drive = contact_drive_speed(hand, q0, sched.controls, sched.joint_commands())
     slow = max(1.0, drive / MAX_SPEED[engine])
     if slow > 1.0:

@@ -150,13 +150,23 @@ AGREE = [(h, e) for h in CHAIN_HANDS for e in ENGINES
          if (h, e) != ("three_finger_hand", "mujoco")]
 
 
-@pytest.mark.parametrize(("name", "engine"), AGREE)
-def test_region_plans_of_chain_hands_agree(name, engine):
+def _check_agrees(name, engine, waypoints):
     hand, q0, rp, mu = _region_plan(name)
-    run = run_region_plan(rp, hand, q0, engine, mu)
+    run = run_region_plan(rp, hand, q0, engine, mu, waypoints=waypoints)
     assert run.verdict.outcome is Outcome.AGREED, run.verdict.reasons
     assert run.summary["passed"] and run.summary["claim"] == rp.claim
     assert run.verdict.judged_steps > 100
+
+
+@pytest.mark.parametrize(("name", "engine"), AGREE)
+def test_region_plans_of_chain_hands_agree_over_their_first_half(name, engine):
+    _check_agrees(name, engine, 6)  # waypoints 0..5 of 11 (the whole plans: the slow test)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("name", "engine"), AGREE)
+def test_region_plans_of_chain_hands_agree(name, engine):
+    _check_agrees(name, engine, None)
 
 
 @pytest.mark.parametrize("engine", ENGINES)
@@ -183,7 +193,7 @@ def test_velocity_only_plan_at_friction_outside_its_box_disagrees(engine):
     w = rp.waypoints[0]
     system = hand.system(w.q, mu, joint_inputs(hand, rp.velocity_joints, w.velocity_commands))
     assert rp.claim not in feasible_modes(system).labels
-    run = run_region_plan(rp, hand, q0, engine, mu, expect="disagree")
+    run = run_region_plan(rp, hand, q0, engine, mu, expect="disagree", waypoints=3)
     assert run.verdict.outcome is Outcome.DISAGREED, run.verdict.reasons
 
 
