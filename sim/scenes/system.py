@@ -1,4 +1,5 @@
-"""A physical scene for ANY contact-velocity :class:`~planner.model.system.System` (issue 14).
+"""A physical scene for ANY :class:`~planner.model.system.System` given by contact velocities or
+by a chain (issue 14).
 
 What is built (all in the world frame of the system file, metres, no rescaling):
 
@@ -18,6 +19,9 @@ What is built (all in the world frame of the system file, metres, no rescaling):
 * **manipulator contacts**: small driven fingertip circles touching at ``r_i`` and moving with
   the commanded contact velocity ``J_i thetadot = v_in n_i + v_it t_i`` (eq. 5) times
   ``speed_scale`` (slow motion; positive scaling leaves the quasistatic mode set unchanged);
+  for a chain manipulator (``System.chain``) the chain's links instead, each a body on its
+  joint (:func:`chain_links`: capsules from the joint to its contacts and child joints, joints
+  velocity-controlled at ``speed_scale`` times their rate or effort-controlled);
 * **load**: ``g_obj`` (eq. 2, given about the world origin) applied as a force through the
   centre of mass ``c`` plus the moment ``m_z - (c_x f_y - c_y f_x)`` -- the same wrench;
 * **pre-load**: every contact starts overlapped by ``PRELOAD * size`` [m] (a known, scene-scaled
@@ -95,11 +99,12 @@ def environment_surface(r: np.ndarray, n: np.ndarray, poly: np.ndarray, size: fl
 
 def system_scene(system: System, *, speed_scale: float = 1.0,
                  mu_kinetic: np.ndarray | None = None) -> Scene:
-    """Scene of ``system`` (a contact-velocity system, eq. 5) at the system's ``mu``.
+    """Scene of ``system`` (contact velocities, eq. 5, or a chain) at the system's ``mu``.
 
-    ``speed_scale`` [-] multiplies every commanded contact velocity; ``mu_kinetic`` (n_c,)
-    optional kinetic coefficients (static = ``system.mu``). Raises :class:`InputError` for a
-    joint-space manipulator (chains are not built yet) or a contact off the workpiece boundary.
+    ``speed_scale`` [-] multiplies every commanded contact velocity / velocity-joint rate;
+    ``mu_kinetic`` (n_c,) optional kinetic coefficients (static = ``system.mu``). Raises
+    :class:`InputError` for a manipulator given only as a Jacobian (no geometry), a contact off
+    the workpiece boundary or a chain link that would cut into the workpiece.
     """
     if not system.virtual_joints and system.chain is None:
         raise InputError("simulate: expected a system given by contact velocities "
