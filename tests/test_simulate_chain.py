@@ -131,3 +131,26 @@ def test_a_saved_chain_system_keeps_its_chain(tmp_path):
     assert again.chain is not None and again.chain.contact_links == (None, None, 1)
     assert np.allclose(again.J, system.J) and np.allclose(again.joint_inputs, system.joint_inputs)
     assert np.allclose(again.chain.body_poses(), system.chain.body_poses())
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+def test_link_radius_key_sets_the_capsules(engine):
+    from planner.errors import FileFormatError
+    from sim.scene import Capsule
+
+    raw = _raw("prismatic_finger_box")
+    raw["manipulator"]["link_radius"] = 0.01
+    system = system_from_dict(raw)
+    assert system.chain.link_radius == 0.01
+    scene = system_scene(system)
+    caps = [s for s in scene.body("link1").shapes if isinstance(s, Capsule)]
+    assert caps and all(c.radius == 0.01 for c in caps)
+    be = make_backend(engine)
+    be.build(scene)
+    be.step(1e-4)
+    reading = be.contacts()["c3"]
+    assert reading.present and np.allclose(reading.normal, system.normals[2], atol=1e-6)
+    assert np.allclose(reading.point, system.points[2], atol=2 * PRELOAD * scene.length_scale)
+    raw["manipulator"]["link_radius"] = -1.0
+    with pytest.raises(FileFormatError, match=r"manipulator.link_radius: expected a positive number, got -1.0"):
+        system_from_dict(raw)

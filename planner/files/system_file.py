@@ -17,6 +17,7 @@ Format (documented key by key in ``docs/file-formats.md``; JSON Schema
           "chain": {"joints": [{"type": "revolute"|"prismatic", "parent": -1, "origin": [x, y],
                                 "angle": a}, ...], "base_pose": [x, y, phi]},
           "q": [...], "contact_links": [body index per contact, null = environment],
+          "link_radius": m,                              -- chain only, simulators; optional
           "joints": [{"velocity": 0.1}, {"effort": 2.0}, ...],     -- one per column/joint
           "joint_loads": [...]                                      -- g_man, default zeros
       },
@@ -68,7 +69,7 @@ _FORMS = ("contact_velocities", "jacobian", "chain")
 _FORM_KEYS = {
     "contact_velocities": ("contact_velocities", "joint_loads"),
     "jacobian": ("jacobian", "joints", "joint_loads"),
-    "chain": ("chain", "q", "contact_links", "joints", "joint_loads"),
+    "chain": ("chain", "q", "contact_links", "joints", "joint_loads", "link_radius"),
 }
 
 
@@ -261,8 +262,10 @@ def _chain_jacobian(manip: Mapping[str, Any], pts: Any, nrm: Any, env: list[bool
     if moving:
         out[moving] = chain.contact_jacobian(q, [links[i] for i in moving],
                                              [pts[i] for i in moving], [nrm[i] for i in moving])
+    radius = (number(manip["link_radius"], "manipulator.link_radius", positive=True)
+              if "link_radius" in manip else None)
     return out, ChainGeometry(chain, q, tuple(None if env[i] else links[i]
-                                              for i in range(len(pts))))
+                                              for i in range(len(pts))), radius)
 
 
 def system_to_dict(system: System) -> dict[str, Any]:
@@ -305,6 +308,8 @@ def system_to_dict(system: System) -> dict[str, Any]:
             ],
             "joint_loads": system.g_man.tolist(),
         }
+        if geom.link_radius is not None:
+            out["manipulator"]["link_radius"] = geom.link_radius
     else:
         out["manipulator"] = {
             "jacobian": system.J.reshape(system.n_contacts, 2, -1).tolist(),

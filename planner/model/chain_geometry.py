@@ -21,11 +21,13 @@ from planner.model.kinematics import Chain
 class ChainGeometry:
     """``chain`` (:class:`planner.model.kinematics.Chain`), joint positions ``q`` (n_theta,)
     [rad or m] and ``contact_links`` (n_c,): the body index (0..n_theta-1) touching each
-    contact, ``None`` for a contact with the fixed environment."""
+    contact, ``None`` for a contact with the fixed environment; ``link_radius`` [m] of the
+    links' capsules (``None``: the simulator derives one from the scene size)."""
 
     chain: Chain
     q: tuple[float, ...]
     contact_links: tuple[int | None, ...]
+    link_radius: float | None = None
 
     def __post_init__(self) -> None:
         q = tuple(float(v) for v in np.asarray(self.q, dtype=float).reshape(-1))
@@ -34,6 +36,10 @@ class ChainGeometry:
                              f"got {list(self.q)}")
         object.__setattr__(self, "q", q)
         object.__setattr__(self, "contact_links", tuple(self.contact_links))
+        if self.link_radius is not None and not (np.isfinite(self.link_radius)
+                                                 and self.link_radius > 0):
+            raise InputError(f"link_radius: expected a finite number > 0 [m], got "
+                             f"{self.link_radius}")
         for i, b in enumerate(self.contact_links):
             if b is not None and not 0 <= b < self.chain.n_joints:
                 raise InputError(f"contact_links[{i}]: expected a link index in "

@@ -257,7 +257,8 @@ def chain_links(system: System, poly: np.ndarray, size: float, speed_scale: floa
     touches, ``(body name, shape index)`` of its contact site.
 
     Link ``j`` (body ``link<j+1>``, frame at its joint, :meth:`planner.model.kinematics.Chain.
-    frames` at the file's ``q``) is a set of capsules of radius ``FINGER_RADIUS * size`` from
+    frames` at the file's ``q``) is a set of capsules of radius ``link_radius`` (the file's
+    ``manipulator.link_radius``; default ``FINGER_RADIUS * size``, the fingertips') from
     its joint origin: to the cap centre ``r_i - (radius - PRELOAD * size) n_i`` of every
     contact ``i`` on it (the capsule's end cap touches the workpiece at ``r_i`` with normal
     ``n_i``, pre-loaded like the fingertips; one shape per contact, so one arbiter each), to
@@ -271,7 +272,7 @@ def chain_links(system: System, poly: np.ndarray, size: float, speed_scale: floa
     geom = system.chain
     if geom is None:
         raise InputError("chain_links: expected a system with chain geometry, got none")
-    radius = FINGER_RADIUS * size
+    radius = FINGER_RADIUS * size if geom.link_radius is None else float(geom.link_radius)
     pre = PRELOAD * size
     poses = geom.body_poses()
     frames = geom.joint_frames()
