@@ -104,6 +104,7 @@ class PymunkBackend:
         # joints
         self.carriages: dict[str, pymunk.Body] = {}
         self._slide_axes: dict[str, tuple[pymunk.Vec2d, pymunk.Vec2d]] = {}
+        self._slides: dict[str, pymunk.SlideJoint] = {}
         self.motors: dict[str, pymunk.SimpleMotor] = {}
         static = space.static_body
         for j in scene.joints:
@@ -216,8 +217,9 @@ class PymunkBackend:
         force on the relative rate, effort control by equal and opposite body torques.
         Prismatic: a groove along the axis on the parent (fixed in the parent's frame) and a
         gear joint holding the relative angle; effort control by equal and opposite forces at
-        the anchor. A velocity-controlled prismatic joint on a moving parent is refused:
-        Chipmunk has no linear motor (a base prismatic joint uses a kinematic carriage)."""
+        the anchor; velocity control (Chipmunk has no linear motor) by a slide joint of equal
+        min and max distance from a point on the axis, moved by ``u dt`` every step with
+        ``error_bias = 0`` (the solver closes the whole distance error in the step)."""
         parent, body = self.bodies[parent_name], self.bodies[j.body]
         space = self.space
         if j.kind == JointKind.REVOLUTE:
@@ -228,10 +230,6 @@ class PymunkBackend:
                 space.add(motor)
                 self.motors[j.name] = motor
             return
-        if j.control == Control.VELOCITY:
-            raise InputError(f"joint {j.name!r}: pymunk builds a velocity-controlled prismatic "
-                             "joint only on the fixed base (Chipmunk has no linear motor), got "
-                             f"one on body {parent_name!r}")
         axis = np.asarray(j.axis, dtype=float)
         anchor = np.asarray(j.anchor, dtype=float)
         reach = 100.0 * self.scene.length_scale
@@ -239,6 +237,18 @@ class PymunkBackend:
         gb = parent.world_to_local(_xy(anchor + reach * axis))
         space.add(pymunk.GrooveJoint(parent, body, ga, gb, body.world_to_local(_xy(anchor))),
                   pymunk.GearJoint(parent, body, body.angle - parent.angle, 1.0))
+        if j.control == Control.VELOCITY:
+            # the slide as a distance from a point one length scale back on the axis, its
+            # target moved by u dt each step; error_bias 0 corrects the whole error in one step,
+            # so the relative slide velocity is the command
+            back = self.scene.length_scale
+            slide = pymunk.SlideJoint(parent, body,
+                                      parent.world_to_local(_xy(anchor - back * axis)),
+                                      body.world_to_local(_xy(anchor)), back, back)
+            slide.error_bias = 0.0
+            space.add(slide)
+            self._slides[j.name] = slide
+            return
         self._slide_axes[j.name] = (parent.world_to_local(_xy(anchor + axis))
                                     - parent.world_to_local(_xy(anchor)),
                                     body.world_to_local(_xy(anchor)))
@@ -252,6 +262,10 @@ class PymunkBackend:
             else:
                 body.torque = body.torque + u
                 parent.torque = parent.torque - u
+            return
+        if j.control == Control.VELOCITY:
+            slide = self._slides[j.name]
+            slide.min = slide.max = slide.max + u * self._dt
             return
         axis_local, anchor_local = self._slide_axes[j.name]
         axis = np.asarray(axis_local.rotated(parent.angle), dtype=float)
