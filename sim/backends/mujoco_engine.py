@@ -16,6 +16,10 @@ degree of freedom on every dynamic body (noslip does nothing in a strictly plana
   velocity-controlled joints get a huge armature and their ``qpos``/``qvel`` overwritten every step;
   effort-controlled joints get the effort in ``qfrc_applied``.
 * Loads: ``xfrc_applied`` (force at the body COM and a torque about z).
+* Contact impedance per pair role (:mod:`sim.backends.roles`, decided after the first
+  ``mj_forward``): ``squeeze`` pairs keep ``solref``/``solimp``, ``support`` pairs get
+  ``support_solimp``, ``carry`` pairs ``carry_solref``, and a scene without ``squeeze`` pairs
+  ``carry_impratio`` (docs/simulation.md, "MuJoCo: contact roles").
 
 Forces are read with ``mj_contactForce`` in the contact frame and projected to the world;
 velocities of contact points with ``mj_jac``.
