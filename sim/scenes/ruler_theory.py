@@ -97,8 +97,9 @@ TOLERANCE, SWITCHES = 0.02, 5
 #: the finger speed. A quasistatic switch is instantaneous; the rod (mass ``m``) needs
 #: ``t = sqrt(2 m v_th / Fdot)`` to reach the threshold ``v_th`` once the sticking finger's
 #: static capacity is exceeded at the rate ``Fdot = (mu_s + mu_k) dN/dt``, and the slider runs on
-#: by ``2 v t``: 8 um per hand-over at 0.1 v (measured 10 um, MuJoCo), 3.4 um at 0.02 v. 0.02 v
-#: is still >= 200 x the creep of a sticking finger in either engine (< 1.3e-8 m/s).
+#: by ``2 v t``: 7.6 um at the first hand-over of 0.5 / 0.3 from (-0.2, 0.35) at 0.1 v (measured
+#: ~10 um per hand-over in MuJoCo), sqrt(5) less at 0.02 v; 0.02 v is still > 150 x the creep of
+#: a sticking finger in either engine (< 2e-8 m/s; docs/simulation.md).
 SWITCH_OF_SPEED = 0.02
 #: A miss is ``inconclusive`` (not ``disagreed``) when the engine measurably cannot hold the
 #: hand-overs: the non-sliding finger's mean |v_t| above this fraction of the slip threshold
