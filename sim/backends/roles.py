@@ -42,7 +42,8 @@ def contact_roles(scene: Scene, readings: Mapping[str, ContactReading],
     """``{pair name: role}`` (module docstring) from the first ``readings`` and body ``states``
     (pose and twist of each body's origin, world frame). A pair with a static body is
     ``support``; a pair whose manipulator (``body_a``) is a driven body without a joint and
-    whose contact point moves along the contact tangent is ``carry``; everything else (a
+    whose contact point moves along the contact tangent (or not at all: then too the load sets
+    its normal force) is ``carry``; everything else (a
     prescribed normal motion, a jointed or free manipulator, a pair not touching) is
     ``squeeze``."""
     bodies = {b.name: b for b in scene.bodies}
