@@ -123,6 +123,7 @@ def run_ruler(out_dir: Path, *, name: str, expect: Expect, mu_s: float, mu_k: fl
         ruler_scene,
         sliding_finger,
     )
+    from sim.scenes.ruler_theory import SWITCH_OF_SPEED
 
     speed = RULER_SPEED[engine] if speed is None else speed
     weight, mass, radius = 1.0, 0.1, 0.03 * length
@@ -137,7 +138,7 @@ def run_ruler(out_dir: Path, *, name: str, expect: Expect, mu_s: float, mu_k: fl
     es = ENGINE_SETTINGS[engine]
     duration = (x_right - x_left - 2 * min_d) / (2 * speed)
     dt = RULER_DT[engine]
-    settings = RunSettings(duration=duration, dt=dt, slip_speed=0.1 * speed,
+    settings = RunSettings(duration=duration, dt=dt, slip_speed=SWITCH_OF_SPEED * speed,
                            penetration_tol=0.01 * length, record_every=5)
     rec = run_scene(scene, make_backend(engine), settings)
     th = Thresholds.for_drive(speed, weight, creep_floor=es["creep"])
@@ -257,11 +258,10 @@ _example("neg_ex41_wrong_region", "Negative control: 3S run judged by the RS reg
 _example("neg_ex43_wrong_mu", "Negative control: two-mode run judged at the one-mode mu",
          "Sec. 4.3, eq. 42", Expect.DISAGREE, mu=(0.05, 0.15, 0.85), predict_mu=(0.15, 0.65, 0.05),
          **E43)
-# pymunk only: in MuJoCo the "sticking" finger creeps (2e-5 m/s, 13 % of the finger speed)
-# and both fingers slide together from ~26 mm on, so the single switch is smeared
-# (docs/simulation.md, open problems)
+# both engines since MuJoCo's finger pairs are "carry" pairs (sim.backends.roles): before, the
+# "sticking" finger crept at 2e-5 m/s in MuJoCo and the switch was smeared (docs/simulation.md)
 _ruler("ruler_single_mu", "Ruler, one mu = 0.5: far finger slides until equidistant", Expect.AGREE,
-       engines=("pymunk",), mu_s=0.5, mu_k=0.5, required=1)
+       mu_s=0.5, mu_k=0.5, required=1)
 _ruler("ruler_static_kinetic", "Ruler, static 0.5 / kinetic 0.3: alternating slides", Expect.AGREE,
        mu_s=0.5, mu_k=0.3)
 _ruler("neg_ruler_wrong_mu", "Negative control: static/kinetic run judged with kinetic 0.4",

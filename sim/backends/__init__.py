@@ -18,6 +18,20 @@ from sim.scene import Backend
 #: (docs/simulation.md, "MuJoCo: resting supports").
 SUPPORT_SOLIMP = (0.9, 0.9, 0.001, 0.5, 2.0)
 
+#: MuJoCo solref ``(time constant [s], damping ratio)`` of every ``carry`` pair
+#: (:mod:`sim.backends.roles`: a driven manipulator moving along the contact tangent under a
+#: load, the ruler's fingers): 10 time steps of 1 ms. With the stiff default (4 steps) a sliding,
+#: load-carrying contact lifts off and bounces for seconds after every velocity change, and the
+#: sticking contact slips during the bounces (docs/simulation.md, "MuJoCo: contact roles").
+CARRY_SOLREF = (0.01, 1.0)
+
+#: MuJoCo ``impratio`` of a scene whose pairs are all ``carry`` or ``support`` (no ``squeeze``):
+#: with 1, a sliding contact at kinetic friction >= 0.6 that carries more than half the load
+#: climbs out of its penetration until it bounces (docs/simulation.md). It is a model-wide
+#: option: with a prescribed squeeze it changed the mode MuJoCo picks where two are feasible
+#: (Example 4.3 at mu = .05 .15 .85), so such scenes keep 1.
+CARRY_IMPRATIO = 10.0
+
 #: Every engine :func:`make_backend` knows, in the order reports list them.
 ENGINES = ("pymunk", "mujoco")
 
@@ -35,7 +49,10 @@ class EngineSettings:
     ``z_stiffness`` [N/m] (MuJoCo spring holding dynamic bodies in the plane; their
     out-of-plane slide exists only for noslip) and ``support_solimp`` (MuJoCo solimp of every
     pair with a static body -- a table, a palm; :data:`SUPPORT_SOLIMP`, measured in
-    docs/simulation.md; ``None``: the stiff default of all other pairs).
+    docs/simulation.md; ``None``: the stiff default of all other pairs), ``carry_solref``
+    (MuJoCo solref of every ``carry`` pair, :data:`CARRY_SOLREF`; ``None``: ``solref``) and
+    ``carry_impratio`` (MuJoCo impratio of a scene without ``squeeze`` pairs,
+    :data:`CARRY_IMPRATIO`); roles in :mod:`sim.backends.roles`.
     """
 
     dt: float = 1e-3
@@ -48,6 +65,8 @@ class EngineSettings:
     solref: tuple[float, float] = (0.004, 1.0)
     z_stiffness: float = 0.0
     support_solimp: tuple[float, ...] | None = SUPPORT_SOLIMP
+    carry_solref: tuple[float, float] | None = CARRY_SOLREF
+    carry_impratio: float = CARRY_IMPRATIO
 
 
 def check_engine(engine: str) -> str:
@@ -67,4 +86,5 @@ def make_backend(engine: str, settings: EngineSettings | None = None) -> Backend
     from sim.backends.mujoco_engine import MujocoBackend
 
     return MujocoBackend(solref=es.solref, out_of_plane_stiffness=es.z_stiffness,
-                         support_solimp=es.support_solimp)
+                         support_solimp=es.support_solimp, carry_solref=es.carry_solref,
+                         carry_impratio=es.carry_impratio)

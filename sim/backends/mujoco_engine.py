@@ -17,6 +17,10 @@ degree of freedom on every dynamic body (noslip does nothing in a strictly plana
   velocity-controlled joints get a huge armature and their ``qpos``/``qvel`` overwritten every step;
   effort-controlled joints get the effort in ``qfrc_applied``.
 * Loads: ``xfrc_applied`` (force at the body COM and a torque about z).
+* Contact impedance per pair role (:mod:`sim.backends.roles`, decided after the first
+  ``mj_forward``): ``squeeze`` pairs keep ``solref``/``solimp``, ``support`` pairs get
+  ``support_solimp``, ``carry`` pairs ``carry_solref``, and a scene without ``squeeze`` pairs
+  ``carry_impratio`` (docs/simulation.md, "MuJoCo: contact roles").
 
 Forces are read with ``mj_contactForce`` in the contact frame and projected to the world;
 velocities of contact points with ``mj_jac``.
@@ -29,7 +33,8 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from sim.backends import SUPPORT_SOLIMP
+from sim.backends import CARRY_IMPRATIO, CARRY_SOLREF, SUPPORT_SOLIMP
+from sim.backends.roles import CARRY, SQUEEZE, SUPPORT, contact_roles
 from sim.scene import (
     ABSENT,
     BodyKind,
@@ -55,11 +60,19 @@ class MujocoBackend:
                  solref: tuple[float, float] = (0.004, 1.0),
                  solimp: tuple[float, ...] = (0.99, 0.999, 0.001, 0.5, 2.0),
                  impratio: float = 1.0, out_of_plane_stiffness: float = 0.0,
-                 support_solimp: tuple[float, ...] | None = SUPPORT_SOLIMP) -> None:
+                 support_solimp: tuple[float, ...] | None = SUPPORT_SOLIMP,
+                 carry_solref: tuple[float, float] | None = CARRY_SOLREF,
+                 carry_impratio: float = CARRY_IMPRATIO) -> None:
         self.impratio = impratio
-        #: solimp of every pair with a static body (a resting support: a table, a palm);
-        #: ``None`` uses ``solimp`` (module docstring)
+        #: solimp of every ``support`` pair (a static body: a table, a palm); ``None`` uses
+        #: ``solimp`` (module docstring)
         self.support_solimp = support_solimp
+        #: solref of every ``carry`` pair and impratio of a scene without ``squeeze`` pairs
+        #: (:mod:`sim.backends.roles`); ``None``: ``solref``
+        self.carry_solref = carry_solref
+        self.carry_impratio = carry_impratio
+        #: ``{pair: role}`` of the built scene
+        self.roles: dict[str, str] = {}
         #: spring [N/m] (critically damped) holding dynamic bodies' out-of-plane slide at z = 0:
         #: a sphere touching a capsule is unstable out of the plane when friction is ~0.
         self.out_of_plane_stiffness = out_of_plane_stiffness
@@ -158,18 +171,14 @@ class MujocoBackend:
                 self._geoms[(b.name, k)] = [gname]
         self._subpairs: dict[str, list[int]] = {}
         n_sub = 0
-        static = {b.name for b in scene.bodies if b.kind == BodyKind.STATIC}
         for p in scene.pairs:
             self._subpairs[p.name] = []
-            solimp = self.solimp
-            if self.support_solimp is not None and static & {p.body_a, p.body_b}:
-                solimp = self.support_solimp
             for ga in self._geoms[(p.body_a, p.shape_a)]:
                 for gb in self._geoms[(p.body_b, p.shape_b)]:
                     spec.add_pair(name=f"{p.name}#{n_sub}", geomname1=ga, geomname2=gb,
                                   condim=3,
                                   friction=[p.mu_static, p.mu_static, 0.005, 1e-4, 1e-4],
-                                  solref=list(self.solref), solimp=list(solimp))
+                                  solref=list(self.solref), solimp=list(self.solimp))
                     self._subpairs[p.name].append(n_sub)
                     n_sub += 1
         self.model = spec.compile()
@@ -190,6 +199,7 @@ class MujocoBackend:
                     self._geom_pair[(gb, ga)] = (p.name, -1.0)
         self._target = {nm: float(self.data.qpos[a]) for nm, a in self._qadr.items()}
         mujoco.mj_forward(m, self.data)
+        self._set_roles()
         self._readings: dict[str, ContactReading] = {}
 
     # -- chains: a link body nested in its parent link --------------------------------
@@ -207,6 +217,23 @@ class MujocoBackend:
         c, s = np.cos(pth), np.sin(pth)
         dx, dy = x - px, y - py
         return created[joint.parent], (c * dx + s * dy, -s * dx + c * dy, th - pth)
+
+    def _set_roles(self) -> None:
+        """Contact impedance per pair role (:mod:`sim.backends.roles`, measured in
+        docs/simulation.md): ``support`` pairs get ``support_solimp``, ``carry`` pairs
+        ``carry_solref``, and a scene without ``squeeze`` pairs ``carry_impratio``."""
+        m = self.model
+        self.roles = contact_roles(self.scene, self._read_contacts(), self.state())
+        for name, role in self.roles.items():
+            for i in self._subpairs[name]:
+                if role == SUPPORT and self.support_solimp is not None:
+                    m.pair_solimp[i] = self.support_solimp
+                elif role == CARRY and self.carry_solref is not None:
+                    m.pair_solref[i] = self.carry_solref
+        roles = set(self.roles.values())
+        if CARRY in roles and SQUEEZE not in roles:
+            m.opt.impratio = self.carry_impratio
+        mujoco.mj_forward(m, self.data)
 
     @staticmethod
     def _polygon_geoms(body, gname: str, shp: Polygon, depth: float, length: float) -> list:
