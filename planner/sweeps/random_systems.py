@@ -171,8 +171,8 @@ def random_multibody_system(
     probability ``body_contact_share`` (when ``n_b > 1``), another random body ``b_i`` (zero
     Jacobian rows, eq. 5), else the manipulator (random Jacobian rows ~ N(0, 1)). Every body
     has at least one contact. Loads are planted as in :func:`random_system`: a contact force
-    ``c`` inside the friction cones gives ``g_obj = -W c`` (3 n_b,) and ``tau_E = J_E^T c +
-    g_man_E``, so eq. (26) is solvable.
+    ``c`` strictly inside the friction cones (``c_n`` in 0.1..1 N) gives ``g_obj = -W c``
+    (3 n_b,) and ``tau_E = J_E^T c + g_man_E``, so eq. (26) is solvable.
 
     Returns
     -------
@@ -209,7 +209,7 @@ def random_multibody_system(
     g_man = rng.normal(0.0, 0.3, n_t)
     is_effort = rng.permutation(n_t) < n_effort
     inputs = rng.normal(0.0, 1.0, n_t)
-    c_n = rng.uniform(0.0, 1.0, n_contacts) * (rng.random(n_contacts) > 1 / 3)
+    c_n = rng.uniform(0.1, 1.0, n_contacts)  # every contact loaded: no mode sits on c_n = 0
     c = np.c_[c_n, rng.uniform(-1.0, 1.0, n_contacts) * mu * c_n].reshape(-1)
     Jm = J.reshape(2 * n_contacts, n_t)
     inputs[is_effort] = Jm[:, is_effort].T @ c + g_man[is_effort]
