@@ -251,3 +251,37 @@ def test_cli_modes_on_a_multibody_file() -> None:
                          capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     assert "mode R1 R2 S-3 S-4 R5" in out.stdout and "status: unique" in out.stdout
+
+
+def test_friction_map_of_the_wall_threshold() -> None:
+    """A 1-D friction-space map (Figs. 3, 6) over the wall coefficient: by the derivation of
+    test_part_against_wall_jams_when_the_wall_grips the part climbs for mu_w < 0.25 and
+    everything jams for mu_w > 0.25 (mu_t = 0.3, mu_tool = 0.9, where mu_tool >= 0.5 - mu_w
+    makes the climb feasible already at N1 = 0)."""
+    from planner.friction.muspace import mu_grid
+
+    system = part_and_tool(0.3, 0.1, 0.9)
+    grid = mu_grid(system, vary=(6,), base_mu=system.mu, mu_range=(0.0, 0.5), n=51)
+    for mu_w, mode_set in zip(grid.axes[0], grid.mode_sets()):
+        if mu_w > 0.25 + 1e-9:
+            assert mode_set == "jam", mu_w
+        elif mu_w < 0.25 - 1e-9:
+            assert "S-1 B2 S-3 S-4 R5 R6 S-7" in mode_set.split(" | "), mu_w
+
+
+def test_friction_map_agrees_with_feasible_modes_pointwise() -> None:
+    """A 2-D map of the stacked blocks (table coefficient of contact 1, interface coefficient
+    of contact 3) labels each point with the mode set feasible_modes finds there."""
+    from planner.friction.muspace import mu_grid
+
+    system = load_system(STACK)
+    grid = mu_grid(system, vary=(0, 2), base_mu=[0.0, 0.1, 0.0, 0.9, 0.0], mu_range=(0.05, 1.0),
+                   n=7)
+    sets = grid.mode_sets().ravel()
+    assert len(set(sets)) >= 2  # the map is not one region
+    for mu, mode_set in zip(grid.points(), sets):
+        pred = feasible_modes(system, mu)
+        if not pred.on_boundary:
+            assert mode_set == " | ".join(sorted(pred.labels)) or \
+                sorted(mode_set.split(" | ")) == sorted(pred.labels) or \
+                (mode_set == "jam" and not pred.labels), (mu, mode_set, pred.labels)

@@ -268,3 +268,31 @@ def test_one_body_is_the_paper_model() -> None:
                                  joint_loads=system.g_man)
     np.testing.assert_array_equal(plain.W, system.W)
     assert pred_of(plain).labels == pred_of(system).labels
+
+
+@pytest.mark.parametrize("seed, n_b, n_c", [(0, 2, 6), (1, 2, 8), (2, 3, 8), (3, 3, 9)])
+def test_pruned_search_finds_the_same_modes(seed, n_b, n_c) -> None:
+    """The pruned search (Secs. 4.7, 6) on several workpieces: the determinate modes of the
+    exhaustive test, no more, no fewer."""
+    from planner.predict.search import search_modes
+
+    system = random_multibody_system(seed, n_b, n_c)
+    exhaustive = feasible_modes(system, indeterminate=False)
+    found = search_modes(system).prediction
+    assert sorted(m.label for m in found.modes) == sorted(m.label for m in exhaustive.modes)
+
+
+def test_batched_prediction_matches_single_calls() -> None:
+    """Many configurations at once (planner.predict.batch) on multi-body systems with the same
+    contacts and joints: equal to one call each."""
+    from planner.predict.batch import feasible_modes_batch
+
+    base = random_multibody_system(4, 2, 6, n_effort=1)
+    systems = [rebuild(base, scale=s) for s in (0.5, 1.0, 2.0)]
+    systems.append(random_multibody_system(4, 2, 6, n_effort=1, mu_range=(0.3, 0.4)))
+    batched = feasible_modes_batch(systems)
+    for system, pred in zip(systems, batched):
+        single = feasible_modes(system)
+        assert pred.labels == single.labels and pred.status is single.status
+        for a, b in zip(pred.all_modes, single.all_modes):
+            np.testing.assert_allclose(a.qdot, b.qdot, atol=1e-9)
