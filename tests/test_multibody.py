@@ -26,7 +26,7 @@ STACK = DATA_DIR / "stacked_blocks.json"
 def stack_pushed_at(block: str, mu_table: float, mu_between: float) -> System:
     """Two stacked blocks (the shipped file's geometry): block 0 = [-1, 1] x [0, 1] of weight
     2 N on the table (contacts 1-2), block 1 = [-0.5, 0.5] x [1, 1.5] of weight 1 N on block 0
-    (contacts 3-4, normals up into block 1), a frictionless pusher moving at 1 m/s in +x on the left face of
+    (contacts 3-4 at x = -0.45, 0.45, normals up into block 1), a frictionless pusher moving at 1 m/s in +x on the left face of
     the ``"upper"`` block at height 1.1 or of the ``"lower"`` block at height 0.5."""
     data = json.loads(STACK.read_text())
     for c in data["contacts"][:2]:
