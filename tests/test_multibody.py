@@ -125,12 +125,13 @@ def test_upper_block_rides_along_when_the_lower_is_pushed(mu_table, mu_between) 
 
 
 def part_and_tool(mu_table: float, mu_wall: float, mu_tool: float, wall: bool = True) -> System:
-    """A part (body 0, [0, 1] x [0, 1], weight 1 N) and a tool (body 1, [-1, 0] x [0, 0.5],
+    """A part (body 0, the box [0, 1] x [0, 1] bevelled to a nose at (1, 0.5), weight 1 N at
+    (0.5, 0.5); scenarios/data/part_tool_wall.json) and a tool (body 1, [-1, 0] x [0, 0.5],
     weight 0.5 N) on a table (contacts 1-2 part, 3-4 tool); the tool touches the part's left
     face at (0, 0.25) (contact 5, normal +x into the part); a frictionless pusher drives the
     tool's left face at (-1, 0.25) at 1 m/s in +x (contact 6); optionally a wall touches the
     part's right face at (1, 0.5) (contact 7, normal -x into the part)."""
-    pts = [(0, 0), (1, 0), (-1, 0), (0, 0), (0, 0.25), (-1, 0.25)]
+    pts = [(0, 0), (0.9, 0), (-1, 0), (0, 0), (0, 0.25), (-1, 0.25)]
     nrm = [(0, 1), (0, 1), (0, 1), (0, 1), (1, 0), (1, 0)]
     bodies = [(0, -1), (0, -1), (1, -1), (1, -1), (0, 1), (1, -1)]
     mu = [mu_table] * 4 + [mu_tool, 0.0]
