@@ -286,3 +286,23 @@ def test_friction_map_agrees_with_feasible_modes_pointwise() -> None:
             assert mode_set == " | ".join(sorted(pred.labels)) or \
                 sorted(mode_set.split(" | ")) == sorted(pred.labels) or \
                 (mode_set == "jam" and not pred.labels), (mu, mode_set, pred.labels)
+
+
+def test_ruler_carrying_a_block() -> None:
+    """scenarios/data/ruler_block.json: a ruler (1 N at x = 0) with a block (1 N at x = -0.3)
+    on two fingers at x = -0.4 and 0.25 approaching each other (Sec. 5.1 with a payload). The
+    joint centre of mass is at x = -0.15, so the left finger carries 2 * 0.4 / 0.65 = 1.231 N
+    and the right 0.769 N. Both fingers' friction forces are equal and opposite (the block and
+    ruler carry no other horizontal load), so the finger with the smaller limit mu_i N_i slides
+    and the other sticks: at mu = 0.4 the right one (0.308 < 0.492): ``R1 S-2 R3 R4``, the
+    friction force 0.4 * 0.769 = 0.308 N; at mu = (0.2, 0.5) the left one (0.246 < 0.385):
+    ``S+1 R2 R3 R4``. The block rides along (its interface carries no net horizontal force)."""
+    system = load_system(DATA_DIR / "ruler_block.json")
+    right = feasible_modes(system, [0.4, 0.4, 0.5, 0.5])
+    assert right.labels == ["R1 S-2 R3 R4"]
+    f = right.all_modes[0].contact_forces
+    np.testing.assert_allclose(f[:2, 0], [0.8 / 0.65, 2 - 0.8 / 0.65], rtol=1e-7)
+    np.testing.assert_allclose(f[1, 1], 0.4 * (2 - 0.8 / 0.65), rtol=1e-7)
+    np.testing.assert_allclose(f[2:4, 1].sum(), 0.0, atol=1e-9)
+    left = feasible_modes(system, [0.2, 0.5, 0.5, 0.5])
+    assert left.labels == ["S+1 R2 R3 R4"]

@@ -1,19 +1,16 @@
-"""Several workpieces in both engines (issue 17): the scenes of sim/scenes/multibody.py run in
-slow motion and are judged per contact and per body (sim/multibody_run.py) against the
-planner's prediction at friction points in different regions, each with a negative control
-(the same run judged at friction, or against a push, it was not run at) that must disagree.
-
-The expected modes are derived by hand in tests/test_multibody.py; here the simulators check
-them."""
+"""Several workpieces in both engines (issue 17): the scene builder (sim/scenes/multibody.py)
+and the per-body judge (sim/multibody_run.py). The scenarios themselves -- stacked blocks pushed
+at either block, a ruler carrying a block, a part pushed against a wall by a tool, at friction
+points in different regions, each with negative controls -- are registered in
+scenarios/multibody_sims.py and run on both engines by tests/test_scenarios.py; their expected
+modes are derived by hand in tests/test_multibody.py."""
 
 from __future__ import annotations
-
-import json
 
 import numpy as np
 import pytest
 
-from planner.files.system_file import load_system, system_from_dict
+from planner.files.system_file import load_system
 from scenarios.registry import DATA_DIR
 from sim.compare import Outcome
 from sim.multibody_run import simulate_multibody
@@ -21,14 +18,6 @@ from sim.scenes.multibody import multibody_scene
 
 ENGINES = ("pymunk", "mujoco")
 STACK = DATA_DIR / "stacked_blocks.json"
-UPPER_SLIDES = [0.5, 0.5, 0.3, 0.3, 0.0]    # mu_b W1 = 0.3 < mu_t (W0 + W1) = 1.5
-TOGETHER = [0.15, 0.15, 0.9, 0.9, 0.0]      # mu_t (W0 + W1) = 0.45 < mu_b W1 = 0.9
-
-
-def lower_pushed():
-    data = json.loads(STACK.read_text())
-    data["contacts"][4] = {"point": [-1.0, 0.5], "normal": [1.0, 0.0], "mu": 0.0, "body": 0}
-    return system_from_dict(data)
 
 
 def test_scene_has_one_site_per_contact_with_planner_signs() -> None:
@@ -46,61 +35,19 @@ def test_scene_has_one_site_per_contact_with_planner_signs() -> None:
     assert np.allclose(top, [-0.45, 1.0 + scene.meta["preload_m"]])
 
 
-@pytest.mark.parametrize("engine", ENGINES)
-@pytest.mark.parametrize("mu, control", [(UPPER_SLIDES, TOGETHER), (TOGETHER, UPPER_SLIDES)])
-def test_stacked_blocks_pushed_at_the_upper_block(engine, mu, control) -> None:
-    """The upper block slides over the resting lower one (``R1 R2 S-3 S-4 R5``) or both slide
-    together (``S-1 S-2 R3 R4 R5``): the run agrees at its own friction, contact by contact and
-    body twist by body twist, and disagrees when judged at the other region's friction."""
-    system = load_system(STACK)
-    run = simulate_multibody(system, engine, mu=mu)
-    assert run.verdict.outcome is Outcome.AGREED, run.verdict.reason
-    negative = simulate_multibody(system, engine, mu=mu, judge_mu=control)
-    assert negative.verdict.outcome is Outcome.DISAGREED, negative.verdict.reason
+def test_negative_control_system_must_match() -> None:
+    from planner.errors import InputError
+
+    with pytest.raises(InputError, match="judge_system: expected the same number of contacts"):
+        simulate_multibody(load_system(STACK), "pymunk",
+                           judge_system=load_system(DATA_DIR / "ruler_block.json"))
 
 
 @pytest.mark.parametrize("engine", ENGINES)
 def test_stacked_blocks_pushed_at_the_lower_block(engine) -> None:
-    """The upper block rides along (``S-1 S-2 R3 R4 R5``, both twists (1, 0, 0) times the
-    drive); judged against the stack pushed at the upper block (which predicts the upper block
-    sliding at this friction), the same run disagrees."""
-    system = lower_pushed()
-    run = simulate_multibody(system, engine, mu=UPPER_SLIDES)
+    """The upper block rides along (``S-1 S-2 R3 R4 R5``): both bodies' observed twists are
+    (1, 0, 0) times the drive speed, body by body (the registered scenarios check the modes)."""
+    run = simulate_multibody(load_system(DATA_DIR / "stacked_blocks_lower.json"), engine,
+                             mu=[0.5, 0.5, 0.3, 0.3, 0.0])
     assert run.verdict.outcome is Outcome.AGREED, run.verdict.reason
     assert np.allclose(run.twists, [[1, 0, 0], [1, 0, 0]], atol=0.05)
-    negative = simulate_multibody(system, engine, mu=UPPER_SLIDES,
-                                  judge_system=load_system(STACK))
-    assert negative.verdict.outcome is Outcome.DISAGREED, negative.verdict.reason
-
-
-@pytest.mark.parametrize("engine", ENGINES)
-def test_ruler_carrying_a_block(engine) -> None:
-    """A ruler (1 N) with a block (1 N) on its left part, on two fingers approaching each other
-    (Sec. 5.1 with a payload): the joint centre of mass (x = -0.15) puts 1.23 N on the left
-    finger and 0.77 N on the right one. With mu = 0.4 on both the right finger slides
-    (0.308 N friction needed < 0.4 * 0.77; the left one would need the same 0.308 < 0.49):
-    ``R1 S-2 R3 R4``; with mu = (0.2, 0.5) the left finger's limit 0.246 N is the smaller one
-    and it slides instead: ``S+1 R2 R3 R4``. The block rides along in both (no horizontal load
-    on it). Each run agrees at its friction and disagrees judged at the other's."""
-    system = load_system(DATA_DIR / "ruler_block.json")
-    right, left = [0.4, 0.4, 0.5, 0.5], [0.2, 0.5, 0.5, 0.5]
-    for mu, control in ((right, left), (left, right)):
-        run = simulate_multibody(system, engine, mu=mu)
-        assert run.verdict.outcome is Outcome.AGREED, run.verdict.reason
-        negative = simulate_multibody(system, engine, mu=mu, judge_mu=control)
-        assert negative.verdict.outcome is Outcome.DISAGREED, negative.verdict.reason
-
-
-@pytest.mark.parametrize("engine", ENGINES)
-def test_part_pushed_against_a_wall_by_a_tool(engine) -> None:
-    """The part climbs the slippery wall (mu_w = 0.1, tool friction 0.9: ``S-1 B2 S-3 S-4 R5
-    R6 S-7``, twist (2, 0, 4) times the drive) and everything jams at a gripping wall
-    (mu_w = 0.5): both runs agree with their predictions and disagree judged at each other's
-    friction."""
-    system = load_system(DATA_DIR / "part_tool_wall.json")
-    climb, grip = [0.3] * 4 + [0.9, 0.0, 0.1], [0.5] * 4 + [0.5, 0.0, 0.5]
-    for mu, control in ((climb, grip), (grip, climb)):
-        run = simulate_multibody(system, engine, mu=mu)
-        assert run.verdict.outcome is Outcome.AGREED, run.verdict.reason
-        negative = simulate_multibody(system, engine, mu=mu, judge_mu=control)
-        assert negative.verdict.outcome is Outcome.DISAGREED, negative.verdict.reason
