@@ -306,3 +306,19 @@ def test_ruler_carrying_a_block() -> None:
     np.testing.assert_allclose(f[2:4, 1].sum(), 0.0, atol=1e-9)
     left = feasible_modes(system, [0.2, 0.5, 0.5, 0.5])
     assert left.labels == ["S+1 R2 R3 R4"]
+
+
+def test_ruler_block_friction_map_boundary() -> None:
+    """The (mu_1, mu_2) map of the ruler carrying a block: the left finger slides where
+    mu_1 N1 < mu_2 N2, i.e. above the line mu_2 = mu_1 * N1 / N2 = 1.6 mu_1 (derivation in
+    test_ruler_carrying_a_block), the right one below it."""
+    from planner.friction.muspace import mu_grid
+
+    system = load_system(DATA_DIR / "ruler_block.json")
+    grid = mu_grid(system, vary=(0, 1), base_mu=system.mu, mu_range=(0.05, 1.0), n=20)
+    ratio = 0.8 / (2 * 0.65 - 0.8)  # N1 / N2
+    for (m1, m2), mode_set in zip(grid.points()[:, :2], grid.mode_sets().ravel()):
+        if m2 > ratio * m1 * 1.02:
+            assert mode_set == "S+1 R2 R3 R4", (m1, m2)
+        elif m2 < ratio * m1 / 1.02:
+            assert mode_set == "R1 S-2 R3 R4", (m1, m2)

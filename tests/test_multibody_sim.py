@@ -51,3 +51,15 @@ def test_stacked_blocks_pushed_at_the_lower_block(engine) -> None:
                              mu=[0.5, 0.5, 0.3, 0.3, 0.0])
     assert run.verdict.outcome is Outcome.AGREED, run.verdict.reason
     assert np.allclose(run.twists, [[1, 0, 0], [1, 0, 0]], atol=0.05)
+
+
+def test_single_body_simulate_refuses_several_workpieces() -> None:
+    """``qsplan simulate`` builds one-workpiece scenes; a multi-body file is bad input (exit 2)
+    naming the multi-body route, never a silently wrong scene."""
+    import subprocess
+    import sys
+
+    out = subprocess.run([sys.executable, "-m", "qsplan.cli", "simulate", str(STACK)],
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode == 2
+    assert "expected one workpiece, got 2" in out.stderr
