@@ -40,8 +40,8 @@ class FeasibleMode:
     ----------
     mode : Mode
         Contact interactions and sliding directions.
-    qdot : (3,) [m/s, m/s, rad/s]
-        Workpiece velocity (point at the world origin), world frame.
+    qdot : (3 n_b,) [m/s, m/s, rad/s]
+        Workpiece velocity (point at the world origin), world frame, per body.
     joint_velocities : (n_theta,)
         All joint velocities (given ones and the solved ones of effort-controlled joints).
     contact_velocities : (n_c, 2) [m/s]
