@@ -322,3 +322,18 @@ def test_ruler_block_friction_map_boundary() -> None:
             assert mode_set == "S+1 R2 R3 R4", (m1, m2)
         elif m2 < ratio * m1 / 1.02:
             assert mode_set == "R1 S-2 R3 R4", (m1, m2)
+
+
+def test_jacobian_form_with_several_workpieces() -> None:
+    """The stacked blocks with the pusher as one prismatic joint along +x (j_n = n . e_x = 1,
+    j_t = t . e_x = 0 at contact 5; zero rows elsewhere): the same modes as the
+    contact-velocity file; a non-zero row at a contact between two workpieces is refused."""
+    data = json.loads(STACK.read_text())
+    rows = [[[0.0], [0.0]]] * 4 + [[[1.0], [0.0]]]
+    data["manipulator"] = {"jacobian": rows, "joints": [{"velocity": 1.0}]}
+    system = system_from_dict(data)
+    assert system.n_joints == 1 and system.dof == 6
+    assert feasible_modes(system).labels == feasible_modes(load_system(STACK)).labels
+    data["manipulator"]["jacobian"] = [[[0.0], [0.0]]] * 2 + [[[0.5], [0.0]]] + rows[3:]
+    with pytest.raises(FileFormatError, match="zero Jacobian rows for a contact between two"):
+        system_from_dict(data)
