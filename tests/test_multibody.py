@@ -337,3 +337,19 @@ def test_jacobian_form_with_several_workpieces() -> None:
     data["manipulator"]["jacobian"] = [[[0.0], [0.0]]] * 2 + [[[0.5], [0.0]]] + rows[3:]
     with pytest.raises(FileFormatError, match="zero Jacobian rows for a contact between two"):
         system_from_dict(data)
+
+
+def test_chain_form_with_several_workpieces() -> None:
+    """The pusher as a prismatic chain joint along x: contacts off the chain (environment and
+    between workpieces) have ``null`` links and zero Jacobian rows; the modes are those of the
+    contact-velocity file. A link given for a contact between two workpieces is refused."""
+    data = json.loads(STACK.read_text())
+    data["manipulator"] = {"chain": {"joints": [{"type": "prismatic"}]}, "q": [0.0],
+                           "contact_links": [None, None, None, None, 0],
+                           "joints": [{"velocity": 1.0}]}
+    system = system_from_dict(data)
+    np.testing.assert_array_equal(system.J[:8], 0.0)
+    assert feasible_modes(system).labels == ["R1 R2 S-3 S-4 R5"]
+    data["manipulator"]["contact_links"] = [None, None, 0, None, 0]
+    with pytest.raises(FileFormatError, match="between two workpieces touches no link"):
+        system_from_dict(data)

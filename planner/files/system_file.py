@@ -273,7 +273,7 @@ def _chain_jacobian(manip: Mapping[str, Any], pts: Any, nrm: Any, env: list[bool
             if b is not None:
                 raise FileFormatError(
                     f"contact_links[{i}]: expected null for contact {i + 1} (a contact with the "
-                    f"fixed environment touches no link), got {short(b)}"
+                    f"fixed environment or between two workpieces touches no link), got {short(b)}"
                 )
         elif isinstance(b, bool) or not isinstance(b, int):
             raise FileFormatError(
