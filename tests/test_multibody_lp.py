@@ -296,3 +296,27 @@ def test_batched_prediction_matches_single_calls() -> None:
         assert pred.labels == single.labels and pred.status is single.status
         for a, b in zip(pred.all_modes, single.all_modes):
             np.testing.assert_allclose(a.qdot, b.qdot, atol=1e-9)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_relative_velocity_is_the_difference_of_point_velocities(seed) -> None:
+    """Eq. (5) with the block W: ``v_i = W_i^T qdot - J_i thetadot`` equals, in contact i's
+    frame (n_i, t_i), the velocity of body a_i's material point at r_i minus that of body b_i
+    (or of the manipulator point, ``J_i thetadot``), each from ``v + omega z x r``."""
+    from planner.model.bodies import body_velocity_at
+
+    system = random_multibody_system(seed, 3, 6, body_contact_share=0.8)
+    rng = np.random.default_rng(seed)
+    qdot, thetadot = rng.normal(size=system.n_q), rng.normal(size=system.n_joints)
+    v = (system.W.T @ qdot - system.J @ thetadot).reshape(-1, 2)
+    manip = (system.J @ thetadot).reshape(-1, 2)
+    for i, (a, b) in enumerate(system.contact_bodies):
+        n, t = system.normals[i], system.tangents[i]
+        rel = body_velocity_at(qdot, a, system.points[i])
+        if b >= 0:
+            rel = rel - body_velocity_at(qdot, b, system.points[i])
+            expected = np.array([rel @ n, rel @ t])
+        else:
+            expected = np.array([rel @ n, rel @ t]) - manip[i]
+        np.testing.assert_allclose(v[i], expected, atol=1e-12)
+    assert any(b >= 0 for _, b in system.contact_bodies)

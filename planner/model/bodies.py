@@ -119,15 +119,6 @@ def multibody_wrench_matrix(points: Any, normals: Any,
     return W
 
 
-def body_block(W: np.ndarray, bodies: Sequence[tuple[int, int]]) -> np.ndarray:
-    """``(3, 2 n_c)``: each contact's column pair as seen by its own body ``a_i`` (eq. 1), i.e.
-    the single-body wrench matrix the contact frames define (for points and normals)."""
-    out = np.empty((3, W.shape[1]))
-    for i, (a, _) in enumerate(bodies):
-        out[:, 2 * i:2 * i + 2] = W[3 * a:3 * a + 3, 2 * i:2 * i + 2]
-    return out
-
-
 def check_body_contacts_still(bodies: Sequence[tuple[int, int]], J: np.ndarray,
                               joint_inputs: np.ndarray, virtual: bool) -> None:
     """A contact between two workpieces does not involve the manipulator: its Jacobian rows
