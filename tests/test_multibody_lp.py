@@ -320,3 +320,35 @@ def test_relative_velocity_is_the_difference_of_point_velocities(seed) -> None:
             expected = np.array([rel @ n, rel @ t]) - manip[i]
         np.testing.assert_allclose(v[i], expected, atol=1e-12)
     assert any(b >= 0 for _, b in system.contact_bodies)
+
+
+def brute_force_relaxed(system: System) -> tuple[set[str], set[str]]:
+    """(feasible, undecided) labels over every mode with 2 n_R + n_S > 3 n_b + |tau_I| (the
+    relaxed utility conditions, end of Sec. 3.2), by the same two LPs."""
+    feasible, undecided = set(), set()
+    for codes in itertools.product((BREAK, SLIDE, ROLL), repeat=system.n_contacts):
+        if sum(codes) <= system.dof:
+            continue
+        slides = [i for i, c in enumerate(codes) if c == SLIDE]
+        for signs in itertools.product((1, -1), repeat=len(slides)):
+            xi = [0] * system.n_contacts
+            for i, s in zip(slides, signs):
+                xi[i] = s
+            verdict = brute_force_mode(system, codes, tuple(xi))
+            label = Mode(codes, tuple(xi)).label
+            if verdict is None:
+                undecided.add(label)
+            elif verdict:
+                feasible.add(label)
+    return feasible, undecided
+
+
+@pytest.mark.parametrize("seed, n_b, n_c", [(1, 2, 4), (1, 2, 5), (5, 2, 5), (0, 2, 5)])
+def test_brute_force_lp_agrees_on_relaxed_utility_modes(seed, n_b, n_c) -> None:
+    """The force-indeterminate modes (more than 3 n_b + |tau_I| constraints, a unique
+    velocity) against the LP over every such mode."""
+    system = random_multibody_system(seed, n_b, n_c)
+    pred = feasible_modes(system, indeterminate=True)
+    planner = {m.label for m in pred.indeterminate_modes}
+    lp, undecided = brute_force_relaxed(system)
+    assert planner - undecided == lp - undecided
