@@ -24,6 +24,9 @@ Format (documented key by key in ``docs/file-formats.md``; JSON Schema
       "workpiece": {"polygon": [[x, y], ...], "mass": kg, "com": [x, y]}   -- optional
     }
 
+Several workpieces: a ``"workpieces"`` list instead of ``workpiece`` and ``external_wrench``,
+and per contact ``"body"``/``"other"`` (:mod:`planner.files.multibody_file`).
+
 A missing key is an error unless a default is listed above; a key the format does not know is an
 error naming it, except the free-text keys :data:`planner.files.fields.FREE_KEYS` (``name``,
 ``description``, ``reference``, ``units``, ``note``, ``notes``, ``comment``), allowed in every
@@ -53,6 +56,14 @@ from planner.files.fields import (
     short,
     type_name,
 )
+from planner.files.multibody_file import (
+    BODY_KEYS,
+    contact_bodies_to_dict,
+    parse_contact_bodies,
+    parse_workpieces,
+    refuse_body_keys,
+    workpieces_to_dict,
+)
 from planner.files.reader import parse_json, read_json
 from planner.model.chain_geometry import ChainGeometry
 from planner.model.kinematics import chain_from_dict
@@ -64,7 +75,7 @@ SYSTEM_FORMAT = "qsplan-system"
 SYSTEM_VERSION = 1
 
 _TOP = ("format", "version", "contacts", "wrench_matrix", "mu", "environment",
-        "external_wrench", "manipulator", "workpiece")
+        "external_wrench", "manipulator", "workpiece", "workpieces")
 _FORMS = ("contact_velocities", "jacobian", "chain")
 _FORM_KEYS = {
     "contact_velocities": ("contact_velocities", "joint_loads"),
@@ -154,6 +165,24 @@ def _system(data: Any) -> System:
         kwargs["joints"] = manip.get("joints")
     if "workpiece" in data:
         kwargs["workpiece"] = _workpiece(data["workpiece"])
+    multi = "workpieces" in data
+    if multi:
+        for key in ("workpiece", "external_wrench", "wrench_matrix"):
+            if key in data:
+                raise FileFormatError(
+                    f"top-level {key!r}: expected no {key!r} beside 'workpieces' (each workpiece "
+                    f"carries its own load and geometry; contacts are given geometrically), "
+                    f"got both"
+                )
+        loads, geoms = parse_workpieces(data["workpieces"])
+        kwargs["external_wrench"] = loads
+        kwargs["n_bodies"] = len(loads)
+        if len(loads) == 1:
+            kwargs["workpiece"] = geoms[0] if geoms else None
+        else:
+            kwargs["workpieces"] = geoms
+    elif "contacts" in data:
+        refuse_body_keys(data["contacts"])
 
     if "contacts" in data:
         for key in ("mu", "environment"):
@@ -164,8 +193,12 @@ def _system(data: Any) -> System:
                 )
         pts, nrm, mu, env = _contacts(data["contacts"])
         geom = None
+        off_chain = list(env)
+        if multi:
+            kwargs["bodies"] = parse_contact_bodies(data["contacts"], kwargs["n_bodies"], env)
+            off_chain = [e or b[1] >= 0 for e, b in zip(env, kwargs["bodies"])]
         if form == "chain":
-            kwargs["jacobian"], geom = _chain_jacobian(manip, pts, nrm, env)
+            kwargs["jacobian"], geom = _chain_jacobian(manip, pts, nrm, off_chain)
             kwargs["joints"] = manip.get("joints")
         system = System.from_contacts(points=pts, normals=nrm, mu=mu, environment=env, **kwargs)
         return system if geom is None else dataclasses.replace(system, chain=geom)
@@ -210,8 +243,8 @@ def _contacts(contacts: Any) -> tuple[list[Any], list[Any], list[Any], list[bool
     for i, c in enumerate(contacts):
         where = f"contact {i + 1}"
         c = as_object(c, where)
-        check_keys(c, where, required=("point", "normal", "mu"), optional=("environment",),
-                   free=FREE_KEYS)
+        check_keys(c, where, required=("point", "normal", "mu"),
+                   optional=("environment", *BODY_KEYS), free=FREE_KEYS)
         pts.append(_numbers(c["point"], f"{where} point"))
         nrm.append(_numbers(c["normal"], f"{where} normal"))
         mu.append(_numbers(c["mu"], f"{where} mu"))
@@ -250,7 +283,7 @@ def _chain_jacobian(manip: Mapping[str, Any], pts: Any, nrm: Any, env: list[bool
             if b is not None:
                 raise FileFormatError(
                     f"contact_links[{i}]: expected null for contact {i + 1} (a contact with the "
-                    f"fixed environment touches no link), got {short(b)}"
+                    f"fixed environment or between two workpieces touches no link), got {short(b)}"
                 )
         elif isinstance(b, bool) or not isinstance(b, int):
             raise FileFormatError(
@@ -274,19 +307,27 @@ def system_to_dict(system: System) -> dict[str, Any]:
 
     out: dict[str, Any]
     env = system.environment
-    if np.allclose(wrench_matrix(system.points, system.normals), system.W, rtol=0, atol=1e-12):
+    multi = system.n_bodies > 1
+    geometric = multi or np.allclose(wrench_matrix(system.points, system.normals), system.W,
+                                     rtol=0, atol=1e-12)
+    if geometric:
         out = {
             "contacts": [
                 {"point": p.tolist(), "normal": n.tolist(), "mu": float(m),
-                 **({"environment": True} if e else {})}
-                for p, n, m, e in zip(system.points, system.normals, system.mu, env)
+                 **({"environment": True} if e else {}),
+                 **(contact_bodies_to_dict(system, i) if multi else {})}
+                for i, (p, n, m, e) in enumerate(zip(system.points, system.normals, system.mu,
+                                                      env))
             ],
         }
     else:  # given as a (rounded) wrench matrix: keep it exactly
         out = {"wrench_matrix": system.W.tolist(), "mu": system.mu.tolist()}
         if any(env):
             out["environment"] = list(env)
-    out["external_wrench"] = system.g_obj.tolist()
+    if multi:
+        out["workpieces"] = workpieces_to_dict(system)
+    else:
+        out["external_wrench"] = system.g_obj.tolist()
     if system.virtual_joints:
         out["manipulator"] = {
             "contact_velocities": system.joint_inputs.reshape(-1, 2).tolist(),

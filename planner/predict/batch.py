@@ -134,7 +134,7 @@ def _block(
     """Predictions of one block of configurations (stacked stages, module docstring)."""
     B = len(systems)
     n_c, k, M = cand.n_contacts, cand.n_rows, len(cand)
-    W = np.stack([s.W for s in systems])  # (B, 3, 2 n_c)
+    W = np.stack([s.W for s in systems])  # (B, 3 n_b, 2 n_c)
     J = np.stack([s.J for s in systems])  # (B, 2 n_c, n_theta)
     inputs = np.stack([s.joint_inputs for s in systems])
     # Equilibrated K (as planner.predict.stages.equilibrated_kinematics, per system).
@@ -154,10 +154,11 @@ def _block(
     z = z.reshape(B, M, k)
     z[~nonsingular] = np.nan
     z = z / col[:, None, :]
-    qdot = z[..., :3]
+    n_q = W.shape[1]  # 3 n_b
+    qdot = z[..., :n_q]
     thetadot = np.empty((B, M, inputs.shape[1]))
     thetadot[..., V] = inputs[:, None, V]
-    thetadot[..., E] = z[..., 3:]
+    thetadot[..., E] = z[..., n_q:]
     v = qdot @ W - thetadot @ J.transpose(0, 2, 1)  # (B, M, 2 n_c), eq. (5)
     codes = cand.codes
     is_slide = codes == SLIDE

@@ -204,7 +204,7 @@ def feasible_modes(
     if n_cand > MAX_EXHAUSTIVE_CANDIDATES:
         raise InputError(
             f"feasible_modes: expected at most {MAX_EXHAUSTIVE_CANDIDATES} candidate modes "
-            f"(eq. 49) for exhaustive enumeration, got {n_cand} (n_c = {n_c}, 3 + |tau_I| = "
+            f"(eq. 49) for exhaustive enumeration, got {n_cand} (n_c = {n_c}, 3 n_b + |tau_I| = "
             f"{k}); use planner.predict.search.search_modes (qsplan modes --search)"
         )
     chunk = stream_chunk(n_c)

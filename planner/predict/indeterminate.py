@@ -126,7 +126,7 @@ def scan_indeterminate(
         return IndeterminateScan((), 0, 0)
     if count > max_subsets:
         return IndeterminateScan((), 0, 0, (
-            f"force-indeterminate (relaxed-utility) modes not searched: C(2 n_c, 3 + |tau_I|) "
+            f"force-indeterminate (relaxed-utility) modes not searched: C(2 n_c, 3 n_b + |tau_I|) "
             f"= C({2 * n_c}, {k}) = {count} row subsets exceed max_subsets = {max_subsets}"
         ))
     eq = equilibrated_kinematics(system)

@@ -40,8 +40,8 @@ class FeasibleMode:
     ----------
     mode : Mode
         Contact interactions and sliding directions.
-    qdot : (3,) [m/s, m/s, rad/s]
-        Workpiece velocity (point at the world origin), world frame.
+    qdot : (3 n_b,) [m/s, m/s, rad/s]
+        Workpiece velocity (point at the world origin), world frame, per body.
     joint_velocities : (n_theta,)
         All joint velocities (given ones and the solved ones of effort-controlled joints).
     contact_velocities : (n_c, 2) [m/s]
@@ -103,7 +103,7 @@ class KinematicStage:
     ----------
     candidates : CandidateSet
     nonsingular : (M,) bool      P_AI invertible (conditions 30, 32).
-    qdot : (M, 3)                workpiece velocity (NaN where singular).
+    qdot : (M, 3 n_b)            workpiece velocities (NaN where singular).
     joint_velocities : (M, n_theta)
     v : (M, 2 n_c)               relative contact velocities [v_1n, v_1t, ...] (eq. 5).
     xi : (M, n_c) int8           sliding directions (eq. 16), 0 where not sliding.
@@ -223,10 +223,11 @@ def kinematic_stage(
     if not all_nonsingular:
         z[~nonsingular] = np.nan
     z /= eq.col
-    qdot = z[:, :3]
+    n_q = system.n_q  # 3 n_b
+    qdot = z[:, :n_q]
     thetadot = np.empty((M, system.n_joints))
     thetadot[:, V] = system.joint_inputs[V]
-    thetadot[:, E] = z[:, 3:]
+    thetadot[:, E] = z[:, n_q:]
     v = qdot @ system.W - thetadot @ system.J.T  # (M, 2 n_c), eq. (5)
     v_n, v_t = v[:, 0::2], v[:, 1::2]
     is_break, is_slide, _ = cand.masks

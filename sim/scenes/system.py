@@ -112,6 +112,10 @@ def system_scene(system: System, *, speed_scale: float = 1.0,
                          "got a bare Jacobian: it has no link geometry to build")
     if not (np.isfinite(speed_scale) and speed_scale > 0):
         raise InputError(f"speed scale: expected a finite number > 0, got {speed_scale}")
+    if system.n_bodies > 1:
+        raise InputError(f"simulate: expected one workpiece, got {system.n_bodies}; several "
+                         "workpieces are built by sim.scenes.multibody.multibody_scene and "
+                         "judged by sim.multibody_run.simulate_multibody")
     pts = np.asarray(system.points, dtype=float)
     nrm = np.asarray(system.normals, dtype=float)
     tng = np.stack([-nrm[:, 1], nrm[:, 0]], axis=1)
