@@ -184,6 +184,10 @@ class MujocoBackend:
         self.model = spec.compile()
         self.data = mujoco.MjData(self.model)
         m = self.model
+        # the compiler sorts pairs (by body signature), so a pair's index in the model is not
+        # the order it was added in: look every sub-pair up by name
+        self._subpairs = {name: [int(m.pair(f"{name}#{k}").id) for k in ks]
+                          for name, ks in self._subpairs.items()}
         self._qadr = {nm: int(m.jnt_qposadr[m.joint(nm).id]) for v in self._dofs.values()
                       for nm in v}
         self._vadr = {nm: int(m.jnt_dofadr[m.joint(nm).id]) for v in self._dofs.values()
