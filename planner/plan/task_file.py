@@ -22,7 +22,7 @@ import copy
 import json
 import os
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -191,6 +191,21 @@ def task_plan_file(tp: TaskPlan, hand: Hand, data: Mapping[str, Any], mu_lo: Any
         extra={"expansions": tp.expansions, "segments_integrated": tp.segments_integrated,
                "rejections": [{"after_segments": r.depth, "what": r.what, "why": r.why}
                               for r in tp.rejections]})
+
+
+def negative_control(plan: TaskPlanFile) -> TaskPlanFile:
+    """A negative control: the same plan with every effort-controlled joint's torque reversed
+    (the finger pulls away instead of pressing), still claiming every segment's mode; a
+    validation must reject it.  ``policy`` becomes ``negative:reversed-torque``."""
+    segs = []
+    for p in plan.segments:
+        wps = tuple(replace(w, torque_command=-w.torque_command,
+                            band=(-w.band[1], -w.band[0]),
+                            torque_commands=tuple(-x for x in w.torque_commands))
+                    for w in p.waypoints)
+        segs.append(replace(p, waypoints=wps, policy="negative:reversed-torque"))
+    return replace(plan, segments=tuple(segs), policy="negative:reversed-torque",
+                   notes=plan.notes + "; negative control: torques reversed")
 
 
 def save_task_plan(plan: TaskPlanFile, path: str | os.PathLike[str]) -> Path:
