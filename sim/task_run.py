@@ -12,7 +12,8 @@ disagreement).  A later segment's predicted poses are shifted by the difference 
 start and the planned one, so each segment is judged on its own motion; the drift the
 segments add up is judged on the whole.  The first segment starts at the plan's start.  The
 whole task is ``agreed`` when every segment agreed and the final position is within 2 % of the
-task's travel of the plan's; a fault in a segment is a ``fault`` and the segments after it are not run.
+task's travel of the plan's; a fault in a segment is a ``fault`` and the segments after it
+are not run.
 
 Why not one scene for the whole task: the run loop (:mod:`sim.run`) faults when a declared
 contact pair is apart at the first step (``contact_lost_at_start``), and the contacts a later
