@@ -159,3 +159,15 @@ def test_qsplan_plan_writes_a_version_2_plan_for_any_hand(tmp_path):
     plan = load_task_plan(out)
     assert plan.segments[0].control.count("effort") == 2  # 5S: |tau_I| = 2
     assert "version 2, 1 segment(s)" in r.stdout
+
+
+def test_qsplan_plan_writes_a_partial_plan_and_exits_1(tmp_path):
+    out = tmp_path / "partial.json"
+    r = subprocess.run([sys.executable, "-m", "qsplan.cli", "plan", "figure9_task_hand",
+                        "--mu", "0:1", "--max-expansions", "6", "--out", str(out)],
+                       capture_output=True, text=True, cwd=tmp_path)
+    assert r.returncode == 1, r.stdout + r.stderr
+    assert "goal reached: False" in r.stdout and "stops short of the goal" in r.stdout
+    assert "widest friction interval that would work there" in r.stdout
+    plan = load_task_plan(out)
+    assert not plan.reached and plan.diagnosis is not None

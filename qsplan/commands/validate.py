@@ -81,10 +81,7 @@ def _run(args: argparse.Namespace, path: Path, mus: list[float] | None,
     if isinstance(head, dict) and head.get("version") == TASK_PLAN_VERSION:
         return _run_task(args, path, mus, work)
     plan = load_plan(path)  # FileFormatError (a ValueError) -> exit 2 in cli.main
-    if mus is None:
-        mus = list(plan.validate_mu)
-        if not mus:
-            raise InputError("--mu: the plan lists no mu.validate values; expected --mu VALUE")
+    mus = _mu_values(mus, plan.validate_mu)
     from sim.compare import Outcome
     from sim.hand_run import run_plan
 
@@ -108,11 +105,25 @@ def _run(args: argparse.Namespace, path: Path, mus: list[float] | None,
         if v.outcome is not Outcome.AGREED:
             for r in v.reasons:
                 print(f"    {r}")
+    return _exit_code(statuses)
+
+
+def _mu_values(mus: list[float] | None, validate_mu: tuple[float, ...]) -> list[float]:
+    """``--mu`` values, else the plan's ``mu.validate`` list (an error when it is empty)."""
+    if mus is None:
+        mus = list(validate_mu)
+        if not mus:
+            raise InputError("--mu: the plan lists no mu.validate values; expected --mu VALUE")
+    return mus
+
+
+def _exit_code(statuses: list) -> int:
+    """3 on a simulator fault, 1 when a run did not agree, else 0."""
+    from sim.compare import Outcome
+
     if any(s is Outcome.FAULT for s in statuses):
         return 3
-    if any(s is not Outcome.AGREED for s in statuses):
-        return 1
-    return 0
+    return 0 if all(s is Outcome.AGREED for s in statuses) else 1
 
 
 def _run_task(args: argparse.Namespace, path: Path, mus: list[float] | None,
@@ -123,10 +134,7 @@ def _run_task(args: argparse.Namespace, path: Path, mus: list[float] | None,
     from planner.plan.task_file import load_task_plan
 
     plan = load_task_plan(path)
-    if mus is None:
-        mus = list(plan.validate_mu)
-        if not mus:
-            raise InputError("--mu: the plan lists no mu.validate values; expected --mu VALUE")
+    mus = _mu_values(mus, plan.validate_mu)
     from sim.compare import Outcome
     from sim.task_run import run_task
 
@@ -149,6 +157,4 @@ def _run_task(args: argparse.Namespace, path: Path, mus: list[float] | None,
             out = work if len(mus) == 1 else work / f"mu_{fmt(mu)}"
             out.mkdir(parents=True, exist_ok=True)
             atomic_write_json(out / "summary.json", res.summary)
-    if any(s is Outcome.FAULT for s in statuses):
-        return 3
-    return 0 if all(s is Outcome.AGREED for s in statuses) else 1
+    return _exit_code(statuses)
