@@ -171,3 +171,48 @@ def test_qsplan_plan_writes_a_partial_plan_and_exits_1(tmp_path):
     assert "widest friction interval that would work there" in r.stdout
     plan = load_task_plan(out)
     assert not plan.reached and plan.diagnosis is not None
+
+
+def _mutations(doc):
+    """(name, mutated copy) pairs: every top-level and segment key deleted or of a wrong type."""
+    from planner.plan.plan_file import digest
+
+    def signed(d):
+        d["digest"] = {"algorithm": "sha256",
+                       "value": digest({k: v for k, v in d.items() if k != "digest"})}
+        return d
+
+    out = []
+    for key in doc:
+        if key == "digest":
+            continue
+        for bad in (None, 7, "x", [], {}):
+            d = copy.deepcopy(doc)
+            d[key] = bad
+            out.append((f"{key}={bad!r}", signed(d)))
+        d = copy.deepcopy(doc)
+        del d[key]
+        out.append((f"no {key}", signed(d)))
+    for key in doc["segments"][0]:
+        for bad in (None, 7, "x", [], {}):
+            d = copy.deepcopy(doc)
+            d["segments"][0][key] = bad
+            out.append((f"segments[0].{key}={bad!r}", signed(d)))
+    d = copy.deepcopy(doc)
+    d["segments"][1]["waypoints"][0]["torque_commands"] = [1.0, 2.0]
+    out.append(("two torques for one effort joint", signed(d)))
+    return out
+
+
+def test_every_broken_version_2_plan_is_refused_with_a_file_format_error(task_json):
+    doc = json.loads(task_json.read_text())
+    cases = _mutations(doc)
+    assert len(cases) > 80
+    for name, d in cases:
+        try:
+            task_plan_from_dict(d)
+        except FileFormatError:
+            continue
+        # only harmless edits may load: free content, or an equivalent value
+        assert name.startswith(("extra={}", "notes='x'", "policy='x'", "diagnosis=None",
+                                "segments[0].released=[]")), name

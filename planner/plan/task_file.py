@@ -35,6 +35,7 @@ from planner.files.hand_file import load_hand_file
 from planner.files.hand_goal import Goal
 from planner.files.reader import read_json
 from planner.model.hand import Hand
+from planner.model.modes import Mode
 from planner.model.validation import friction_interval
 from planner.plan.plan_file import (
     PLAN_FORMAT,
@@ -245,6 +246,17 @@ def task_plan_from_dict(data: Any) -> TaskPlanFile:
                               f"{TASK_PLAN_VERSION}, got {data['format']!r} version "
                               f"{data['version']!r}")
     check_digest(data)
+    for key, kind, name in (("reached", bool, "true or false"), ("exact", bool, "true or false"),
+                            ("notes", str, "a string"), ("policy", str, "a string"),
+                            ("extra", dict, "an object"), ("mu", dict, "an object")):
+        if not isinstance(data[key], kind):
+            raise FileFormatError(f"{key}: expected {name}, got {type(data[key]).__name__}")
+    if (data["diagnosis"] is None) is not data["reached"] or not isinstance(
+            data["diagnosis"], (dict, type(None))):
+        raise FileFormatError("diagnosis: expected null for a plan that reaches its goal and "
+                              "an object for a partial plan, got "
+                              f"{type(data['diagnosis']).__name__} with reached "
+                              f"{data['reached']}")
     segs_raw = data["segments"]
     if not isinstance(segs_raw, list) or not segs_raw:
         raise FileFormatError("segments: expected a non-empty list of segments, got "
@@ -262,9 +274,8 @@ def task_plan_from_dict(data: Any) -> TaskPlanFile:
         wps = s["waypoints"]
         first = wps[0] if isinstance(wps, list) and wps and isinstance(wps[0], dict) else {}
         q = [*first.get("pose", [0.0, 0.0, 0.0]), *first.get("angles", [])]
-        mu = dict(data["mu"]) if isinstance(data["mu"], dict) else data["mu"]
-        if isinstance(mu, dict) and isinstance(mu.get("intervals"), list) and len(
-                mu["intervals"]) == 1:
+        mu = dict(data["mu"])
+        if isinstance(mu.get("intervals"), list) and len(mu["intervals"]) == 1:
             mu["intervals"] = mu["intervals"] * len(s["contacts"])
         try:
             body = {**{k: s[k] for k in ("claim", "control", "event", "exact", "waypoints")},
@@ -275,15 +286,19 @@ def task_plan_from_dict(data: Any) -> TaskPlanFile:
             raise FileFormatError(f"segments[{i}]: {exc}") from None
         except (TypeError, KeyError, IndexError, ValueError) as exc:
             raise FileFormatError(f"segments[{i}]: expected a segment ({exc})") from None
+        try:
+            Mode.parse(segs[-1].claim, segs[-1].hand_model.hand.n_contacts)
+        except InputError as exc:
+            raise FileFormatError(f"segments[{i}].claim: {exc}") from None
         contacts.append(tuple(s["contacts"]))
         released.append(tuple(s["released"]))
     return TaskPlanFile(hand=hand, segments=tuple(segs), contacts=tuple(contacts),
-                        released=tuple(released), reached=bool(data["reached"]),
+                        released=tuple(released), reached=data["reached"],
                         diagnosis=data["diagnosis"], mu_model=segs[0].mu_model,
-                        mu_intervals=tuple(tuple(iv) for iv in data["mu"]["intervals"]),
-                        validate_mu=segs[0].validate_mu, policy=str(data["policy"]),
-                        exact=bool(data["exact"]), notes=str(data["notes"]),
-                        extra=data["extra"] if isinstance(data["extra"], dict) else {})
+                        mu_intervals=segs[0].mu_intervals if len(data["mu"]["intervals"]) > 1
+                        else segs[0].mu_intervals[:1],
+                        validate_mu=segs[0].validate_mu, policy=data["policy"],
+                        exact=data["exact"], notes=data["notes"], extra=data["extra"])
 
 
 def plan_hand_task(path: str | os.PathLike[str], *, mu: Any = None, model: str = "common",
