@@ -216,3 +216,23 @@ def test_every_broken_version_2_plan_is_refused_with_a_file_format_error(task_js
         # only harmless edits may load: free content, or an equivalent value
         assert name.startswith(("extra={}", "notes='x'", "policy='x'", "diagnosis=None",
                                 "segments[0].released=[]")), name
+
+
+def test_a_segment_stops_at_the_goal_and_events_change_the_contact_set():
+    from planner.plan.task_contacts import after_event, describe, with_contacts
+    from planner.plan.trajectory import integrate_segment
+
+    hf = load_hand_file(DATA / "two_finger_hand.json")
+    full = integrate_segment(hf.hand, hf.q0, drive=1, speed=0.02, mode="4S", max_time=60.0,
+                             steps=120)
+    assert full.event.kind == "new contact"
+    x_goal = 0.5 * (full.q[0, 0] + full.q[-1, 0])
+    cut = integrate_segment(hf.hand, hf.q0, drive=1, speed=0.02, mode="4S", max_time=60.0,
+                            steps=120, stop=lambda q: q[0] <= x_goal)
+    assert cut.event.kind == "goal" and abs(cut.q[-1, 0] - x_goal) < 1e-6
+    assert cut.duration < full.duration
+    after = after_event(hf.hand, full.q[-1], full.event.kind)
+    names = [describe(hf.hand, c) for c in after]
+    assert names == ["vertex 0 on palm", "vertex 1 on palm", "vertex 3 on left",
+                     "right tip on edge 1", "vertex 4 on left"]  # edge-to-edge: a 2nd vertex
+    assert np.allclose(with_contacts(hf.hand, after).gaps(full.q[-1]), 0.0, atol=1e-8)
