@@ -10,7 +10,8 @@ grasp.
   (:func:`sim.task_run.run_task`: every segment, each from the simulated end of the one before)
   and the negative control per engine, each writing ``summary.json`` (whole verdict, then one
   row per segment);
-* :func:`task_checks` and :func:`task_report_lines` -- the demo's checks and the report's story.
+* :func:`task_plan_checks`, :func:`task_run_checks` and :func:`task_report_lines` -- the
+  demo's checks and the report's story.
 
 Simulators are imported inside :func:`task_job` (it runs in a worker process).
 """
@@ -85,16 +86,24 @@ def _check(name: str, expected: str, measured: str, held: bool) -> dict[str, Any
     return {"check": name, "expected": expected, "measured": measured, "held": bool(held)}
 
 
-def task_checks(task: dict[str, Any], results: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """Checks of the task: planning, the goal, every segment of every run, the negatives."""
+def task_plan_checks(task: dict[str, Any]) -> list[dict[str, Any]]:
+    """Checks of the task plan: >= 3 segments to the goal; the planning time (info)."""
     plan = task["plan"]
     n = len(plan.segments)
-    checks = [
+    return [
         _check("whole task planned to its goal (Figure 9, mu in [0, 0.2])",
-               ">= 3 segments, goal reached, <= 10 s",
+               ">= 3 segments, goal reached",
                f"{n} segments ({', '.join(s.claim for s in plan.segments)}), reached "
-               f"{plan.reached}, {task['seconds']:.2f} s",
-               plan.reached and n >= 3 and task["seconds"] <= 10.0)]
+               f"{plan.reached}", plan.reached and n >= 3),
+        _check("whole task planning time (info)", "(benchmark: benchmarks/task_bench.py, "
+               "target <= 10 s)", f"{task['seconds']:.2f} s", True)]
+
+
+def task_run_checks(task: dict[str, Any], results: list[dict[str, Any]]
+                    ) -> list[dict[str, Any]]:
+    """Checks of the runs: every segment of every run, the whole task, the negatives."""
+    n = len(task["plan"].segments)
+    checks: list[dict[str, Any]] = []
     for r in results:
         if r.get("kind") != "task":
             continue

@@ -38,7 +38,13 @@ from pathlib import Path
 from typing import Any
 
 from planner.errors import InputError
-from qsplan.demo_task import plan_task, task_checks, task_jobs, task_report_lines
+from qsplan.demo_task import (
+    plan_task,
+    task_jobs,
+    task_plan_checks,
+    task_report_lines,
+    task_run_checks,
+)
 from qsplan.demo_task import task_job as _task_job
 from qsplan.options import check_int
 from scenarios.registry import shipped_file
@@ -194,7 +200,7 @@ def _run(args: argparse.Namespace, engines: list[str], out: Path) -> int:
 
         figures = [p.name for p in plot_bounds(plan, out / "figures")]
     task = plan_task(out, render=not args.no_render)
-    checks += task_checks(task, [])
+    checks += task_plan_checks(task)
 
     # 2. simulations --------------------------------------------------------------------------
     # the R2S control: the first quarter (--quick) or the first half, where R2S is the rival
@@ -226,7 +232,7 @@ def _run(args: argparse.Namespace, engines: list[str], out: Path) -> int:
                     "final_angle_error_rad"):
             r.setdefault(key, float("nan"))
     faults = [r for r in results if r["status"] == "fault"]
-    checks += task_checks(task, results)[1:]
+    checks += task_run_checks(task, results)
     for r in results:  # the single-segment runs: the R2S negative control
         if r.get("kind") == "task":
             continue
