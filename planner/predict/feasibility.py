@@ -290,38 +290,42 @@ def predict_candidates(
     structural test holds), or else from the row-subset scan.
     """
     kin = kinematic_stage(system, cand, tol=tol, singular_tol=singular_tol)
-    idx = np.flatnonzero(kin.ok)
+    idx = kin.ok.nonzero()[0]
     fs = force_stage(system, cand, idx, kin.xi[idx], mu_arr, singular_tol=singular_tol)
+    f_ok = fs.nonsingular[0]
     margin = np.minimum(fs.margin[0], kin.margin[idx])
-    feasible = fs.nonsingular[0] & (margin >= -tol)
-    finite = np.isfinite(kin.qdot[idx]).all(axis=1) & np.isfinite(fs.c_A[0]).all(axis=1)
-    if np.any(fs.nonsingular[0] & ~finite):
-        raise DegenerateError(
-            "numerical overflow while solving eqs. (24)/(26): expected inputs whose magnitudes "
-            "fit in double precision products (rescale lengths, forces or speeds)"
-        )
+    feasible = f_ok & (margin >= -tol)
+    # Overflow check (qdot of admissible candidates and c_A of nonsingular Q_AI must be finite):
+    # the sum is finite in the common case; else look closer.
+    if not np.isfinite(np.add.reduce(kin.qdot[idx], axis=None)
+                       + np.add.reduce(fs.c_A[0], axis=None)):
+        finite = np.isfinite(kin.qdot[idx]).all(axis=1) & np.isfinite(fs.c_A[0]).all(axis=1)
+        if np.any(f_ok & ~finite):
+            raise DegenerateError(
+                "numerical overflow while solving eqs. (24)/(26): expected inputs whose "
+                "magnitudes fit in double precision products (rescale lengths, forces or speeds)"
+            )
+    codes, xi = cand.codes, kin.xi
     modes = []
-    for j in np.flatnonzero(feasible):
-        i = idx[j]
+    for j in feasible.nonzero()[0].tolist():
+        i = int(idx[j])
+        m_j = float(margin[j])
         modes.append(
             FeasibleMode(
-                mode=Mode(tuple(int(c) for c in cand.codes[i]), tuple(int(x) for x in kin.xi[i])),
+                mode=Mode(tuple(codes[i].tolist()), tuple(xi[i].tolist())),
                 qdot=kin.qdot[i].copy(),
-                joint_velocities=kin.joint_velocities[i].copy(),
+                joint_velocities=kin.joint_velocities_of(i),
                 contact_velocities=kin.v[i].reshape(-1, 2).copy(),
                 contact_forces=fs.contact_forces[0, j].copy(),
                 joint_efforts=fs.joint_efforts[0, j].copy(),
-                margin=float(margin[j]),
-                on_boundary=bool(abs(margin[j]) <= tol),
+                margin=m_j,
+                on_boundary=abs(m_j) <= tol,
             )
         )
-    boundary = tuple(
-        Mode(tuple(int(c) for c in cand.codes[i]), tuple(int(x) for x in kin.xi[i]))
-        for i in np.flatnonzero(kin.boundary)
-    )
-    degenerate = extra_degenerate + int(np.count_nonzero(~kin.nonsingular)) + int(
-        np.count_nonzero(~fs.nonsingular[0])
-    )
+    boundary = tuple(Mode(tuple(codes[i].tolist()), tuple(xi[i].tolist()))
+                     for i in kin.boundary.nonzero()[0].tolist())
+    degenerate = (extra_degenerate + len(cand) - int(np.count_nonzero(kin.nonsingular))
+                  + len(idx) - int(np.count_nonzero(f_ok)))
     if indeterminate is not False and relaxed is None and relaxed_from_candidates:
         relaxed = RelaxedCodes(system, tol)
         relaxed.add(kin)
