@@ -42,9 +42,8 @@ from planner.predict.indeterminate import (
     DEFAULT_MAX_ROW_SUBSETS,
     GEN_TOL,
     MAX_MODES_PER_VELOCITY,
+    closed_bases_stacked,
     modes_of_pattern,
-    near_dependent,
-    pair_span_rows,
 )
 from planner.predict.linalg import batch_det_solve
 from planner.predict.relaxed_modes import IndeterminateKinematics, stacked_relaxed_kinematics
@@ -303,10 +302,7 @@ def _closed_bases_stacked(Kn: np.ndarray, n_c: int, k: int) -> np.ndarray:
     """:func:`planner.predict.indeterminate.closed_bases_suffice` for every configuration of
     the stacked equilibrated ``Kn (B, 2 n_c, k)`` (one batched test per pair count)."""
     B = Kn.shape[0]
-    ok = np.ones(B, bool)
     p_max = (k - 1) // 2
     if sum(n_c * comb(n_c - 1, p) for p in range(1, p_max + 1)) * B > 4_000_000:
         return np.zeros(B, bool)  # too many tests: the row-subset scan decides
-    for p in range(1, min(p_max, n_c - 1) + 1):
-        ok &= ~np.any(near_dependent(Kn[:, pair_span_rows(n_c, p)]), axis=1)
-    return ok
+    return closed_bases_stacked(Kn)

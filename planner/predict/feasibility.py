@@ -26,6 +26,7 @@ Matrices whose equilibrated determinant is below ``singular_tol`` violate the ra
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from enum import Enum
 from typing import Any
@@ -45,6 +46,7 @@ from planner.model.system import System
 from planner.model.validation import as_friction
 from planner.predict.indeterminate import (
     DEFAULT_MAX_ROW_SUBSETS,
+    GEN_TOL,
     IndeterminateKinematics,
     closed_bases_suffice,
     codes_from_velocities,
@@ -197,7 +199,7 @@ def feasible_modes(
     if not isinstance(system, System):
         raise InputError(f"system: expected a planner System, got {type(system).__name__}")
     mu_arr = system.mu if mu is None else as_friction(mu, system.n_contacts)
-    if not (np.isfinite(tol) and tol >= 0):
+    if not (math.isfinite(tol) and tol >= 0):
         raise InputError(f"tol: expected a finite number >= 0, got {tol}")
     n_c, k = system.n_contacts, system.dof
     n_cand = candidate_count(n_c, k)
@@ -245,22 +247,32 @@ class RelaxedCodes:
     candidate is added): :func:`planner.predict.indeterminate.codes_from_velocities`."""
 
     def __init__(self, system: System, tol: float) -> None:
-        self.system, self.k = system, system.dof
-        self.strict, self.gen = generation_thresholds(system, tol)
-        self.row = equilibrated_kinematics(system).row
+        self.system, self.k, self.tol = system, system.dof, tol
+        eq = equilibrated_kinematics(system)
+        self.row, self.gen = eq.row, GEN_TOL * eq.b_scale
+        self.strict: np.ndarray | None = None  # generation_thresholds, when first needed
         self.found: set[bytes] = set()
         self.codes: list[np.ndarray] = []
         self.limit = ""
 
     def add(self, kin: KinematicStage) -> None:
-        """Read the modes off the nonsingular candidates of one kinematic stage."""
-        self.add_velocities(kin.v[kin.nonsingular])
+        """Read the modes off the nonsingular candidates of one kinematic stage (the singular
+        ones' velocities are NaN: no row of theirs counts as vanishing)."""
+        self.add_velocities(kin.v)
 
     def add_velocities(self, v: np.ndarray) -> None:
         """Read the modes off relative velocities ``v (m, 2 n_c)`` (eq. 5) of nonsingular
         candidates."""
+        ve = v / self.row
+        # At generic velocities exactly k rows vanish: nothing to read off (the common case).
+        if not ve.shape[0]:
+            return
+        if np.maximum.reduce(np.add.reduce(np.abs(ve) <= self.gen, axis=1)) <= self.k:
+            return
+        if self.strict is None:
+            self.strict = generation_thresholds(self.system, self.tol)[0]
         self.limit = codes_from_velocities(
-            v / self.row, self.k, self.strict, self.gen, self.found, self.codes) or self.limit
+            ve, self.k, self.strict, self.gen, self.found, self.codes) or self.limit
 
 
 def predict_candidates(
@@ -297,8 +309,8 @@ def predict_candidates(
     feasible = f_ok & (margin >= -tol)
     # Overflow check (qdot of admissible candidates and c_A of nonsingular Q_AI must be finite):
     # the sum is finite in the common case; else look closer.
-    if not np.isfinite(np.add.reduce(kin.qdot[idx], axis=None)
-                       + np.add.reduce(fs.c_A[0], axis=None)):
+    if not math.isfinite(np.add.reduce(kin.qdot.take(idx, axis=0), axis=None)
+                         + np.add.reduce(fs.c_A[0], axis=None)):
         finite = np.isfinite(kin.qdot[idx]).all(axis=1) & np.isfinite(fs.c_A[0]).all(axis=1)
         if np.any(f_ok & ~finite):
             raise DegenerateError(

@@ -31,7 +31,7 @@ import numpy as np
 
 from planner.model.modes import BREAK, ROLL, SLIDE
 from planner.model.system import System
-from planner.predict.linalg import lu_det_solve
+from planner.predict.linalg import batch_det, lu_det_solve
 from planner.predict.relaxed_modes import (
     IndeterminateKinematics,
     coulomb_rows,
@@ -220,9 +220,28 @@ def closed_bases_suffice(system: System) -> bool:
     hit = _CLOSED_BASES.get(system)
     if hit is None:
         n_c, k = system.n_contacts, system.dof
-        hit = _CLOSED_BASES[system] = structure_tests_fit(n_c, k) and _no_normal_in_pair_span(
-            equilibrated_kinematics(system).Kn, n_c, (k - 1) // 2)
+        hit = _CLOSED_BASES[system] = structure_tests_fit(n_c, k) and bool(
+            closed_bases_stacked(equilibrated_kinematics(system).Kn[None])[0])
     return hit
+
+
+def closed_bases_stacked(Kn: np.ndarray) -> np.ndarray:
+    """:func:`closed_bases_suffice`'s rank tests for every configuration of the stacked
+    equilibrated ``Kn (B, 2 n_c, k)`` (unit rows): ``(B,)`` bool, True where no normal row
+    ``Kn[2 j]`` lies (nearly) in the span of ``p <= (k - 1) / 2`` rolling pairs of other
+    contacts.  Each test's Gram matrix is read off the Gram matrix ``Kn Kn^T`` of all rows."""
+    B, two_n, k = Kn.shape
+    n_c = two_n // 2
+    ok = np.ones(B, bool)
+    p_max = min((k - 1) // 2, n_c - 1)
+    if p_max < 1:
+        return ok
+    gram = (Kn @ np.swapaxes(Kn, 1, 2)).reshape(B, two_n * two_n)
+    for p in range(1, p_max + 1):
+        g = gram.take(pair_span_gram_index(n_c, p), axis=1)  # (B, T, 2 p + 1, 2 p + 1)
+        # det(X X^T) is the product of the squared singular values: 0 for dependent rows.
+        ok &= ~np.logical_or.reduce(batch_det(g) <= SPAN_TOL ** 2, axis=1)
+    return ok
 
 
 @lru_cache(maxsize=256)
@@ -237,19 +256,14 @@ def structure_tests_fit(n_c: int, k: int) -> bool:
 _CLOSED_BASES: weakref.WeakKeyDictionary[System, bool] = weakref.WeakKeyDictionary()
 
 
-def _no_normal_in_pair_span(Kn: np.ndarray, n_c: int, p_max: int) -> bool:
-    """No normal row ``Kn[2 j]`` (near) in the span of ``p <= p_max`` pairs of other contacts."""
-    for p in range(1, min(p_max, n_c - 1) + 1):
-        if np.any(near_dependent(Kn[pair_span_rows(n_c, p)])):
-            return False
-    return True
-
-
-def near_dependent(X: np.ndarray) -> np.ndarray:
-    """``X (..., r, k)`` with unit rows: True where ``det(X X^T) <= SPAN_TOL^2`` (the product
-    of the squared singular values: exactly dependent rows give 0)."""
-    gram = X @ np.swapaxes(X, -1, -2)
-    return np.linalg.det(gram) <= SPAN_TOL ** 2
+@lru_cache(maxsize=64)
+def pair_span_gram_index(n_c: int, p: int) -> np.ndarray:
+    """Flat indices ``(T, 2 p + 1, 2 p + 1)`` into the ``(2 n_c)^2`` Gram matrix of ``K``'s
+    rows: the Gram matrix of each row set of :func:`pair_span_rows` ``(n_c, p)``."""
+    rows = pair_span_rows(n_c, p)
+    idx = rows[:, :, None] * (2 * n_c) + rows[:, None, :]
+    idx.setflags(write=False)
+    return idx
 
 
 @lru_cache(maxsize=64)

@@ -108,7 +108,7 @@ def det_solve(A: np.ndarray, b: np.ndarray, rows: np.ndarray) -> tuple[np.ndarra
     """
     M, k = rows.shape
     if M <= SMALL_BATCH:
-        hit = _lapack(A[rows], b[rows])
+        hit = _lapack(A.take(rows, axis=0), b.take(rows))
         if hit is not None:
             return hit
     aug = np.ascontiguousarray(np.concatenate([A, b[:, None]], axis=1).T)  # (k+1, n)
@@ -142,6 +142,7 @@ def transposed_det_solve(AT: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.
     return det, y
 
 
+@np.errstate(all="ignore")  # (the decorator is cheaper than a with-block per call)
 def _lapack(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     """LAPACK ``getrf``-based ``(det, solution)`` of ``A (M, k, k)`` and ``b (M, k)`` or one
     right side ``b (k,)`` for all (any strides: the gufuncs copy each matrix into LAPACK's
@@ -151,11 +152,17 @@ def _lapack(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray] | Non
     bit, without the wrappers' per-call overhead."""
     if A.shape[0] == 0:
         return np.zeros(0), np.zeros((0, A.shape[-1]))
-    with np.errstate(all="ignore"):
-        det = _gufunc_det(A)
-        if np.count_nonzero(det) < det.shape[0]:
-            return None
-        return det, _gufunc_solve(A, b)
+    det = _gufunc_det(A)
+    if np.count_nonzero(det) < det.shape[0]:
+        return None
+    return det, _gufunc_solve(A, b)
+
+
+@np.errstate(all="ignore")
+def batch_det(A: np.ndarray) -> np.ndarray:
+    """``det A_m`` for ``A (..., k, k)`` (``numpy.linalg.det``'s LAPACK gufunc, bit for bit,
+    without its wrapper's per-call overhead)."""
+    return _gufunc_det(A)
 
 
 def batch_det_solve(A: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -253,7 +253,7 @@ def kinematic_stage(
     # (30-32) and z (eq. 24).
     det, z = det_solve(eq.Kn, eq.bn, cand.rows)
     nonsingular = np.abs(det) > singular_tol
-    all_nonsingular = bool(nonsingular.all())
+    all_nonsingular = np.count_nonzero(nonsingular) == M
     if not all_nonsingular:
         z[~nonsingular] = np.nan
     z /= eq.col
@@ -263,7 +263,7 @@ def kinematic_stage(
     is_break, is_slide, _ = cand.masks
     strict = np.where(is_break, v_n, np.where(is_slide, np.abs(v_t), np.inf))
     if strict.shape[1]:
-        margin = strict.min(axis=1)
+        margin = np.minimum.reduce(strict, axis=1)
         if vel_scale > 0:
             margin /= vel_scale
     else:
@@ -271,7 +271,7 @@ def kinematic_stage(
     # xi = sgn(v_t) (eq. 16) at sliding contacts of nonsingular candidates; NaN counts as 0.
     xi = (v_t > 0).view(np.int8) - (v_t < 0).view(np.int8)
     if all_nonsingular:
-        xi *= is_slide
+        xi *= is_slide.view(np.int8)
     else:
         margin[~nonsingular] = -np.inf
         xi *= is_slide & nonsingular[:, None]
@@ -371,7 +371,7 @@ def force_stage(
     _, slide_mask, roll_mask = candidates.masks
     rows = candidates.rows.take(index, axis=0)
     is_s, is_r = slide_mask.take(index, axis=0), roll_mask.take(index, axis=0)
-    xis = xi * is_s  # sliding directions, 0 elsewhere
+    xis = xi * is_s.view(np.int8)  # sliding directions, 0 elsewhere
     if L == 1:
         mu_p = mu2  # broadcasts over the m pairs
         muxi = mu2 * xis.astype(float)  # (P, n_c): mu_i xi_i
@@ -397,7 +397,7 @@ def force_stage(
     # Q_AI = QTn^T per mode: one LU per matrix gives |det| (30-32) and y (eq. 26).
     det, y = transposed_det_solve(QT, setup.rhs_scaled)
     nonsingular = np.abs(det) > singular_tol
-    all_nonsingular = bool(nonsingular.all())
+    all_nonsingular = np.count_nonzero(nonsingular) == P
     if not all_nonsingular:
         y[~nonsingular] = np.nan
     c_A = y / cn
@@ -414,8 +414,9 @@ def force_stage(
     cone -= np.abs(ft)
     slack = np.where(is_r, np.minimum(cone, fn), np.where(is_s, fn, np.inf))
     if k and n_c:
+        # Largest applicable force; 0 -> _TINY (all forces 0: the slacks are 0 or inf).
         f_scale = np.maximum.reduce(np.abs(c_A), axis=1)
-        margin = np.minimum.reduce(slack, axis=1) / np.where(f_scale > 0, f_scale, 1.0)
+        margin = np.minimum.reduce(slack, axis=1) / np.maximum(f_scale, _TINY, out=f_scale)
     else:
         margin = np.full(P, np.inf)
     if not all_nonsingular:
