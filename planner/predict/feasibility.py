@@ -212,14 +212,14 @@ def feasible_modes(
     chunk = stream_chunk(n_c)
     # Relaxed-utility modes from the determinate candidates' velocities when the structural
     # test allows it (indeterminate.closed_bases_suffice), else by the row-subset scan.
-    from_candidates = indeterminate is not False and closed_bases_suffice(system)
     if n_cand <= chunk:
         prediction, _ = predict_candidates(
             system, enumerate_modes(n_c, k), mu_arr, tol=tol, singular_tol=singular_tol,
             indeterminate=indeterminate, max_subsets=max_subsets,
-            relaxed_from_candidates=from_candidates,
+            relaxed_from_candidates=None,
         )
         return prediction
+    from_candidates = indeterminate is not False and closed_bases_suffice(system)
     # Streamed: the kinematic stage chunk by chunk, keeping the admissible and boundary
     # candidates (same arithmetic per candidate; eq. 24's LU does not see its batch).
     kept, singular, n_chunks = [], 0, 0
@@ -286,7 +286,7 @@ def predict_candidates(
     max_subsets: int = DEFAULT_MAX_ROW_SUBSETS,
     extra_degenerate: int = 0,
     method: str = "exhaustive",
-    relaxed_from_candidates: bool = False,
+    relaxed_from_candidates: bool | None = False,
     relaxed: RelaxedCodes | None = None,
 ) -> tuple[Prediction, int]:
     """Kinematic then force stage on the candidates ``cand`` and the :class:`Prediction`
@@ -299,7 +299,8 @@ def predict_candidates(
     ``indeterminate`` and ``max_subsets`` as in :func:`feasible_modes`.  The relaxed-utility
     candidates come from ``relaxed`` (collected over streamed chunks), from ``cand``'s own
     velocities (``relaxed_from_candidates``: ``cand`` is every eq. (49) candidate and the
-    structural test holds), or else from the row-subset scan.
+    structural test holds; None: ``cand`` is every eq. (49) candidate, apply the structural
+    test, helped by the kinematic stage's determinants), or else from the row-subset scan.
     """
     kin = kinematic_stage(system, cand, tol=tol, singular_tol=singular_tol)
     idx = kin.ok.nonzero()[0]
@@ -338,6 +339,8 @@ def predict_candidates(
                      for i in kin.boundary.nonzero()[0].tolist())
     degenerate = (extra_degenerate + len(cand) - int(np.count_nonzero(kin.nonsingular))
                   + len(idx) - int(np.count_nonzero(f_ok)))
+    if relaxed_from_candidates is None:
+        relaxed_from_candidates = indeterminate is not False and closed_bases_suffice(system, kin)
     if indeterminate is not False and relaxed is None and relaxed_from_candidates:
         relaxed = RelaxedCodes(system, tol)
         relaxed.add(kin)

@@ -29,7 +29,7 @@ from math import comb
 
 import numpy as np
 
-from planner.model.modes import BREAK, ROLL, SLIDE
+from planner.model.modes import BREAK, ROLL, SLIDE, enumerate_modes
 from planner.model.system import System
 from planner.predict.linalg import batch_det, lu_det_solve
 from planner.predict.relaxed_modes import (
@@ -43,6 +43,7 @@ from planner.predict.stages import (
     DEFAULT_SINGULAR_TOL,
     DEFAULT_TOL,
     FeasibleMode,
+    KinematicStage,
     equilibrated_kinematics,
 )
 
@@ -202,7 +203,7 @@ SPAN_TOL = 1e-6
 MAX_STRUCTURE_TESTS = 50_000
 
 
-def closed_bases_suffice(system: System) -> bool:
+def closed_bases_suffice(system: System, kinematics: KinematicStage | None = None) -> bool:
     """Cheap structural test: True when every relaxed-utility mode contains an eq. (49)
     candidate (``n_R`` rolling pairs and ``n_S`` sliding normals, ``k`` rows) that is
     nonsingular, so that the velocities of the determinate candidates already reveal every
@@ -220,9 +221,60 @@ def closed_bases_suffice(system: System) -> bool:
     hit = _CLOSED_BASES.get(system)
     if hit is None:
         n_c, k = system.n_contacts, system.dof
-        hit = _CLOSED_BASES[system] = structure_tests_fit(n_c, k) and bool(
-            closed_bases_stacked(equilibrated_kinematics(system).Kn[None])[0])
+        if not structure_tests_fit(n_c, k):
+            hit = False
+        elif kinematics is not None and kinematics.candidates is enumerate_modes(n_c, k) and \
+                bool(certified_by_determinants(kinematics.det[None], n_c, k)[0]):
+            hit = True
+        else:
+            hit = bool(closed_bases_stacked(equilibrated_kinematics(system).Kn[None])[0])
+        _CLOSED_BASES[system] = hit
     return hit
+
+
+#: An eq. (49) candidate with equilibrated ``|det P_AI|`` above this certifies every structural
+#: test whose rows it contains (:func:`certified_by_determinants`; 2x for rounding).
+DET_CERTIFICATE = 2 * SPAN_TOL
+
+
+def certified_by_determinants(det: np.ndarray, n_c: int, k: int) -> np.ndarray:
+    """``(B,)`` bool: True where the equilibrated determinants ``det (B, M)`` of the eq. (49)
+    candidates (:func:`planner.model.modes.enumerate_modes` order) prove every test of
+    :func:`closed_bases_suffice`; False means "not proved" (run the Gram tests).
+
+    A test's rows ``S`` (``n_j`` and ``p`` rolling pairs, all unit rows of ``Kn``) are a
+    subset of a candidate's rows ``A``; by Fischer's inequality ``det P_A^2 = det(P_A P_A^T) <=
+    det(Kn_S Kn_S^T) prod |other rows|^2 = det(Kn_S Kn_S^T)``, so ``|det P_A| > SPAN_TOL``
+    implies the Gram determinant exceeds ``SPAN_TOL^2``: the test passes."""
+    cover = structure_test_cover(n_c, k)
+    B = det.shape[0]
+    if cover is None or not cover.shape[0]:
+        return np.zeros(B, bool) if cover is None else np.ones(B, bool)
+    good = (np.abs(det) > DET_CERTIFICATE).astype(float)  # (B, M)
+    return np.minimum.reduce(good @ cover.T, axis=1) > 0  # every test has a witness
+
+
+@lru_cache(maxsize=64)
+def structure_test_cover(n_c: int, k: int) -> np.ndarray | None:
+    """``(T, M)`` 0/1 float: which eq. (49) candidates contain the rows of each test of
+    :func:`closed_bases_suffice` (all ``p``, :func:`pair_span_rows` order); None when that
+    table would be large (more than 2e7 entries x rows)."""
+    cand = enumerate_modes(n_c, k)
+    p_max = min((k - 1) // 2, n_c - 1)
+    tests = [pair_span_rows(n_c, p) for p in range(1, p_max + 1)]
+    T, M = sum(len(t) for t in tests), len(cand)
+    if T * M * 2 * n_c > 20_000_000:
+        return None
+    has_c = np.zeros((M, 2 * n_c), bool)
+    np.put_along_axis(has_c, cand.rows, True, axis=1)
+    has_t = np.zeros((T, 2 * n_c), bool)
+    start = 0
+    for t in tests:  # one block of tests per p
+        np.put_along_axis(has_t[start:start + len(t)], t, True, axis=1)
+        start += len(t)
+    cover = (~np.any(has_t[:, None, :] & ~has_c[None], axis=2)).astype(float)
+    cover.setflags(write=False)
+    return cover
 
 
 def closed_bases_stacked(Kn: np.ndarray) -> np.ndarray:

@@ -116,6 +116,7 @@ class KinematicStage:
     velocity_scale : float       largest commanded contact-point speed (the margin's unit).
     thetadot_base : (n_theta,)   commanded joint velocities, 0 at effort-controlled joints.
     effort_joints : (|tau_I|,)   their indices.
+    det : (M,)                   equilibrated determinant of P_AI (rank test 30-32).
     joint_velocities : (M, n_theta)  all joint velocities (built on first use).
     """
 
@@ -131,6 +132,7 @@ class KinematicStage:
     velocity_scale: float
     thetadot_base: np.ndarray
     effort_joints: np.ndarray
+    det: np.ndarray
 
     @cached_property
     def joint_velocities(self) -> np.ndarray:
@@ -210,25 +212,31 @@ def _build_setup(system: System) -> tuple[EquilibratedKinematics, ForceSetup]:
     E, V = system.effort_joints, system.velocity_joints
     J, inputs = system.J, system.joint_inputs
     # K = [W^T  -J_E] and G = [W^T  J_E] (rows: constraint rows; columns: the k unknowns).
-    WT, J_E = system.W.T, J[:, E]
+    WT, J_E = system.W.T, J[:, E]  # (indexed, not taken: K keeps its layout and its bits)
     K = np.concatenate([WT, -J_E], axis=1)
-    rhs = J[:, V] @ inputs[V]  # J_V thetadot_V per constraint row
-    vel_scale = float(np.abs(rhs).max()) if rhs.size else 0.0
-    col = np.abs(K).max(axis=0)
-    col[col == 0] = 1.0
+    rhs = J[:, V] @ inputs[V]  # J_V thetadot_V per constraint row (as indexed: same bits)
+    vel_scale = float(np.maximum.reduce(np.abs(rhs))) if rhs.size else 0.0
+    col = np.maximum.reduce(np.abs(K), axis=0)
+    _zero_to_one(col)
     Kc = K / col
     row = np.sqrt(np.add.reduce(Kc * Kc, axis=1))  # numpy.linalg.norm(Kc, axis=1)
-    row[row == 0] = 1.0
+    _zero_to_one(row)
     bn = rhs / row
-    b_scale = float(np.abs(bn).max()) if bn.size else 0.0
+    b_scale = float(np.maximum.reduce(np.abs(bn))) if bn.size else 0.0
     base = np.zeros(len(inputs))
-    base[V] = inputs[V]
+    base[V] = inputs.take(V)
     eq = EquilibratedKinematics(Kc / row[:, None], bn, col, row, rhs, vel_scale, b_scale,
                                 np.ascontiguousarray(K.T), base)
     # G's column maxima equal K's (|-x| = |x|): rs is col.
-    f_rhs = np.concatenate([-system.g_obj, inputs[E] - system.g_man[E]])
+    f_rhs = np.concatenate([-system.g_obj, inputs.take(E) - system.g_man.take(E)])
     G = np.concatenate([WT, J_E], axis=1)
     return eq, ForceSetup(G, col, f_rhs, f_rhs / col, G[0::2].copy(), G[1::2].copy())
+
+
+def _zero_to_one(x: np.ndarray) -> None:
+    """Replace exact zeros of the scaling vector ``x`` by 1, in place."""
+    if np.count_nonzero(x) < x.shape[0]:
+        x[x == 0] = 1.0
 
 
 def kinematic_stage(
@@ -278,7 +286,7 @@ def kinematic_stage(
     ok = margin > tol  # singular candidates have margin -inf
     boundary = np.abs(margin) <= tol
     return KinematicStage(cand, nonsingular, z[:, :3], z[:, 3:], v, xi, margin, ok, boundary,
-                          vel_scale, eq.thetadot_base, system.effort_joints)
+                          vel_scale, eq.thetadot_base, system.effort_joints, det)
 
 
 # ---------------------------------------------------------------------------------------------
