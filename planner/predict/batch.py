@@ -42,6 +42,7 @@ from planner.predict.indeterminate import (
     DEFAULT_MAX_ROW_SUBSETS,
     GEN_TOL,
     MAX_MODES_PER_VELOCITY,
+    certified_by_determinants,
     closed_bases_stacked,
     modes_of_pattern,
 )
@@ -216,7 +217,7 @@ def _block(
     relaxed_limit = [""] * B
     structure_ok = np.zeros(B, bool)
     if indeterminate is not False:
-        structure_ok = _closed_bases_stacked(Kn, n_c, k)
+        structure_ok = _closed_bases_stacked(Kn, n_c, k, det.reshape(B, M))
         cfg, gen_codes, relaxed_limit = _generate(
             v / row[:, None, :], nonsingular, structure_ok, row, vel_scale, bn, k, tol)
         relaxed_kin = stacked_relaxed_kinematics(
@@ -314,11 +315,16 @@ def _generate(
     return both[:, 0].astype(np.int64), both[:, 1:].astype(np.int8), limits
 
 
-def _closed_bases_stacked(Kn: np.ndarray, n_c: int, k: int) -> np.ndarray:
+def _closed_bases_stacked(Kn: np.ndarray, n_c: int, k: int, det: np.ndarray) -> np.ndarray:
     """:func:`planner.predict.indeterminate.closed_bases_suffice` for every configuration of
-    the stacked equilibrated ``Kn (B, 2 n_c, k)`` (one batched test per pair count)."""
+    the stacked equilibrated ``Kn (B, 2 n_c, k)``: proved by the determinants ``det (B, M)`` of
+    the eq. (49) candidates where they suffice, else one batched Gram test per pair count."""
     B = Kn.shape[0]
     p_max = (k - 1) // 2
     if sum(n_c * comb(n_c - 1, p) for p in range(1, p_max + 1)) * B > 4_000_000:
         return np.zeros(B, bool)  # too many tests: the row-subset scan decides
-    return closed_bases_stacked(Kn)
+    ok = certified_by_determinants(det, n_c, k)
+    rest = np.flatnonzero(~ok)
+    if rest.size:
+        ok[rest] = closed_bases_stacked(Kn[rest])
+    return ok
