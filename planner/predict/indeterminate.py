@@ -21,7 +21,6 @@ those few modes.
 from __future__ import annotations
 
 import itertools
-import weakref
 from collections.abc import Iterator
 from dataclasses import dataclass
 from functools import lru_cache
@@ -218,7 +217,8 @@ def closed_bases_suffice(system: System, kinematics: KinematicStage | None = Non
     no normal does (Gram determinant of ``[n_j; n_a; t_a; ...]`` above ``SPAN_TOL^2``); e.g.
     a pinch grasp (opposite normals on one line) fails it.  Answers False
     (scan everything) when that takes more than :data:`MAX_STRUCTURE_TESTS` tests."""
-    hit = _CLOSED_BASES.get(system)
+    eq = equilibrated_kinematics(system)
+    hit = eq.derived.get("closed_bases")
     if hit is None:
         n_c, k = system.n_contacts, system.dof
         if not structure_tests_fit(n_c, k):
@@ -227,8 +227,8 @@ def closed_bases_suffice(system: System, kinematics: KinematicStage | None = Non
                 bool(certified_by_determinants(kinematics.det[None], n_c, k)[0]):
             hit = True
         else:
-            hit = bool(closed_bases_stacked(equilibrated_kinematics(system).Kn[None])[0])
-        _CLOSED_BASES[system] = hit
+            hit = bool(closed_bases_stacked(eq.Kn[None])[0])
+        eq.derived["closed_bases"] = hit
     return hit
 
 
@@ -251,6 +251,8 @@ def certified_by_determinants(det: np.ndarray, n_c: int, k: int) -> np.ndarray:
     if cover is None or not cover.shape[0]:
         return np.zeros(B, bool) if cover is None else np.ones(B, bool)
     good = (np.abs(det) > DET_CERTIFICATE).astype(float)  # (B, M)
+    if B == 1:  # (the single call: one matrix-vector product)
+        return np.array([np.count_nonzero(cover @ good[0]) == cover.shape[0]])
     return np.minimum.reduce(good @ cover.T, axis=1) > 0  # every test has a witness
 
 
@@ -302,10 +304,6 @@ def structure_tests_fit(n_c: int, k: int) -> bool:
     |tau_I|`` number at most :data:`MAX_STRUCTURE_TESTS`."""
     tests = sum(n_c * comb(n_c - 1, p) for p in range(1, (k - 1) // 2 + 1))
     return tests <= MAX_STRUCTURE_TESTS
-
-
-#: Per-system cache of :func:`closed_bases_suffice` (friction-independent).
-_CLOSED_BASES: weakref.WeakKeyDictionary[System, bool] = weakref.WeakKeyDictionary()
 
 
 @lru_cache(maxsize=64)

@@ -167,6 +167,10 @@ class EquilibratedKinematics:
     b_scale: float = 0.0
     KT: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
     thetadot_base: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    #: Friction-independent results derived from these rows by other modules (e.g. the
+    #: structural test of :func:`planner.predict.indeterminate.closed_bases_suffice`), cached
+    #: with the system's set-up.
+    derived: dict[str, Any] = field(default_factory=dict)
 
 
 @dataclass(frozen=True, eq=False)
@@ -228,7 +232,9 @@ def _build_setup(system: System) -> tuple[EquilibratedKinematics, ForceSetup]:
     eq = EquilibratedKinematics(Kc / row[:, None], bn, col, row, rhs, vel_scale, b_scale,
                                 np.ascontiguousarray(K.T), base)
     # G's column maxima equal K's (|-x| = |x|): rs is col.
-    f_rhs = np.concatenate([-system.g_obj, inputs.take(E) - system.g_man.take(E)])
+    f_rhs = np.empty(K.shape[1])  # [-g_obj; tau_I - g_man_I]
+    np.negative(system.g_obj, out=f_rhs[:3])
+    np.subtract(inputs.take(E), system.g_man.take(E), out=f_rhs[3:])
     G = np.concatenate([WT, J_E], axis=1)
     return eq, ForceSetup(G, col, f_rhs, f_rhs / col, G[0::2].copy(), G[1::2].copy())
 
@@ -366,8 +372,9 @@ def force_stage(
 ) -> ForceStage:
     """Solve eq. (26) and test eq. (28) for candidates ``index`` at friction vectors ``mu``.
 
-    ``xi`` is ``(len(index), n_c)`` (the kinematic stage's sliding directions; only the
-    sliding contacts' entries are read); ``mu`` is ``(n_c,)`` or ``(L, n_c)``.
+    ``xi`` is ``(len(index), n_c)``: the kinematic stage's sliding directions
+    (:attr:`KinematicStage.xi`: ``sgn v_t`` at sliding contacts, 0 at the others); ``mu`` is
+    ``(n_c,)`` or ``(L, n_c)``.
     """
     mu2 = np.asarray(mu, dtype=float)
     if mu2.ndim != 2:
@@ -379,13 +386,12 @@ def force_stage(
     _, slide_mask, roll_mask = candidates.masks
     rows = candidates.rows.take(index, axis=0)
     is_s, is_r = slide_mask.take(index, axis=0), roll_mask.take(index, axis=0)
-    xis = xi * is_s.view(np.int8)  # sliding directions, 0 elsewhere
     if L == 1:
         mu_p = mu2  # broadcasts over the m pairs
-        muxi = mu2 * xis.astype(float)  # (P, n_c): mu_i xi_i
+        muxi = mu2 * xi.astype(float)  # (P, n_c): mu_i xi_i (0 unless sliding)
     else:
         mu_p = np.repeat(mu2, m, axis=0)
-        muxi = mu_p * np.tile(xis, (L, 1)).astype(float)
+        muxi = mu_p * np.tile(xi, (L, 1)).astype(float)
         rows, is_s, is_r = np.tile(rows, (L, 1)), np.tile(is_s, (L, 1)), np.tile(is_r, (L, 1))
     # Q_AI^T (eqs. 17-20, 26): the rows of G, a sliding contact's normal row minus mu_i xi_i
     # times its tangent row.
