@@ -247,20 +247,23 @@ def certified_by_determinants(det: np.ndarray, n_c: int, k: int) -> np.ndarray:
     det(Kn_S Kn_S^T) prod |other rows|^2 = det(Kn_S Kn_S^T)``, so ``|det P_A| > SPAN_TOL``
     implies the Gram determinant exceeds ``SPAN_TOL^2``: the test passes."""
     cover = structure_test_cover(n_c, k)
-    B = det.shape[0]
+    B, M = det.shape
     if cover is None or not cover.shape[0]:
         return np.zeros(B, bool) if cover is None else np.ones(B, bool)
-    good = (np.abs(det) > DET_CERTIFICATE).astype(float)  # (B, M)
-    if B == 1:  # (the single call: one matrix-vector product)
-        return np.array([np.count_nonzero(cover @ good[0]) == cover.shape[0]])
-    return np.minimum.reduce(good @ cover.T, axis=1) > 0  # every test has a witness
+    # good[:, M] is False: the padding of cover's rows points there.  (Boolean gathers, not a
+    # matrix product: no BLAS threads for this.)
+    good = np.zeros((B, M + 1), bool)
+    np.greater(np.abs(det), DET_CERTIFICATE, out=good[:, :M])
+    witnessed = np.logical_or.reduce(good.take(cover, axis=1), axis=2)  # (B, T)
+    return np.logical_and.reduce(witnessed, axis=1)
 
 
 @lru_cache(maxsize=64)
 def structure_test_cover(n_c: int, k: int) -> np.ndarray | None:
-    """``(T, M)`` 0/1 float: which eq. (49) candidates contain the rows of each test of
-    :func:`closed_bases_suffice` (all ``p``, :func:`pair_span_rows` order); None when that
-    table would be large (more than 2e7 entries x rows)."""
+    """``(T, C)`` indices of the eq. (49) candidates (:func:`planner.model.modes.enumerate_modes`
+    order) that contain the rows of each test of :func:`closed_bases_suffice` (all ``p``,
+    :func:`pair_span_rows` order), padded with ``M`` (no candidate); None when the table
+    would be large (more than 2e7 entries x rows to build)."""
     cand = enumerate_modes(n_c, k)
     p_max = min((k - 1) // 2, n_c - 1)
     tests = [pair_span_rows(n_c, p) for p in range(1, p_max + 1)]
@@ -274,7 +277,12 @@ def structure_test_cover(n_c: int, k: int) -> np.ndarray | None:
     for t in tests:  # one block of tests per p
         np.put_along_axis(has_t[start:start + len(t)], t, True, axis=1)
         start += len(t)
-    cover = (~np.any(has_t[:, None, :] & ~has_c[None], axis=2)).astype(float)
+    contains = ~np.any(has_t[:, None, :] & ~has_c[None], axis=2)  # (T, M)
+    width = max(int(contains.sum(axis=1).max()) if T else 0, 1)
+    cover = np.full((T, width), M, dtype=np.int64)
+    for t, row in enumerate(contains):
+        idx = np.flatnonzero(row)
+        cover[t, :len(idx)] = idx
     cover.setflags(write=False)
     return cover
 
