@@ -398,8 +398,7 @@ def force_stage(
     Gn, Gt = setup.normal_rows, setup.tangent_rows  # (n_c, q)
     Gmu = np.empty((P, n_c, 2, Gn.shape[1]))
     Gmu[:, :, 1] = Gt
-    np.multiply(muxi[..., None], Gt, out=Gmu[:, :, 0])
-    np.subtract(Gn, Gmu[:, :, 0], out=Gmu[:, :, 0])
+    np.subtract(Gn, muxi[..., None] * Gt, out=Gmu[:, :, 0])
     flat = np.arange(0, P * 2 * n_c, 2 * n_c)[:, None] + rows  # (P, k) into (P * 2 n_c)
     QT = Gmu.reshape(P * 2 * n_c, Gn.shape[1]).take(flat, axis=0)  # (P, k, k)
     # Equilibrate: global scaling of Q's rows (columns of QT), then unit columns of Q per mode
@@ -420,7 +419,8 @@ def force_stage(
     c_full.reshape(-1)[flat] = c_A
     fn, ft = c_full[:, 0::2], c_full[:, 1::2]
     ft -= muxi * fn
-    efforts = c_full @ system.J  # eq. (3): tau = J^T c + g_man
+    # eq. (3): tau = J^T c + g_man (a stacked product, as before: same bits, no BLAS threads)
+    efforts = c_full.reshape(L, m, 2 * n_c) @ system.J
     efforts += system.g_man
     # Coulomb (eqs. 21-22): rolling mu c_n - |c_t| >= 0, sliding c_n >= 0.
     # A rolling contact also needs c_n >= 0 (implied by the cone only when mu > 0).
@@ -437,7 +437,6 @@ def force_stage(
         margin[~nonsingular] = -np.inf
     c_A, nonsingular, margin = c_A.reshape(L, m, k), nonsingular.reshape(L, m), margin.reshape(L, m)
     forces = c_full.reshape(L, m, n_c, 2)
-    efforts = efforts.reshape(L, m, efforts.shape[1])
     return ForceStage(c_A, forces, efforts, margin, nonsingular)
 
 
