@@ -280,9 +280,9 @@ def structure_test_cover(n_c: int, k: int) -> np.ndarray | None:
     contains = ~np.any(has_t[:, None, :] & ~has_c[None], axis=2)  # (T, M)
     width = max(int(contains.sum(axis=1).max()) if T else 0, 1)
     cover = np.full((T, width), M, dtype=np.int64)
-    for t, row in enumerate(contains):
+    for i, row in enumerate(contains):
         idx = np.flatnonzero(row)
-        cover[t, :len(idx)] = idx
+        cover[i, :len(idx)] = idx
     cover.setflags(write=False)
     return cover
 
