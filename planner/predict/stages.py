@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import weakref
 from dataclasses import dataclass, field
-from functools import cached_property
+from functools import cached_property, lru_cache
 from typing import Any
 
 import numpy as np
@@ -239,6 +239,14 @@ def _build_setup(system: System) -> tuple[EquilibratedKinematics, ForceSetup]:
     return eq, ForceSetup(G, col, f_rhs, f_rhs / col, G[0::2].copy(), G[1::2].copy())
 
 
+@lru_cache(maxsize=256)
+def _row_offsets(P: int, stride: int) -> np.ndarray:
+    """``(P, 1)``: ``0, stride, 2 stride, ...`` (read-only; the flat row offset of each pair)."""
+    out = np.arange(0, P * stride, stride)[:, None]
+    out.setflags(write=False)
+    return out
+
+
 def _zero_to_one(x: np.ndarray) -> None:
     """Replace exact zeros of the scaling vector ``x`` by 1, in place."""
     if np.count_nonzero(x) < x.shape[0]:
@@ -283,10 +291,11 @@ def kinematic_stage(
     else:
         margin = np.full(M, np.inf)
     # xi = sgn(v_t) (eq. 16) at sliding contacts of nonsingular candidates; NaN counts as 0.
-    xi = (v_t > 0).view(np.int8) - (v_t < 0).view(np.int8)
-    if all_nonsingular:
+    if all_nonsingular:  # no NaN: the sign, cast
+        xi = np.sign(v_t).astype(np.int8)
         xi *= is_slide.view(np.int8)
     else:
+        xi = (v_t > 0).view(np.int8) - (v_t < 0).view(np.int8)
         margin[~nonsingular] = -np.inf
         xi *= is_slide & nonsingular[:, None]
     ok = margin > tol  # singular candidates have margin -inf
@@ -399,13 +408,14 @@ def force_stage(
     Gmu = np.empty((P, n_c, 2, Gn.shape[1]))
     Gmu[:, :, 1] = Gt
     np.subtract(Gn, muxi[..., None] * Gt, out=Gmu[:, :, 0])
-    flat = np.arange(0, P * 2 * n_c, 2 * n_c)[:, None] + rows  # (P, k) into (P * 2 n_c)
+    flat = _row_offsets(P, 2 * n_c) + rows  # (P, k) into (P * 2 n_c)
     QT = Gmu.reshape(P * 2 * n_c, Gn.shape[1]).take(flat, axis=0)  # (P, k, k)
     # Equilibrate: global scaling of Q's rows (columns of QT), then unit columns of Q per mode
     # (a zero column stays zero: singular).
     QT /= setup.rs
     cn = np.sqrt(np.einsum("...i,...i->...", QT, QT))  # (P, k) column norms
-    np.maximum(cn, _TINY, out=cn)
+    if np.count_nonzero(cn) < cn.size:
+        np.maximum(cn, _TINY, out=cn)
     QT /= cn[..., None]
     # Q_AI = QTn^T per mode: one LU per matrix gives |det| (30-32) and y (eq. 26).
     det, y = transposed_det_solve(QT, setup.rhs_scaled)
