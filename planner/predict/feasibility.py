@@ -309,9 +309,11 @@ def predict_candidates(
     margin = np.minimum(fs.margin[0], kin.margin[idx])
     feasible = f_ok & (margin >= -tol)
     # Overflow check (qdot of admissible candidates and c_A of nonsingular Q_AI must be finite):
-    # the sum is finite in the common case; else look closer.
-    if not math.isfinite(np.add.reduce(kin.qdot.take(idx, axis=0), axis=None)
-                         + np.add.reduce(fs.c_A[0], axis=None)):
+    # the largest magnitudes are finite in the common case (no sum: it could overflow); else
+    # look closer.
+    if not (math.isfinite(np.maximum.reduce(np.abs(kin.qdot.take(idx, axis=0)), axis=None,
+                                            initial=0.0))
+            and math.isfinite(np.maximum.reduce(np.abs(fs.c_A[0]), axis=None, initial=0.0))):
         finite = np.isfinite(kin.qdot[idx]).all(axis=1) & np.isfinite(fs.c_A[0]).all(axis=1)
         if np.any(f_ok & ~finite):
             raise DegenerateError(

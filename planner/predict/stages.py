@@ -92,9 +92,6 @@ class FeasibleMode:
         }
 
 
-
-
-
 # ---------------------------------------------------------------------------------------------
 # Kinematic stage (eqs. 13-16, 23-25): independent of friction.
 # ---------------------------------------------------------------------------------------------
@@ -190,7 +187,7 @@ class ForceSetup:
     tangent_rows: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
 
 
-#: Per-system cache of :func:`equilibrated_kinematics` and :func:`force_setup` (a System's
+#: Per-system cache of :func:`system_setup` (a System's
 #: arrays are read-only; keyed by identity, so copies of a System do not share it).
 _SETUP: weakref.WeakKeyDictionary[System, tuple[EquilibratedKinematics, ForceSetup]] = (
     weakref.WeakKeyDictionary()
@@ -328,12 +325,6 @@ def force_rhs(system: System) -> np.ndarray:
     return system_setup(system)[1].rhs.copy()
 
 
-def force_setup(system: System) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(G, rs, rhs)`` of :class:`ForceSetup` (cached per system)."""
-    fs = system_setup(system)[1]
-    return fs.G, fs.rs, fs.rhs
-
-
 def force_matrices(
     system: System, rows: np.ndarray, sliding: np.ndarray, contact: np.ndarray,
     xi: np.ndarray, mu: np.ndarray,
@@ -355,16 +346,9 @@ def force_matrices(
         Row ``j`` is the wrench and effort-joint load of unit ``c_A[j]``: ``[w; j_E]`` of its
         row, minus ``mu_i xi_i [w_t; j_tE]`` when it is a sliding contact's normal (eq. 17).
     """
-    return _force_matrices(system_setup(system)[1].G, rows, sliding, contact,
-                           2 * contact + 1, xi, mu)
-
-
-def _force_matrices(
-    G: np.ndarray, rows: np.ndarray, sliding: np.ndarray, contact: np.ndarray,
-    tangent_rows: np.ndarray, xi: np.ndarray, mu: np.ndarray,
-) -> np.ndarray:
+    G = system_setup(system)[1].G
     base = G[rows]  # (m, k, q)
-    tang = G[tangent_rows]  # tangent row of the same contact
+    tang = G[2 * contact + 1]  # tangent row of the same contact
     xi_rows = xi[np.arange(xi.shape[0])[:, None], contact].astype(float)  # (m, k)
     coef = mu[:, contact] * (xi_rows * sliding)[None]  # (L, m, k)
     return base[None] - coef[..., None] * tang[None]
@@ -448,6 +432,3 @@ def force_stage(
     c_A, nonsingular, margin = c_A.reshape(L, m, k), nonsingular.reshape(L, m), margin.reshape(L, m)
     forces = c_full.reshape(L, m, n_c, 2)
     return ForceStage(c_A, forces, efforts, margin, nonsingular)
-
-
-# ---------------------------------------------------------------------------------------------
