@@ -288,11 +288,10 @@ def kinematic_stage(
     else:
         margin = np.full(M, np.inf)
     # xi = sgn(v_t) (eq. 16) at sliding contacts of nonsingular candidates; NaN counts as 0.
-    if all_nonsingular:  # no NaN: the sign, cast
-        xi = np.sign(v_t).astype(np.int8)
+    xi = (v_t > 0).view(np.int8) - (v_t < 0).view(np.int8)
+    if all_nonsingular:
         xi *= is_slide.view(np.int8)
     else:
-        xi = (v_t > 0).view(np.int8) - (v_t < 0).view(np.int8)
         margin[~nonsingular] = -np.inf
         xi *= is_slide & nonsingular[:, None]
     ok = margin > tol  # singular candidates have margin -inf
