@@ -45,7 +45,12 @@ from sim.compare import (
     fault_verdict,
     mode_label,
 )
-from sim.hand_settings import ENGINE_SETTINGS, contact_drive_speed, hand_engine_settings
+from sim.hand_settings import (
+    ENGINE_SETTINGS,
+    contact_drive_speed,
+    effort_force,
+    hand_engine_settings,
+)
 from sim.run import Recording
 from sim.scene import BodyState
 
@@ -214,7 +219,6 @@ def run_schedule(
     from sim.run import RunSettings, run_scene
     from sim.scenes.hand import finger_angles, hand_scene, joint_coordinates
 
-    es = settings or hand_engine_settings(hand, engine)
     t = np.asarray(schedule.times, dtype=float)
     if t.ndim != 1 or len(t) < 2 or t[0] != 0.0 or np.any(np.diff(t) <= 0):
         raise InputError(f"schedule.times: expected >= 2 increasing times from 0, got "
@@ -228,6 +232,8 @@ def run_schedule(
     if cmd.shape != (len(t), hand.n_joints):
         raise InputError(f"schedule.commands: expected ({len(t)}, {hand.n_joints}), got "
                          f"{cmd.shape}")
+    es = settings or hand_engine_settings(
+        hand, engine, effort_force(hand, q0, schedule.controls, cmd))
     commands = [held_command(t, cmd[:, j], es.ramp) for j in range(hand.n_joints)]
     scene = hand_scene(hand, q0, mu_arr, schedule.controls, commands,
                        mass_scale=es.mass_scale)

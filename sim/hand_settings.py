@@ -2,7 +2,8 @@
 
 One :class:`sim.backends.EngineSettings` per engine, measured on the two-finger hand
 (docs/simulation.md, "Two-finger hand"), and the two rules that carry them to other hands:
-MuJoCo's masses scaled with the load per size (:func:`hand_engine_settings`) and the
+MuJoCo's masses scaled with the contact force per size (:func:`hand_engine_settings`,
+:func:`effort_force`) and the
 classifier's drive speed from the velocity-controlled joints' contact-point speeds
 (:func:`contact_drive_speed`).
 """
@@ -32,19 +33,42 @@ ENGINE_SETTINGS: dict[str, EngineSettings] = {
 MUJOCO_REFERENCE_LOAD_PER_SIZE = 0.08 / (0.1 * 0.0868)
 
 
-def hand_engine_settings(hand: Hand, engine: str) -> EngineSettings:
+def hand_engine_settings(hand: Hand, engine: str, force: float = 0.0) -> EngineSettings:
     """:data:`ENGINE_SETTINGS` of ``engine`` for ``hand``. MuJoCo's soft contacts sink in
-    by about ``(load / mass) x solref time constant^2``: a hand whose load accelerates its
-    workpiece more per unit size than the reference (:data:`MUJOCO_REFERENCE_LOAD_PER_SIZE`;
-    a block under gravity on a table) gets its masses scaled up by that ratio, so its
-    contacts sink in the same fraction of its size (masses change only the dynamics: the
-    loads are explicit forces). Hands at or below the reference keep the settings."""
+    by about ``(contact force / mass) x solref time constant^2``: a hand whose contact forces
+    accelerate its workpiece more per unit size than the reference
+    (:data:`MUJOCO_REFERENCE_LOAD_PER_SIZE`; a block under gravity on a table) gets its masses
+    scaled up by that ratio, so its contacts sink in the same fraction of its size (masses
+    change only the dynamics: the loads and efforts are explicit forces). The force is the
+    larger of the load and ``force`` [N] (the contact force the effort-controlled joints
+    exert, :func:`effort_force`; a squeeze can exceed the load many times: measured in
+    docs/simulation.md, "Chain manipulators"). Hands at or below the reference keep the
+    settings."""
     es = ENGINE_SETTINGS[check_engine(engine)]
     if engine != "mujoco":
         return es
-    per_size = float(np.linalg.norm(hand.load_force)) / (hand.mass * hand.length_scale)
+    f = max(float(np.linalg.norm(hand.load_force)), float(force))
+    per_size = f / (hand.mass * hand.length_scale)
     ratio = per_size / MUJOCO_REFERENCE_LOAD_PER_SIZE
     return replace(es, mass_scale=es.mass_scale * ratio) if ratio > 1.0 else es
+
+
+def effort_force(hand: Hand, q0: np.ndarray, controls: Sequence[str],
+                 commands: np.ndarray) -> float:
+    """Contact normal force [N] the effort-controlled joints exert, estimated from eq. 3
+    without friction: joint ``j``'s effort ``tau_j = sum_i J_i,nj c_in`` carried by its
+    contact with the longest normal lever ``max_i |J_i,nj(q0)|`` (the normal row of
+    :meth:`planner.model.hand.Hand.jacobian`; m for a revolute joint, 1 for a prismatic one),
+    so ``c_n = |tau_j| / max_i |J_i,nj|``; the largest over the effort joints and the
+    waypoints' ``commands`` ``(n, n_theta)`` (N m or N). 0 without effort joints or when an
+    effort joint's contacts all have zero normal lever (it presses on nothing)."""
+    E = [j for j, c in enumerate(controls) if c == "effort"]
+    if not E:
+        return 0.0
+    lever = np.max(np.abs(hand.jacobian(q0)[:, 0, E]), axis=0)  # (|E|,)
+    tau = np.max(np.abs(np.asarray(commands, dtype=float)[:, E]), axis=0)  # (|E|,)
+    ok = lever > 0
+    return float(np.max(tau[ok] / lever[ok])) if np.any(ok) else 0.0
 
 
 def contact_drive_speed(hand: Hand, q0: np.ndarray, controls: Sequence[str],

@@ -25,6 +25,7 @@ from planner.predict.feasibility import feasible_modes
 from sim.backends import ENGINES, EngineSettings, make_backend
 from sim.compare import Outcome
 from sim.hand_run import Schedule, hand_engine_settings
+from sim.hand_settings import effort_force
 from sim.region_run import outside_torques, run_region_plan
 from sim.scene import Body, Capsule, Control, Joint, JointKind, Scene
 from sim.scenes.hand import finger_body, hand_scene, joint_coordinates
@@ -159,11 +160,36 @@ def _region_plan(name):
     return hand, q0, rp, (mid if len(mid) > 1 else float(mid[0]))
 
 
-#: (hand, engine) pairs whose region plan agrees; three_finger_hand in MuJoCo does not
-#: (docs/simulation.md, "Chain manipulators": the top finger's tip slip runs away after a
-#: third of the segment although forces match pymunk at the start).
-AGREE = [(h, e) for h in CHAIN_HANDS for e in ENGINES
-         if (h, e) != ("three_finger_hand", "mujoco")]
+#: (hand, engine) pairs whose region plan agrees: all of them. three_finger_hand in MuJoCo
+#: failed while its masses were scaled by the load only (its squeeze is 11x the load; the
+#: contacts sank 0.66 mm: docs/simulation.md, "Chain manipulators"); the guard is
+#: test_the_squeeze_force_stiffens_mujoco_hand_contacts.
+AGREE = [(h, e) for h in CHAIN_HANDS for e in ENGINES]
+#: ... over their first half: three_finger_hand's first half moves the workpiece 1.17 mm and
+#: MuJoCo's contacts there sink in 8-34 um (measured), an offset of 41 um = 3.5 % of that
+#: travel (0.15 % of the whole plan's, judged by the slow test).
+AGREE_HALF = [p for p in AGREE if p != ("three_finger_hand", "mujoco")]
+
+
+def test_the_squeeze_force_stiffens_mujoco_hand_contacts():
+    """effort_force: |tau| / longest normal lever (eq. 3 without friction), by hand; the
+    MuJoCo masses follow it, pymunk's do not."""
+    hand, q0, rp, _ = _region_plan("three_finger_hand")
+    sched = Schedule.from_region_plan(rp, hand.n_contacts)
+    cmd = sched.joint_commands()
+    J = hand.jacobian(q0)
+    by_hand = max(float(np.max(np.abs(cmd[:, j]))) / float(np.max(np.abs(J[:, 0, j])))
+                  for j in rp.effort_joints)
+    f = effort_force(hand, q0, sched.controls, cmd)
+    assert f == pytest.approx(by_hand)
+    assert f > 5.0 * float(np.linalg.norm(hand.load_force))  # a squeeze, not the load
+    base = hand_engine_settings(hand, "mujoco")
+    es = hand_engine_settings(hand, "mujoco", f)
+    ratio = f / float(np.linalg.norm(hand.load_force))
+    assert es.mass_scale == pytest.approx(base.mass_scale * ratio)
+    assert hand_engine_settings(hand, "pymunk", f) == hand_engine_settings(hand, "pymunk")
+    velocity_only = tuple("velocity" for _ in sched.controls)
+    assert effort_force(hand, q0, velocity_only, cmd) == 0.0
 
 
 def _check_agrees(name, engine, waypoints):
@@ -174,7 +200,7 @@ def _check_agrees(name, engine, waypoints):
     assert run.verdict.judged_steps > 100
 
 
-@pytest.mark.parametrize(("name", "engine"), AGREE)
+@pytest.mark.parametrize(("name", "engine"), AGREE_HALF)
 def test_region_plans_of_chain_hands_agree_over_their_first_half(name, engine):
     _check_agrees(name, engine, 6)  # waypoints 0..5 of 11 (the whole plans: the slow test)
 

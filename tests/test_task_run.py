@@ -33,6 +33,22 @@ def test_the_figure_9_task_holds_segment_by_segment_in_pymunk(task_plan):
     assert run.summary["segments"][0]["handoff_m"] == 0.0
 
 
+def test_segment_3_agrees_in_mujoco_at_the_top_of_the_interval(task_plan):
+    """Segment 3 starts with the left tip at the acute vertex 3 (32 deg): MuJoCo showed the
+    claim on 70 % of it while the tip's pair was the whole polygon (docs/planning.md)."""
+    from sim.hand_run import Schedule, run_schedule
+    from sim.scene import preload_depth
+
+    seg = task_plan.segments[2]
+    hand, q = seg.hand_model
+    verdict, rec, _, _ = run_schedule(hand, q, 0.2, Schedule.from_plan(seg, hand.n_contacts),
+                                      "mujoco")
+    assert verdict.outcome is Outcome.AGREED, verdict.reasons
+    assert verdict.plan is not None and verdict.plan.claim_fraction >= 0.95
+    # the start is the pre-load, not the 1.3 mm the neighbouring edge's box gave
+    assert float(rec.depth[0].max()) < 10 * preload_depth(hand.length_scale)
+
+
 @pytest.mark.parametrize("engine", ["pymunk", "mujoco"])
 def test_the_negative_control_fails(task_plan, engine):
     run = run_task(negative_control(task_plan), engine, 0.1)

@@ -16,7 +16,11 @@ pairs collide, ``Scene.only_pairs``):
 * one body per finger (name ``finger:<name>``), body frame at the pivot with ``x`` along the
   link, on a revolute joint to the base (``joint:<name>``): a capsule of the link's width
   (``side`` contacts) and, for a ``tip`` contact, a circle of radius ``width/2`` at the tip.
-* ``workpiece``: the polygon (``tip`` contacts touch it) plus, per ``palm`` / ``side`` contact,
+* ``workpiece``: the polygon plus, per ``tip`` contact, a capsule of radius ``vertex_radius``
+  along the contact's declared edge, its surface on the edge line (the tip touches that edge
+  only: a pair with the whole polygon found the neighbouring edge at an acute vertex in
+  MuJoCo, whose polygon is one thin box per edge, and such a box reaches past the polygon
+  there: measured in docs/planning.md, the Figure 9 task), and, per ``palm`` / ``side`` contact,
   a small circle of radius ``vertex_radius`` at the touching vertex, placed so its surface
   touches the feature where the sharp vertex does (centre = vertex + r n, n the contact's
   inward normal at the initial configuration). A sharp vertex has no stable contact point in
@@ -176,6 +180,12 @@ def hand_scene(
             local = to_body @ (centre - np.asarray(pose0[:2]))
             site[i] = len(shapes)
             shapes.append(Circle((float(local[0]), float(local[1])), vertex_radius))
+        elif c.kind == "tip":  # the declared edge only, its surface on the edge line
+            inward = vertex_radius * (to_body @ nrm[i])
+            a, b = V[c.edge] + inward, V[(c.edge + 1) % len(V)] + inward
+            site[i] = len(shapes)
+            shapes.append(Capsule((float(a[0]), float(a[1])), (float(b[0]), float(b[1])),
+                                  vertex_radius))
     com = np.asarray(hand.com, dtype=float)
     mass = hand.mass * mass_scale
     work = Body(name="workpiece", shapes=tuple(shapes), mass=mass,
@@ -229,7 +239,8 @@ def hand_scene(
         else:
             last = hand.fingers[c.finger].n_joints - 1
             pairs.append(ContactPair(names[i], finger_body(hand, c.finger, last), "workpiece",
-                                     float(mu_arr[i]), shape_a=tip_site[c.finger], shape_b=0))
+                                     float(mu_arr[i]), shape_a=tip_site[c.finger],
+                                     shape_b=site[i]))
     force = np.asarray(hand.load_force, dtype=float)
     loads = (Load("workpiece", (float(force[0]), float(force[1])), 0.0),)
     reach = max(float(np.max(np.abs(hand.palm))),
