@@ -119,6 +119,7 @@ def hand_scene(
     mass_scale: float = 1.0,
     vertex_radius: float = VERTEX_RADIUS,
     overlap: float | None = None,
+    site_configs: Sequence[np.ndarray] | None = None,
 ) -> Scene:
     """Scene of ``hand`` at its closed initial configuration ``q0`` (``(3 + n_theta,)``:
     workpiece pose, joint coordinates; both from :func:`planner.files.hand_file.hand_from_dict`).
@@ -133,6 +134,12 @@ def hand_scene(
     contacts that start exactly touching flicker, and a computed gap of +1e-17 m is no
     contact at all): vertex circles are placed that deep, fingertip circles are shifted that
     far along the contact normal into the workpiece edge.
+
+    ``site_configs`` (n_c,) configurations ``(3 + n_theta,)``, one per contact: where that
+    contact's sites are placed (default ``q0`` for all). A whole task's scene holds every
+    contact of every segment; a contact gained later is apart at ``q0`` and its sites are
+    placed at the planned configuration where it closes (its segment's start), so it touches
+    there as a first-segment contact touches at ``q0``.
     """
     n_j, n_c = hand.n_joints, hand.n_contacts
     mu_arr = as_friction(mu, n_c)
@@ -153,9 +160,14 @@ def hand_scene(
     if overlap is None:
         overlap = preload_depth(scale)
     q0 = hand.check_q(q0)
-    pts, nrm, _ = hand.contact_geometry(q0)
+    refs = [q0] * n_c if site_configs is None else [hand.check_q(q) for q in site_configs]
+    if len(refs) != n_c:
+        raise InputError(f"site_configs: expected {n_c} configurations (one per contact), got "
+                         f"{len(refs)}")
+    frames = [hand.contact_frame(refs[i], i) for i in range(n_c)]
+    pts = np.array([f[0] for f in frames]).reshape(n_c, 2)
+    nrm = np.array([f[1] for f in frames]).reshape(n_c, 2)
     pose0 = (float(q0[0]), float(q0[1]), float(q0[2]))
-    to_body = _rot(-pose0[2])
 
     # fixed surfaces: the palm and every environment surface, one capsule per contact on it
     palm_ids = [i for i, c in enumerate(hand.contacts) if c.kind == "palm"]
@@ -173,7 +185,7 @@ def hand_scene(
     for i, c in enumerate(hand.contacts):
         if c.kind in ("palm", "surface", "side"):
             centre = pts[i] + (vertex_radius - overlap) * nrm[i]
-            local = to_body @ (centre - np.asarray(pose0[:2]))
+            local = _rot(-float(refs[i][2])) @ (centre - np.asarray(refs[i][:2], dtype=float))
             site[i] = len(shapes)
             shapes.append(Circle((float(local[0]), float(local[1])), vertex_radius))
     com = np.asarray(hand.com, dtype=float)
@@ -198,8 +210,10 @@ def hand_scene(
                                     if link.kind == REVOLUTE else 0.0)
             fshapes: list[Shape] = [Capsule((0.0, 0.0), (link.length, 0.0), link.radius)]
             if tips and j == f.n_joints - 1:
-                # pre-load: the tip circle shifted by `overlap` along the contact's inward normal
-                push = _rot(-angle) @ (overlap * nrm[tips[0]])
+                # pre-load: the tip circle shifted by `overlap` along the contact's inward
+                # normal (in the link's frame where the contact's site is placed)
+                d_ref = hand.links_at(refs[tips[0]], k)[j][1]
+                push = _rot(-float(np.arctan2(d_ref[1], d_ref[0]))) @ (overlap * nrm[tips[0]])
                 tip_site[k] = len(fshapes)
                 fshapes.append(Circle((link.length + float(push[0]), float(push[1])),
                                       link.radius))
