@@ -41,12 +41,14 @@ from sim.run import Recording
 
 @dataclass(frozen=True, eq=False)
 class TaskRun:
-    """Segment-by-segment runs of a task plan: per-segment ``verdicts`` (only the segments
-    run), the ``whole`` verdict and the ``summary`` (what summary.json holds)."""
+    """The runs of a task plan: per-segment ``verdicts`` (only the segments run or reached),
+    the ``whole`` verdict, the ``summary`` (what summary.json holds) and, for a continuous
+    run, its ``recording`` (pairs ``c<i>``: the union of the segments' contacts)."""
 
     verdicts: tuple[Verdict, ...]
     whole: Verdict
     summary: dict[str, Any]
+    recording: Recording | None = None
 
 
 def run_task(plan: TaskPlanFile, engine: str, mu: float, *,
@@ -67,7 +69,9 @@ def run_task(plan: TaskPlanFile, engine: str, mu: float, *,
     es = settings or hand_engine_settings(hand, engine)
     controls = lay.schedules[0].controls
     scene = hand_scene(hand, lay.q0, mu, controls, lay.commands(es.ramp),
-                       mass_scale=es.mass_scale, site_configs=lay.site_configs)
+                       mass_scale=es.mass_scale, site_configs=lay.site_configs,
+                       open_sites=[i for i in range(hand.n_contacts)
+                                   if i not in lay.members[0]])
     speeds = [contact_drive_speed(h, q, s.controls, s.joint_commands())
               for h, q, s in zip(lay.hands, lay.q_starts, lay.schedules)]
     wall = time.perf_counter()
@@ -91,10 +95,21 @@ def run_task(plan: TaskPlanFile, engine: str, mu: float, *,
         shift = start - np.asarray(lay.q_starts[k][:3], dtype=float)
         sched = replace(sched, poses=tuple(
             (p[0] + shift[0], p[1] + shift[1], p[2] + shift[2]) for p in sched.poses))
-        verdict = _judge_segment(sub, sched, lay.hands[k], lay.q_starts[k], speeds[k], es)
+        # contacts this segment gains are judged once they touch (or from its start)
+        gained = [j for j, i in enumerate(lay.members[k])
+                  if k > 0 and i not in lay.members[k - 1]]
+        delay = _touch_delay(sub, gained)
+        verdict = _judge_segment(sub, sched, lay.hands[k], speeds[k], es, delay or 0.0)
+        if delay is None:
+            verdict = Verdict(Outcome.DISAGREED, (
+                *verdict.reasons, f"a contact the segment gains never touched: "
+                f"{[f'c{lay.members[k][j] + 1}' for j in gained]}"), verdict.agreement,
+                verdict.judged_steps, verdict.observed_counts, verdict.fault, verdict.plan,
+                verdict.motion)
         verdicts.append(verdict)
         rows.append({"segment": k + 1, "claim": seg.claim,
                      "start_offset_m": float(np.linalg.norm(shift[:2])),
+                     "gained_contact_delay_s": delay,
                      "start_s": t0, "duration_s": float(sched.times[-1]),
                      "contacts": [f"c{i + 1}" for i in lay.members[k]],
                      "control": list(sched.controls), **verdict.to_dict()})
@@ -111,7 +126,7 @@ def run_task(plan: TaskPlanFile, engine: str, mu: float, *,
                      "pairs": {f"c{i + 1}": c for i, c in enumerate(_union_dicts(plan))},
                      "open_at_start": list(lay.open_at_start),
                      "control_switches": [list(s) for s in lay.control_switches()]}}
-    return TaskRun(tuple(verdicts), whole, summary)
+    return TaskRun(tuple(verdicts), whole, summary, rec)
 
 
 def _union_dicts(plan: TaskPlanFile) -> list[Any]:
@@ -138,15 +153,30 @@ def _slice(rec: Recording, t0: float, t1: float, pairs: tuple[int, ...]) -> Reco
                    jammed_at=None, **per_pair)
 
 
-def _judge_segment(sub: Recording, sched: Schedule, hand: Any, q0: np.ndarray,
-                   drive_speed: float, es: EngineSettings) -> Verdict:
-    """A segment's slice judged as a single-segment run (:func:`sim.hand_run.run_schedule`)."""
+def _touch_delay(sub: Recording, cols: list[int]) -> float | None:
+    """Seconds from a segment's start until all its gained pairs ``cols`` of slice ``sub``
+    touch (0 when they already do at its first step); ``None`` when they never do."""
+    if not cols or len(sub.times) == 0:
+        return 0.0
+    all_on = np.all(sub.present[:, cols], axis=1)
+    if not np.any(all_on):
+        return None
+    k = int(np.argmax(all_on))
+    return 0.0 if k == 0 else float(sub.times[k])
+
+
+def _judge_segment(sub: Recording, sched: Schedule, hand: Any, drive_speed: float,
+                   es: EngineSettings, delay: float) -> Verdict:
+    """A segment's slice judged as a single-segment run (:func:`sim.hand_run.run_schedule`);
+    its steps are judged from ``delay`` [s] (its gained contacts touching) plus the settling
+    time."""
     from sim.classify import Thresholds, observed_modes
 
     load = float(np.linalg.norm(hand.load_force)) or 1e-3
     th = replace(Thresholds.for_drive(drive_speed, load, creep_floor=es.creep,
                                       settle=es.settle, length_scale=hand.length_scale),
                  jam_depth_rate=np.inf)
+    th = replace(th, settle=th.settle + delay)
     if sub.fault is not None:
         before = sub.until(sub.fault.time - th.window)
         return fault_verdict(sub.fault, judge_recording(before, observed_modes(before, th), th,

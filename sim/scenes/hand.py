@@ -120,6 +120,7 @@ def hand_scene(
     vertex_radius: float = VERTEX_RADIUS,
     overlap: float | None = None,
     site_configs: Sequence[np.ndarray] | None = None,
+    open_sites: Sequence[int] = (),
 ) -> Scene:
     """Scene of ``hand`` at its closed initial configuration ``q0`` (``(3 + n_theta,)``:
     workpiece pose, joint coordinates; both from :func:`planner.files.hand_file.hand_from_dict`).
@@ -138,8 +139,10 @@ def hand_scene(
     ``site_configs`` (n_c,) configurations ``(3 + n_theta,)``, one per contact: where that
     contact's sites are placed (default ``q0`` for all). A whole task's scene holds every
     contact of every segment; a contact gained later is apart at ``q0`` and its sites are
-    placed at the planned configuration where it closes (its segment's start), so it touches
-    there as a first-segment contact touches at ``q0``.
+    placed at the planned configuration where it closes (its segment's start). ``open_sites``:
+    indices of such contacts; they get no pre-load (their sites exactly touch at their
+    configuration): a pre-loaded fingertip circle would stand ``overlap`` proud of the link's
+    side and lift a workpiece edge lying along that side before the tip reaches it.
     """
     n_j, n_c = hand.n_joints, hand.n_contacts
     mu_arr = as_friction(mu, n_c)
@@ -164,6 +167,7 @@ def hand_scene(
     if len(refs) != n_c:
         raise InputError(f"site_configs: expected {n_c} configurations (one per contact), got "
                          f"{len(refs)}")
+    depth = [0.0 if i in set(open_sites) else overlap for i in range(n_c)]
     frames = [hand.contact_frame(refs[i], i) for i in range(n_c)]
     pts = np.array([f[0] for f in frames]).reshape(n_c, 2)
     nrm = np.array([f[1] for f in frames]).reshape(n_c, 2)
@@ -184,7 +188,7 @@ def hand_scene(
     site: dict[int, int] = {}
     for i, c in enumerate(hand.contacts):
         if c.kind in ("palm", "surface", "side"):
-            centre = pts[i] + (vertex_radius - overlap) * nrm[i]
+            centre = pts[i] + (vertex_radius - depth[i]) * nrm[i]
             local = _rot(-float(refs[i][2])) @ (centre - np.asarray(refs[i][:2], dtype=float))
             site[i] = len(shapes)
             shapes.append(Circle((float(local[0]), float(local[1])), vertex_radius))
@@ -213,7 +217,8 @@ def hand_scene(
                 # pre-load: the tip circle shifted by `overlap` along the contact's inward
                 # normal (in the link's frame where the contact's site is placed)
                 d_ref = hand.links_at(refs[tips[0]], k)[j][1]
-                push = _rot(-float(np.arctan2(d_ref[1], d_ref[0]))) @ (overlap * nrm[tips[0]])
+                push = _rot(-float(np.arctan2(d_ref[1], d_ref[0]))) @ (depth[tips[0]]
+                                                                       * nrm[tips[0]])
                 tip_site[k] = len(fshapes)
                 fshapes.append(Circle((link.length + float(push[0]), float(push[1])),
                                       link.radius))
