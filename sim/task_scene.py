@@ -77,7 +77,9 @@ class TaskLayout:
 
     def commands(self, ramp: float) -> list[Command]:
         """(n_theta,) ``command(t, states)`` over the whole task (module docstring)."""
-        times, values, fresh = [], [], []
+        times: list[float] = []
+        values: list[np.ndarray] = []
+        fresh: list[list[bool]] = []
         for k, (s, t0) in enumerate(zip(self.schedules, self.starts)):
             cmd = s.joint_commands()
             n = len(s.times) - (1 if k < len(self.schedules) - 1 else 0)  # next one takes over
