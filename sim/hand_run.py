@@ -55,8 +55,8 @@ from sim.run import Recording
 from sim.scene import BodyState
 
 __all__ = ["ENGINE_SETTINGS", "PlanRun", "Schedule", "contact_drive_speed",
-           "hand_engine_settings", "held_command", "observed_segments", "plan_hand_model",
-           "run_plan", "run_schedule"]
+           "hand_engine_settings", "held_command", "judge_recording", "observed_segments",
+           "plan_hand_model", "run_plan", "run_schedule"]
 
 
 def plan_hand_model(plan: Plan) -> tuple[Hand, np.ndarray]:
@@ -261,9 +261,9 @@ def run_schedule(
     if rec.fault is not None:
         # what the run showed up to one window before the fault (its blow-up excluded)
         before = rec.until(rec.fault.time - th.window)
-        verdict = _judge_plan(before, observed_modes(before, th), th, schedule, hand)
+        verdict = judge_recording(before, observed_modes(before, th), th, schedule, hand)
         return fault_verdict(rec.fault, verdict), rec, observed, details
-    verdict = _judge_plan(rec, observed, th, schedule, hand) or Verdict(
+    verdict = judge_recording(rec, observed, th, schedule, hand) or Verdict(
         Outcome.INCONCLUSIVE, ("no step could be judged",))
     k = np.clip(np.searchsorted(rec.times, t - 1e-9), 0, len(rec.times) - 1)
     details["simulated_poses"] = rec.poses[k, iw].tolist()
@@ -274,8 +274,8 @@ def run_schedule(
     return verdict, rec, observed, details
 
 
-def _judge_plan(rec: Recording, observed: list[ObservedMode], th: Thresholds,
-                schedule: Schedule, hand: Hand) -> Verdict | None:
+def judge_recording(rec: Recording, observed: list[ObservedMode], th: Thresholds,
+                    schedule: Schedule, hand: Hand) -> Verdict | None:
     """The verdict of a recording (one that ended normally, or the part of a faulted one
     before its fault) against the schedule; None when nothing can be judged."""
     t = np.asarray(schedule.times, dtype=float)

@@ -1,4 +1,5 @@
-"""Validating a whole-task plan (issue 16): a verdict per segment and for the whole."""
+"""Validating a whole-task plan (issue 16): one continuous simulation per engine, a verdict per
+segment and for the whole."""
 
 from __future__ import annotations
 
@@ -7,12 +8,13 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from planner.errors import InputError
 from planner.plan.task_file import negative_control, plan_hand_task, save_task_plan
 from sim.compare import Outcome
-from sim.task_run import run_task
+from sim.task_run import run_task, run_task_segments
 
 DATA = Path(__file__).resolve().parents[1] / "scenarios" / "data"
 
@@ -22,14 +24,54 @@ def task_plan():
     return plan_hand_task(DATA / "figure9_task_hand.json")
 
 
-def test_the_figure_9_task_holds_segment_by_segment_in_pymunk(task_plan):
-    run = run_task(task_plan, "pymunk", 0.1)
+@pytest.mark.parametrize("mu", [0.0, 0.1])
+def test_the_figure_9_task_holds_in_one_continuous_pymunk_run(task_plan, mu):
+    run = run_task(task_plan, "pymunk", mu)
     assert len(run.verdicts) == 3
     assert [v.outcome for v in run.verdicts] == [Outcome.AGREED] * 3
     assert run.whole.outcome is Outcome.AGREED
-    for row, v in zip(run.summary["segments"], run.verdicts):
+    for v in run.verdicts:
         assert v.plan is not None and v.plan.claim_fraction >= 0.95
-        assert row["handoff_m"] < 0.02 * 0.0386  # the hand-off correction is tiny
+        assert v.plan.final_error_of_travel <= 0.02
+    # one recording: six pairs (the union of the segments' contacts), two of them gained later
+    rec = run.recording
+    assert rec is not None and rec.fault is None and rec.pair_names == tuple(
+        f"c{i}" for i in range(1, 7))
+    assert run.summary["settings"]["open_at_start"] == ["c5", "c6"]
+    rows = run.summary["segments"]
+    assert [r["contacts"] for r in rows] == [["c1", "c2", "c3", "c4"], ["c2", "c3", "c4", "c5"],
+                                             ["c2", "c4", "c5", "c6"]]
+    assert rec.times[-1] == pytest.approx(rows[-1]["start_s"] + rows[-1]["duration_s"],
+                                          abs=2e-3)
+    # the gained contacts are open at the start and closed in their own segment
+    assert not rec.present[0, 4] and not rec.present[0, 5]
+    for col, row in ((4, rows[1]), (5, rows[2])):
+        k = int(np.searchsorted(rec.times, row["start_s"] + 0.5))
+        assert rec.present[k, col]
+    assert rows[0]["start_offset_m"] == 0.0
+
+
+def test_the_figure_9_task_in_one_continuous_mujoco_run_holds_its_first_segment(task_plan):
+    """MuJoCo, continuous: the first segment agrees; segment 2 does not (docs/planning.md,
+    "Validation": the finger's tip meets a corner of the edge boxes MuJoCo builds the
+    workpiece from, outside the polygon, about 1.3 s before segment 3 starts)."""
+    run = run_task(task_plan, "mujoco", 0.1)
+    assert run.recording is not None and run.recording.fault is None
+    assert len(run.verdicts) == 3
+    assert run.verdicts[0].outcome is Outcome.AGREED
+    assert run.verdicts[0].plan is not None and run.verdicts[0].plan.claim_fraction >= 0.95
+
+
+@pytest.mark.xfail(strict=True, reason="MuJoCo's polygon edge boxes stick out of the workpiece "
+                   "at its acute vertex 3 (docs/planning.md, Validation)")
+def test_the_figure_9_task_holds_in_one_continuous_mujoco_run(task_plan):
+    run = run_task(task_plan, "mujoco", 0.1)
+    assert run.whole.outcome is Outcome.AGREED
+
+
+def test_the_segment_by_segment_runner_is_kept(task_plan):
+    run = run_task_segments(task_plan, "pymunk", 0.1)
+    assert [v.outcome for v in run.verdicts] == [Outcome.AGREED] * 3
     assert run.summary["segments"][0]["handoff_m"] == 0.0
 
 

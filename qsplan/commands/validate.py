@@ -26,8 +26,9 @@ def register(sub: argparse._SubParsersAction) -> None:
             "classify the observed contact modes from contact data and compare them and the "
             "workpiece poses with the plan: the claimed mode on >= 95% of the segment and the "
             "final position within 2% of the travel. A version-2 plan (a whole task) runs "
-            "every segment, each from the simulated end of the one before, with a verdict per "
-            "segment and for the whole. Exit 0 pass, 1 fail, 2 bad input, "
+            "in one continuous simulation (every segment's contacts in one scene, joints "
+            "switching control at segment boundaries), sliced per segment for a verdict per "
+            "segment and one for the whole. Exit 0 pass, 1 fail, 2 bad input, "
             "3 simulator fault."
         ),
         epilog="example: qsplan validate plan.json --engine mujoco --mu 0.1 --out val/",
@@ -128,8 +129,8 @@ def _exit_code(statuses: list) -> int:
 
 def _run_task(args: argparse.Namespace, path: Path, mus: list[float] | None,
               work: Path | None) -> int:
-    """A version-2 plan: every segment, each from the simulated end of the one before
-    (:mod:`sim.task_run`), a verdict per segment and for the whole."""
+    """A version-2 plan: one continuous simulation of the whole task (:mod:`sim.task_run`),
+    a verdict per segment and for the whole."""
     from planner.files.atomic import atomic_write_json
     from planner.plan.task_file import load_task_plan
 

@@ -35,6 +35,7 @@ import numpy as np
 
 from sim.backends import CARRY_IMPRATIO, CARRY_SOLREF, SUPPORT_SOLIMP
 from sim.backends.roles import CARRY, SQUEEZE, SUPPORT, contact_roles
+from sim.backends.switching import replace_joint, switch_joint
 from sim.scene import (
     ABSENT,
     BodyKind,
@@ -382,3 +383,23 @@ class MujocoBackend:
         for i in self._subpairs[pair]:
             self.model.pair_friction[i, 0] = mu
             self.model.pair_friction[i, 1] = mu
+
+    # -- control switching (a whole task: segments with other control partitions) ----------
+    def set_control(self, joint: str, control: Control) -> None:
+        """Switch revolute joint ``joint`` to ``control`` from the next step on: velocity
+        control gives its degree of freedom the heavy armature and the ``qpos``/``qvel``
+        override (the target starts at the joint's present position), effort control takes
+        both away (armature 0; the command goes to ``qfrc_applied``)."""
+        j = switch_joint(self.scene, joint, control)
+        if j is None:
+            return
+        nm = f"{j.body}:{j.name}"
+        if control == Control.VELOCITY:
+            heavy = HEAVY_RATIO * max([b.mass for b in self.scene.bodies
+                                       if b.kind == BodyKind.DYNAMIC] or [1.0])
+            self.model.dof_armature[self._vadr[nm]] = heavy * self.scene.length_scale ** 2
+            self._target[nm] = float(self.data.qpos[self._qadr[nm]])
+        else:
+            self.model.dof_armature[self._vadr[nm]] = 0.0
+        self.scene = replace_joint(self.scene, j, control)
+

@@ -19,6 +19,7 @@ import numpy as np
 import pymunk
 
 from planner.errors import InputError
+from sim.backends.switching import replace_joint, switch_joint
 from sim.scene import (
     ABSENT,
     Body,
@@ -329,3 +330,23 @@ class PymunkBackend:
 
     def set_friction(self, pair: str, mu: float) -> None:
         self._mu[pair] = float(mu)
+
+    # -- control switching (a whole task: segments with other control partitions) ----------
+    def set_control(self, joint: str, control: Control) -> None:
+        """Switch revolute joint ``joint`` to ``control`` from the next step on: velocity
+        control adds a ``SimpleMotor`` of unbounded force (to the base or the parent link),
+        effort control removes it (the joint's command is then a torque). The joint's
+        ``command`` callback stays; it must return the quantity of the new control."""
+        j = switch_joint(self.scene, joint, control)
+        if j is None:
+            return
+        if control == Control.VELOCITY:
+            parent = self.space.static_body if j.parent is None else self.bodies[j.parent]
+            motor = pymunk.SimpleMotor(parent, self.bodies[j.body], 0.0)
+            motor.max_force = float("inf")
+            self.space.add(motor)
+            self.motors[j.name] = motor
+        else:
+            self.space.remove(self.motors.pop(j.name))
+        self.scene = replace_joint(self.scene, j, control)
+

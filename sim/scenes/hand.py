@@ -123,6 +123,8 @@ def hand_scene(
     mass_scale: float = 1.0,
     vertex_radius: float = VERTEX_RADIUS,
     overlap: float | None = None,
+    site_configs: Sequence[np.ndarray] | None = None,
+    open_sites: Sequence[int] = (),
 ) -> Scene:
     """Scene of ``hand`` at its closed initial configuration ``q0`` (``(3 + n_theta,)``:
     workpiece pose, joint coordinates; both from :func:`planner.files.hand_file.hand_from_dict`).
@@ -137,6 +139,14 @@ def hand_scene(
     contacts that start exactly touching flicker, and a computed gap of +1e-17 m is no
     contact at all): vertex circles are placed that deep, fingertip circles are shifted that
     far along the contact normal into the workpiece edge.
+
+    ``site_configs`` (n_c,) configurations ``(3 + n_theta,)``, one per contact: where that
+    contact's sites are placed (default ``q0`` for all). A whole task's scene holds every
+    contact of every segment; a contact gained later is apart at ``q0`` and its sites are
+    placed at the planned configuration where it closes (its segment's start). ``open_sites``:
+    indices of such contacts; they get no pre-load (their sites exactly touch at their
+    configuration): a pre-loaded fingertip circle would stand ``overlap`` proud of the link's
+    side and lift a workpiece edge lying along that side before the tip reaches it.
     """
     n_j, n_c = hand.n_joints, hand.n_contacts
     mu_arr = as_friction(mu, n_c)
@@ -157,9 +167,15 @@ def hand_scene(
     if overlap is None:
         overlap = preload_depth(scale)
     q0 = hand.check_q(q0)
-    pts, nrm, _ = hand.contact_geometry(q0)
+    refs = [q0] * n_c if site_configs is None else [hand.check_q(q) for q in site_configs]
+    if len(refs) != n_c:
+        raise InputError(f"site_configs: expected {n_c} configurations (one per contact), got "
+                         f"{len(refs)}")
+    depth = [0.0 if i in set(open_sites) else overlap for i in range(n_c)]
+    frames = [hand.contact_frame(refs[i], i) for i in range(n_c)]
+    pts = np.array([f[0] for f in frames]).reshape(n_c, 2)
+    nrm = np.array([f[1] for f in frames]).reshape(n_c, 2)
     pose0 = (float(q0[0]), float(q0[1]), float(q0[2]))
-    to_body = _rot(-pose0[2])
 
     # fixed surfaces: the palm and every environment surface, one capsule per contact on it
     palm_ids = [i for i, c in enumerate(hand.contacts) if c.kind == "palm"]
@@ -176,8 +192,8 @@ def hand_scene(
     site: dict[int, int] = {}
     for i, c in enumerate(hand.contacts):
         if c.kind in ("palm", "surface", "side"):
-            centre = pts[i] + (vertex_radius - overlap) * nrm[i]
-            local = to_body @ (centre - np.asarray(pose0[:2]))
+            centre = pts[i] + (vertex_radius - depth[i]) * nrm[i]
+            local = _rot(-float(refs[i][2])) @ (centre - np.asarray(refs[i][:2], dtype=float))
             site[i] = len(shapes)
             shapes.append(Circle((float(local[0]), float(local[1])), vertex_radius))
         elif c.kind == "tip":  # the declared edge only, its surface on the edge line
@@ -208,8 +224,11 @@ def hand_scene(
                                     if link.kind == REVOLUTE else 0.0)
             fshapes: list[Shape] = [Capsule((0.0, 0.0), (link.length, 0.0), link.radius)]
             if tips and j == f.n_joints - 1:
-                # pre-load: the tip circle shifted by `overlap` along the contact's inward normal
-                push = _rot(-angle) @ (overlap * nrm[tips[0]])
+                # pre-load: the tip circle shifted by `overlap` along the contact's inward
+                # normal (in the link's frame where the contact's site is placed)
+                d_ref = hand.links_at(refs[tips[0]], k)[j][1]
+                push = _rot(-float(np.arctan2(d_ref[1], d_ref[0]))) @ (depth[tips[0]]
+                                                                       * nrm[tips[0]])
                 tip_site[k] = len(fshapes)
                 fshapes.append(Circle((link.length + float(push[0]), float(push[1])),
                                       link.radius))
