@@ -197,7 +197,7 @@ def hand_scene(
             site[i] = len(shapes)
             shapes.append(Circle((float(local[0]), float(local[1])), vertex_radius))
         elif c.kind == "tip":  # the declared edge only, its surface on the edge line
-            inward = vertex_radius * (to_body @ nrm[i])
+            inward = vertex_radius * (_rot(-float(refs[i][2])) @ nrm[i])
             a, b = V[c.edge] + inward, V[(c.edge + 1) % len(V)] + inward
             site[i] = len(shapes)
             shapes.append(Capsule((float(a[0]), float(a[1])), (float(b[0]), float(b[1])),
