@@ -5,9 +5,9 @@ Cases (each simulated with :func:`sim.system_run.simulate_system`, the machinery
 
 * ``ex41`` / ``ex43``: Examples 4.1 / 4.3 (eqs. 37, 42) scaled to 0.2 m / 2 m scenes
   (:func:`sim.scenes.paper.scaled_system`) at friction drawn uniformly from [0.05, 1] per contact;
-* ``box``: random boxes on a table pushed by one frictionless finger (width, height in
-  [0.05, 0.15] m, push height in [0.1, 0.9] of the height, table friction in [0.1, 1]) -- a
-  system with ``workpiece`` geometry and ``environment`` contacts.
+* ``system``: random boxes and trapezoids on a table pushed by one frictionless finger from the
+  left or (mirrored) the right, at a random height and direction (:func:`random_system`) --
+  systems with ``workpiece`` geometry and ``environment`` contacts.
 
 Every run is also judged against the prediction at a second random friction point whose
 predicted mode set shares no mode with the first's (a negative control: agreement there is a
@@ -16,7 +16,8 @@ false agreement). A point is
 ``+-NEAR`` (0.03); those are counted apart.
 
     python benchmarks/validation_campaign.py --points 8 --seed 1
-    python benchmarks/validation_campaign.py --points 200 --json out.json   # the full campaign
+    python benchmarks/validation_campaign.py --points 200 --cases ex41,ex43 --jsonl out.jsonl
+    python benchmarks/validation_campaign.py --jsonl out.jsonl --table-only
 
 Rates are printed per case, engine and near/away; the full campaign (>= 200 points per example,
 >= 50 systems, ~3-5 s per run) takes hours on two cores.
@@ -60,19 +61,39 @@ def near_boundary(system: System, mu: np.ndarray) -> bool:
     return False
 
 
-def random_box(rng: np.random.Generator) -> tuple[System, np.ndarray]:
+def random_system(rng: np.random.Generator) -> tuple[System, np.ndarray]:
+    """A random workpiece on a table pushed by one frictionless finger: a box or a trapezoid
+    (top corners moved in by up to 0.3 of the width on each side) of width and height in
+    [0.05, 0.15] m, standing on its bottom edge (two ``environment`` contacts at its bottom
+    corners, table friction in [0.1, 1]), pushed on its left or, mirrored, right side edge at
+    [0.1, 0.9] of the height along the edge's inward normal with a tangential component in
+    [-0.5, 0.5] of the normal one; weight 0.981 N through the polygon's centroid."""
     w, h = rng.uniform(0.05, 0.15, size=2)
-    y = rng.uniform(0.1, 0.9) * h
+    trapezoid = bool(rng.integers(2))
+    sl, sr = (rng.uniform(0.0, 0.3, size=2) * w) if trapezoid else (0.0, 0.0)
+    poly = np.array([[0.0, 0.0], [w, 0.0], [w - sr, h], [sl, h]])
+    frac = rng.uniform(0.1, 0.9)
+    if rng.integers(2):  # mirrored: push the right edge towards -x
+        a, b = poly[1], poly[2]
+        n = np.array([-(b - a)[1], (b - a)[0]])
+    else:
+        a, b = poly[0], poly[3]
+        n = np.array([(b - a)[1], -(b - a)[0]])
+    n /= np.linalg.norm(n)
+    r = a + frac * (b - a)
+    v_t = rng.uniform(-0.5, 0.5)
     mu_t = rng.uniform(0.1, 1.0)
     mass = 0.1
     weight = 9.81 * mass
+    geom = WorkpieceGeometry(poly, mass)
+    cx = float(np.asarray(geom.com)[0])
     system = System.from_contacts(
-        points=[[0.0, 0.0], [w, 0.0], [0.0, y]],
-        normals=[[0.0, 1.0], [0.0, 1.0], [1.0, 0.0]],
+        points=[[0.0, 0.0], [w, 0.0], r.tolist()],
+        normals=[[0.0, 1.0], [0.0, 1.0], n.tolist()],
         mu=[mu_t, mu_t, 0.0],
-        external_wrench=(0.0, -weight, -weight * w / 2),
-        contact_velocities=[[0.0, 0.0], [0.0, 0.0], [0.001, 0.0]],
-        workpiece=WorkpieceGeometry(np.array([[0.0, 0.0], [w, 0.0], [w, h], [0.0, h]]), mass),
+        external_wrench=(0.0, -weight, -weight * cx),
+        contact_velocities=[[0.0, 0.0], [0.0, 0.0], [0.001, 0.001 * v_t]],
+        workpiece=geom,
         environment=[True, True, False],
     )
     return system, np.array([mu_t, mu_t, 0.0])
@@ -81,8 +102,8 @@ def random_box(rng: np.random.Generator) -> tuple[System, np.ndarray]:
 def draw(case: str, rng: np.random.Generator) -> tuple[System, np.ndarray, np.ndarray]:
     """``(system, mu, control mu)``; the control's predicted mode set shares no mode with
     ``mu``'s (``mu`` itself when none is found in 50 draws: no control for that point)."""
-    if case == "box":
-        system, mu = random_box(rng)
+    if case == "system":
+        system, mu = random_system(rng)
         for _ in range(50):
             c = rng.uniform(0.1, 1.0)
             ctrl = np.array([c, c, 0.0])
@@ -116,7 +137,7 @@ def run_point(case: str, engine: str, system: System, mu: np.ndarray, ctrl: np.n
             np.asarray(system.joint_inputs) * scale))
         load = float(np.linalg.norm(np.asarray(system.g_obj)[:2]))
         v, _, _ = judge_recording(res.recording, judged, engine, p["drive_speed_m_per_s"],
-                                  load, p["length"])
+                                  load, p["length"], p["jam_force_N"])
         row["control_status"] = v.outcome.value
     row["wall_s"] = time.perf_counter() - t0
     return row
@@ -140,30 +161,88 @@ def table(rows: list[dict[str, Any]]) -> str:
     return "\n".join(out)
 
 
+def tasks(cases: list[str], engines: list[str], points: int, seed: int
+          ) -> list[tuple[str, int, str]]:
+    """Every ``(case, index, engine)`` of the campaign, in running order."""
+    return [(c, i, e) for c in cases for i in range(points) for e in engines]
+
+
+def point(case: str, index: int, seed: int) -> tuple[System, np.ndarray, np.ndarray]:
+    """The ``index``-th draw of ``case`` (the same draw whatever else runs: the generator is
+    seeded by ``(seed, case)`` and the draws before ``index`` are replayed, no simulation)."""
+    rng = np.random.default_rng([seed, sum(map(ord, case))])
+    for _ in range(index):
+        draw(case, rng)
+    return draw(case, rng)
+
+
+def run_task(task: tuple[str, int, str, int]) -> dict[str, Any]:
+    case, index, engine, seed = task
+    system, mu, ctrl = point(case, index, seed)
+    row = run_point(case, engine, system, mu, ctrl)
+    row.update(index=index, seed=seed)
+    return row
+
+
+def read_rows(path: str) -> list[dict[str, Any]]:
+    """Rows of a JSONL file (a torn last line from an interrupted run is skipped)."""
+    rows = []
+    try:
+        with open(path) as fh:
+            for line in fh:
+                try:
+                    rows.append(json.loads(line))
+                except json.JSONDecodeError:
+                    pass
+    except FileNotFoundError:
+        pass
+    return rows
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--points", type=int, default=8, help="points per case and engine")
+    ap.add_argument("--points", type=int, default=8, help="points per case")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--engines", default="pymunk,mujoco")
-    ap.add_argument("--cases", default="ex41,ex43,box")
-    ap.add_argument("--json", help="write every row to this file")
+    ap.add_argument("--cases", default="ex41,ex43,system")
+    ap.add_argument("--jsonl", help="append every row to this file and skip the (case, index, "
+                    "engine, seed) rows it already holds (resumable)")
+    ap.add_argument("--workers", type=int, default=1, help="processes")
+    ap.add_argument("--chunk", default="0/1", help="K/N: run only tasks with number %% N == K")
+    ap.add_argument("--table-only", action="store_true", help="print the table of --jsonl")
     args = ap.parse_args()
-    rows = []
-    for case in args.cases.split(","):
-        rng = np.random.default_rng([args.seed, sum(map(ord, case))])
-        points = [draw(case, rng) for _ in range(args.points)]
-        for engine in args.engines.split(","):
-            for system, mu, ctrl in points:
-                r = run_point(case, engine, system, mu, ctrl)
-                rows.append(r)
-                print(f"{case} {engine} mu={np.round(mu, 3).tolist()} {r['status']:12s} "
-                      f"control {r.get('control_status', '-'):10s} "
-                      f"{'near' if r['near_boundary'] else 'away'} pred {r['predicted']} "
-                      f"obs {r['observed']} [{r['wall_s']:.1f} s]", flush=True)
+    done = read_rows(args.jsonl) if args.jsonl else []
+    if args.table_only:
+        print(table(done))
+        return
+    have = {(r["case"], r["index"], r["engine"], r["seed"]) for r in done if "index" in r}
+    k, n = (int(v) for v in args.chunk.split("/"))
+    todo = [(c, i, e, args.seed) for j, (c, i, e) in enumerate(
+        tasks(args.cases.split(","), args.engines.split(","), args.points, args.seed))
+        if j % n == k and (c, i, e, args.seed) not in have]
+    rows = [r for r in done if r.get("seed") == args.seed]
+    print(f"{len(todo)} runs to do, {len(rows)} rows already in {args.jsonl}", flush=True)
+
+    def record(r: dict[str, Any]) -> None:
+        rows.append(r)
+        if args.jsonl:
+            with open(args.jsonl, "a") as fh:
+                fh.write(json.dumps(r) + "\n")
+        print(f"{r['case']} #{r['index']} {r['engine']} mu={np.round(r['mu'], 3).tolist()} "
+              f"{r['status']:12s} control {r.get('control_status', '-'):10s} "
+              f"{'near' if r['near_boundary'] else 'away'} pred {r['predicted']} "
+              f"obs {r['observed']} [{r['wall_s']:.1f} s]", flush=True)
+
+    if args.workers > 1:
+        import multiprocessing
+
+        with multiprocessing.Pool(args.workers) as pool:
+            for r in pool.imap_unordered(run_task, todo):
+                record(r)
+    else:
+        for t in todo:
+            record(run_task(t))
     print(table(rows))
-    if args.json:
-        with open(args.json, "w") as fh:
-            json.dump(rows, fh, indent=1)
 
 
 if __name__ == "__main__":
