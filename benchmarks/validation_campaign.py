@@ -16,7 +16,8 @@ false agreement). A point is
 ``+-NEAR`` (0.03); those are counted apart.
 
     python benchmarks/validation_campaign.py --points 8 --seed 1
-    python benchmarks/validation_campaign.py --points 200 --cases ex41,ex43 --jsonl out.jsonl
+    python benchmarks/validation_campaign.py --points ex41=200,ex43=200,system=50 \\
+        --jsonl out.jsonl --workers 2          # the full campaign (resumable)
     python benchmarks/validation_campaign.py --jsonl out.jsonl --table-only
 
 Rates are printed per case, engine and near/away; the full campaign (>= 200 points per example,
@@ -34,6 +35,7 @@ from typing import Any
 import numpy as np
 
 from planner.files.system_file import load_system
+from planner.model.modes import SLIDE
 from planner.model.system import System
 from planner.model.workpiece import WorkpieceGeometry
 from planner.predict.feasibility import feasible_modes
@@ -42,6 +44,8 @@ from sim.scenes.paper import scaled_system
 from sim.system_run import judge_recording, simulate_system
 
 NEAR = 0.03
+#: The classifier's slip threshold as a fraction of the drive speed (``sim.classify``).
+SLIP = 0.05
 SCALES = {"ex41": ("example_4_1", 0.01), "ex43": ("example_4_3", 0.1)}
 
 
@@ -59,6 +63,55 @@ def near_boundary(system: System, mu: np.ndarray) -> bool:
             if labels(system, m) != base:
                 return True
     return False
+
+
+def near_velocity(system: System, mu: np.ndarray) -> bool:
+    """A contact predicted to slide does so slower than ``2 x SLIP`` of the fastest commanded
+    contact speed: twice the classifier's slip threshold (``sim.classify.Thresholds``: 0.05 of
+    the drive speed, left again below half of it), where the engine cannot tell S from R."""
+    fastest = float(np.max(np.linalg.norm(
+        np.asarray(system.joint_inputs, dtype=float).reshape(-1, 2), axis=1)))
+    for m in feasible_modes(system.with_mu(mu)).all_modes:
+        vt = np.abs(np.asarray(m.contact_velocities, dtype=float)[:, 1])
+        sliding = np.array([c == SLIDE for c in m.mode.codes])
+        if np.any(sliding & (vt < 2 * SLIP * fastest)):
+            return True
+    return False
+
+
+def wedge_pairs(system: System, mu: np.ndarray, turn: float = 0.0,
+                slide: np.ndarray | None = None) -> list[tuple[int, int]]:
+    """Contact pairs ``(i, j)`` (1-based) that can wedge the workpiece: the line between the
+    two contact points lies inside both friction cones (``u . n_i >= 1 / sqrt(1 + mu_i^2)``
+    and ``-u . n_j >= 1 / sqrt(1 + mu_j^2)``, ``u`` the unit vector from ``r_i`` to ``r_j``:
+    equal and opposite forces along it need no other contact -- a two-finger force-closure
+    grasp) while the commanded contact velocities bring the points together along it
+    (``(v_i - v_j) . u > 0``; an environment contact does not move). Squeezed like this, the
+    fingers can hold the workpiece with a force that grows with their approach: a jam that the
+    rigid quasistatic model (feasible modes with finite forces) does not list. ``turn`` [rad]
+    and ``slide`` (n_c,) [m] widen each cone's half-angle by how far the line can turn during
+    the run: the workpiece turns by up to ``turn`` and the contacts slide along its edges by
+    up to ``slide`` (the line turns by ``(slide_i + slide_j) / |r_j - r_i|``). A pair that
+    enters the wedge during the run wedges it then; measured: Example 4.1 at
+    mu = .98 .82 .54, 1.55 deg short of a wedge at contact 2 at the start (the workpiece turns
+    1.45 deg, contact 2 slides 6.4 mm at 0.31 m), forces grow from 34 N to 130 N in pymunk."""
+    pts = np.asarray(system.points, dtype=float)
+    nrm = np.asarray(system.normals, dtype=float)
+    tng = np.stack([-nrm[:, 1], nrm[:, 0]], axis=1)
+    vel = np.asarray(system.joint_inputs, dtype=float).reshape(-1, 2)
+    v = vel[:, :1] * nrm + vel[:, 1:] * tng
+    out = []
+    for i in range(len(pts)):
+        for j in range(i + 1, len(pts)):
+            d = pts[j] - pts[i]
+            u = d / np.linalg.norm(d)
+            widen = turn + (0.0 if slide is None else float(slide[i] + slide[j])
+                            / float(np.linalg.norm(d)))
+            if (u @ nrm[i] >= np.cos(min(np.arctan(mu[i]) + widen, np.pi / 2))
+                    and -u @ nrm[j] >= np.cos(min(np.arctan(mu[j]) + widen, np.pi / 2))
+                    and (v[i] - v[j]) @ u > 0):
+                out.append((i + 1, j + 1))
+    return out
 
 
 def random_system(rng: np.random.Generator) -> tuple[System, np.ndarray]:
@@ -120,6 +173,20 @@ def draw(case: str, rng: np.random.Generator) -> tuple[System, np.ndarray, np.nd
     return system, mu, mu
 
 
+def reach(system: System, mu: np.ndarray, p: dict[str, Any]) -> tuple[float, np.ndarray]:
+    """How far the predicted modes move things over the run of ``qsplan simulate``'s
+    ``parameters`` ``p``: the largest turn of the workpiece [rad] and each contact's largest
+    slide along the workpiece [m] (predicted ``|omega|`` and ``|v_t|`` x speed scale x
+    duration)."""
+    modes = feasible_modes(system.with_mu(mu)).all_modes
+    k = float(p["speed_scale"]) * float(p["duration_s"])
+    omega = max((abs(float(np.asarray(m.qdot)[2])) for m in modes), default=0.0)
+    slide = np.zeros(system.n_contacts)
+    for m in modes:
+        slide = np.maximum(slide, np.abs(np.asarray(m.contact_velocities, dtype=float)[:, 1]))
+    return omega * k, slide * k
+
+
 def run_point(case: str, engine: str, system: System, mu: np.ndarray, ctrl: np.ndarray
               ) -> dict[str, Any]:
     t0 = time.perf_counter()
@@ -129,7 +196,9 @@ def run_point(case: str, engine: str, system: System, mu: np.ndarray, ctrl: np.n
         "case": case, "engine": engine, "mu": mu.tolist(), "status": res.verdict.outcome.value,
         "predicted": res.summary["predicted"]["labels"],
         "observed": res.summary["observed"]["counts"], "reason": res.verdict.reason,
-        "near_boundary": near_boundary(system, mu), "control_mu": ctrl.tolist(),
+        "near_boundary": near_boundary(system, mu),
+        "near_velocity": near_velocity(system, mu),
+        "wedge": wedge_pairs(system, mu, *reach(system, mu, p)), "control_mu": ctrl.tolist(),
     }
     if not np.array_equal(ctrl, mu) and res.verdict.outcome.value != "fault":
         scale = p["speed_scale"]
@@ -143,28 +212,36 @@ def run_point(case: str, engine: str, system: System, mu: np.ndarray, ctrl: np.n
     return row
 
 
+def where(row: dict[str, Any]) -> str:
+    """``near boundary`` (friction or slip speed), ``wedge possible`` or ``away``."""
+    if row["near_boundary"] or row.get("near_velocity"):
+        return "near boundary"
+    return "wedge possible" if row.get("wedge") else "away"
+
+
 def table(rows: list[dict[str, Any]]) -> str:
     out = ["| case | engine | where | n | agreed | disagreed | inconclusive | fault | "
            "false agreement on control |", "|---|---|---|---|---|---|---|---|---|"]
-    keys = sorted({(r["case"], r["engine"], r["near_boundary"]) for r in rows})
-    for case, engine, near in keys:
-        sel = [r for r in rows if (r["case"], r["engine"], r["near_boundary"]) == (case, engine,
-                                                                                   near)]
+    keys = sorted({(r["case"], r["engine"], where(r)) for r in rows})
+    for case, engine, at in keys:
+        sel = [r for r in rows if (r["case"], r["engine"], where(r)) == (case, engine, at)]
         c = Counter(r["status"] for r in sel)
         ctrl = [r for r in sel if "control_status" in r]
         false = sum(r["control_status"] == "agreed" for r in ctrl)
         n = len(sel)
-        out.append(f"| {case} | {engine} | {'near boundary' if near else 'away'} | {n} | "
+        out.append(f"| {case} | {engine} | {at} | {n} | "
                    + " | ".join(f"{c[s]} ({c[s] / n:.0%})" for s in
                                 ("agreed", "disagreed", "inconclusive", "fault"))
                    + f" | {false} of {len(ctrl)} |")
     return "\n".join(out)
 
 
-def tasks(cases: list[str], engines: list[str], points: int, seed: int
+def tasks(cases: list[str], engines: list[str], points: dict[str, int]
           ) -> list[tuple[str, int, str]]:
-    """Every ``(case, index, engine)`` of the campaign, in running order."""
-    return [(c, i, e) for c in cases for i in range(points) for e in engines]
+    """Every ``(case, index, engine)`` of the campaign, interleaved by index (a partial run
+    covers every case)."""
+    return [(c, i, e) for i in range(max(points.values(), default=0)) for c in cases
+            for e in engines if i < points[c]]
 
 
 def point(case: str, index: int, seed: int) -> tuple[System, np.ndarray, np.ndarray]:
@@ -201,7 +278,8 @@ def read_rows(path: str) -> list[dict[str, Any]]:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--points", type=int, default=8, help="points per case")
+    ap.add_argument("--points", default="8",
+                    help="points per case: N, or CASE=N,... (e.g. ex41=200,ex43=200,system=50)")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--engines", default="pymunk,mujoco")
     ap.add_argument("--cases", default="ex41,ex43,system")
@@ -217,8 +295,14 @@ def main() -> None:
         return
     have = {(r["case"], r["index"], r["engine"], r["seed"]) for r in done if "index" in r}
     k, n = (int(v) for v in args.chunk.split("/"))
+    cases = args.cases.split(",")
+    if "=" in args.points:
+        points = {c: int(v) for c, v in (kv.split("=") for kv in args.points.split(","))}
+        cases = [c for c in cases if c in points]
+    else:
+        points = dict.fromkeys(cases, int(args.points))
     todo = [(c, i, e, args.seed) for j, (c, i, e) in enumerate(
-        tasks(args.cases.split(","), args.engines.split(","), args.points, args.seed))
+        tasks(cases, args.engines.split(","), points))
         if j % n == k and (c, i, e, args.seed) not in have]
     rows = [r for r in done if r.get("seed") == args.seed]
     print(f"{len(todo)} runs to do, {len(rows)} rows already in {args.jsonl}", flush=True)
@@ -230,7 +314,7 @@ def main() -> None:
                 fh.write(json.dumps(r) + "\n")
         print(f"{r['case']} #{r['index']} {r['engine']} mu={np.round(r['mu'], 3).tolist()} "
               f"{r['status']:12s} control {r.get('control_status', '-'):10s} "
-              f"{'near' if r['near_boundary'] else 'away'} pred {r['predicted']} "
+              f"{where(r)} pred {r['predicted']} "
               f"obs {r['observed']} [{r['wall_s']:.1f} s]", flush=True)
 
     if args.workers > 1:

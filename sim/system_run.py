@@ -52,12 +52,6 @@ JAM_FORCE_OF_LOAD = 20.0
 #: :func:`sim.run.ramped`): a velocity step wedged Example 4.3 at mu = .86 .42 .95 in pymunk
 #: (33 N in the first step at a 1 N load; ramped: 1.2 N and the predicted mode).
 RAMP_OF_SETTLE = 0.5
-#: Initial overlap of every contact as a fraction of the scene size, per engine. pymunk: half
-#: its collision slop (1e-4 x size; an overlap below the slop exerts no force). MuJoCo's stiff
-#: finger contacts push at any overlap: 5e-5 x size (18 um in Example 4.3's 0.36 m scene) gave
-#: 18 N at a 1 N load in the first steps and wedged the workpiece between fingers 1 and 3
-#: (mu = .86 .42 .95); 5e-6 x size gave 1.6 N and the predicted mode.
-PRELOAD = {"pymunk": 5e-5, "mujoco": 5e-6}
 #: :func:`stick_slip_verdict`: relative twist error [-] within which the workpiece "moves as
 #: predicted", and the fraction of judged contact-steps missing above which the engine is
 #: said not to resolve the modes (pymunk runs of the box and the disc miss none).
@@ -100,6 +94,7 @@ def judge_recording(rec: Any, prediction: Any, engine: str, drive: float, load: 
     plus ``jam_force``, or the feasible modes with the jam force in the thresholds) so this
     module does not depend on the order the two are merged in."""
     import inspect
+    from dataclasses import replace
 
     from sim.classify import Thresholds, judge_run
 
@@ -112,6 +107,9 @@ def judge_recording(rec: Any, prediction: Any, engine: str, drive: float, load: 
     else:
         th = Thresholds.for_drive(drive, load, creep_floor=es["creep"],  # type: ignore[call-arg,unused-ignore]
                                   settle=es["settle"], jam_force=jam_force, length_scale=size)
+        # force errors relative to the run's force scale (the load amplified by a near-wedge
+        # mode amplifies every geometric error by the same factor), never below the load
+        th = replace(th, load=max(load, jam_force / JAM_FORCE_OF_LOAD))
         verdict, observed = judge_run(rec, th, list(prediction.all_modes))
     return stick_slip_verdict(verdict, rec, prediction, es["settle"], size), observed, th
 
@@ -124,7 +122,7 @@ def stick_slip_verdict(verdict: Verdict, rec: Any, prediction: Any, settle: floa
     ``TWIST_TOLERANCE`` of a predicted mode's ``qdot`` (relative, rotation weighted by the
     scene size) while contacts go missing on more than ``LOST_FRACTION`` of the judged steps
     (stick-slip or chatter; a resting contact is never missing in a sound run). Contacts that
-    every predicted mode breaks are not counted (their absence is the prediction)."""
+    the nearest predicted mode (by twist) breaks are not counted (their absence is predicted)."""
     from dataclasses import replace
 
     from sim.compare import Outcome
@@ -144,9 +142,9 @@ def stick_slip_verdict(verdict: Verdict, rec: Any, prediction: Any, settle: floa
               for m in prediction.all_modes]
     from planner.model.modes import BREAK
 
-    # contacts some predicted mode keeps closed (one that every mode breaks may be absent)
-    kept = np.array([any(m.mode.codes[j] != BREAK for m in prediction.all_modes)
-                     for j in range(rec.present.shape[1])], dtype=bool)
+    # contacts the nearest predicted mode (by twist) keeps closed (a broken one may be absent)
+    nearest = prediction.all_modes[int(np.argmin(errors))]
+    kept = np.array([c != BREAK for c in nearest.mode.codes], dtype=bool)
     if not kept.any():
         return verdict
     lost = float(np.mean(~rec.present[k][:, kept]))
@@ -192,7 +190,7 @@ def simulate_system(system: System, engine: str, *, mu: Any = None, mu_kinetic: 
     if not (np.isfinite(drive) and drive > 0):
         raise InputError(f"--speed: expected a finite speed > 0 [m/s], got {speed}")
     scale = drive / fastest
-    scene = system_scene(sim_sys, speed_scale=scale, mu_kinetic=muk, preload=PRELOAD[engine])
+    scene = system_scene(sim_sys, speed_scale=scale, mu_kinetic=muk)
     # predicted at the scene's speeds, so the certificate's qdot is the twist to observe
     pred = feasible_modes(judge_sys.with_joint_inputs(np.asarray(judge_sys.joint_inputs) * scale))
     predicted: list[ObservedMode] = [m.mode for m in pred.all_modes] or [JAM]

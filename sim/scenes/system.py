@@ -62,8 +62,8 @@ def _polygon_inertia(poly: np.ndarray, com: np.ndarray, mass: float) -> float:
     return mass * j / area
 
 
-def environment_surface(r: np.ndarray, n: np.ndarray, poly: np.ndarray, size: float,
-                        preload: float = PRELOAD) -> Capsule:
+def environment_surface(r: np.ndarray, n: np.ndarray, poly: np.ndarray, size: float
+                        ) -> Capsule:
     """The fixed surface of an environment contact at ``r`` (2,) [m] with inward normal ``n``:
     a capsule whose flat top lies on the tangent line through ``r`` shifted ``PRELOAD * size``
     into the workpiece, spanning the tangent interval described in the module docstring, of
@@ -74,18 +74,17 @@ def environment_surface(r: np.ndarray, n: np.ndarray, poly: np.ndarray, size: fl
     lo = -ENV_REACH * size if along.min() >= -tol else -ENV_INSET * size
     hi = ENV_REACH * size if along.max() <= tol else ENV_INSET * size
     radius = 0.5 * ENV_THICKNESS * size
-    axis = r + preload * size * n - radius * n
+    axis = r + PRELOAD * size * n - radius * n
     a, b = axis + lo * t, axis + hi * t
     return Capsule((float(a[0]), float(a[1])), (float(b[0]), float(b[1])), radius)
 
 
 def system_scene(system: System, *, speed_scale: float = 1.0,
-                 mu_kinetic: np.ndarray | None = None, preload: float = PRELOAD) -> Scene:
+                 mu_kinetic: np.ndarray | None = None) -> Scene:
     """Scene of ``system`` (a contact-velocity system, eq. 5) at the system's ``mu``.
 
     ``speed_scale`` [-] multiplies every commanded contact velocity; ``mu_kinetic`` (n_c,)
-    optional kinetic coefficients (static = ``system.mu``); ``preload`` [-] the initial
-    overlap as a fraction of the scene size (default ``PRELOAD``). Raises :class:`InputError` for a
+    optional kinetic coefficients (static = ``system.mu``). Raises :class:`InputError` for a
     joint-space manipulator (chains are not built yet) or a contact off the workpiece boundary.
     """
     if not system.virtual_joints:
@@ -134,11 +133,11 @@ def system_scene(system: System, *, speed_scale: float = 1.0,
     for i in range(n_c):
         name = f"env{i + 1}" if env[i] else f"finger{i + 1}"
         if env[i]:
-            bodies.append(Body(name, (environment_surface(pts[i], nrm[i], poly, size, preload),),
+            bodies.append(Body(name, (environment_surface(pts[i], nrm[i], poly, size),),
                                kind=BodyKind.STATIC))
         else:
             v_world = vel[i, 0] * nrm[i] + vel[i, 1] * tng[i]
-            centre = pts[i] - (radius - preload * size) * nrm[i]
+            centre = pts[i] - (radius - PRELOAD * size) * nrm[i]
             bodies.append(Body(name, (Circle((0.0, 0.0), radius),),
                                pose=(float(centre[0]), float(centre[1]), 0.0),
                                kind=BodyKind.DRIVEN,
@@ -160,6 +159,6 @@ def system_scene(system: System, *, speed_scale: float = 1.0,
         only_pairs=True,
         meta={"polygon": poly.tolist(), "com": com.tolist(), "mass": mass,
               "derived_workpiece": derived, "area_centroid": centroid.tolist(),
-              "finger_radius": radius, "preload_m": preload * size,
+              "finger_radius": radius, "preload_m": PRELOAD * size,
               "environment": list(env), "drive_speed": fastest},
     )
