@@ -197,7 +197,9 @@ def ramped(command: Any, ramp: float) -> Any:
     """``command(t, states)`` times the smoothstep ``3 a^2 - 2 a^3`` of ``a = t / ramp`` for
     ``t < ramp`` [s]: a driven body starts from rest with continuous acceleration instead of a
     velocity jump (the jump's first-step impulses are many times the load and can wedge a
-    workpiece between two fingers, docs/simulation.md "Validation campaign")."""
+    workpiece between two fingers, docs/simulation.md "Validation campaign"). The wrapper's
+    ``unramped`` attribute is ``command`` (its direction decides MuJoCo's contact roles,
+    :mod:`sim.backends.roles`)."""
     def command_ramped(t: float, states: Any) -> tuple[float, float, float]:
         v = command(t, states)
         if t >= ramp:
@@ -205,6 +207,7 @@ def ramped(command: Any, ramp: float) -> Any:
         a = max(0.0, t / ramp)
         f = a * a * (3.0 - 2.0 * a)
         return (v[0] * f, v[1] * f, v[2] * f)
+    command_ramped.unramped = command  # type: ignore[attr-defined]
     return command_ramped
 
 
