@@ -109,7 +109,8 @@ def judge_recording(rec: Any, prediction: Any, engine: str, drive: float, load: 
                                   settle=es["settle"], jam_force=jam_force, length_scale=size)
         # force errors relative to the run's force scale (the load amplified by a near-wedge
         # mode amplifies every geometric error by the same factor), never below the load
-        th = replace(th, load=max(load, jam_force / JAM_FORCE_OF_LOAD))
+        scale = max(load, jam_force / JAM_FORCE_OF_LOAD)
+        th = replace(th, load=scale, jam_depth_force=scale)
         verdict, observed = judge_run(rec, th, list(prediction.all_modes))
     return stick_slip_verdict(verdict, rec, prediction, es["settle"], size), observed, th
 
