@@ -103,29 +103,69 @@ def _plans_table(root: Path, plans: tuple[Path, ...]) -> str:
             keys = ", ".join(sorted(data))
             rows.append(f"<tr><td>{esc(str(rel))}</td><td colspan='7'>keys: {esc(keys)}</td></tr>")
             continue
-        wps = data.get("waypoints")
-        wps = wps if isinstance(wps, list) else []
-        margins = [float(w["margin"]) for w in wps if isinstance(w, dict)
-                   and isinstance(w.get("margin"), (int, float))]
-        mu = data.get("mu") or {}
-        intervals = mu.get("intervals") if isinstance(mu, dict) else None
-        mu_text = (f"{mu.get('model', '')} {intervals[0]}" if isinstance(intervals, list)
-                   and intervals else str(mu))
-        event = data.get("event") or {}
-        ev = (f"{event.get('kind', '')} ({event.get('detail', '')}) at t = "
-              f"{_cell(event.get('t', ''))} s" if isinstance(event, dict) else str(event))
-        control = data.get("control")
-        cells = [str(rel), data.get("claim", ""), mu_text,
-                 ", ".join(map(str, control)) if isinstance(control, list) else control or "",
-                 data.get("policy", ""), len(wps),
-            _cell(min(margins)) if margins else "", ev]
-        rows.append("<tr>" + "".join(f"<td>{esc(str(c))}</td>" for c in cells) + "</tr>")
+        segments = data.get("segments")
+        if isinstance(segments, list):  # version 2: one row per segment
+            for k, seg in enumerate(segments):
+                if isinstance(seg, dict):
+                    rows.append(_plan_row(f"{rel} segment {k + 1}", {**data, **seg}))
+            continue
+        rows.append(_plan_row(str(rel), data))
     rows.append("</table>")
     return "\n".join(rows)
 
 
+def _plan_row(name: str, data: dict) -> str:
+    """One plans-table row of a version-1 plan, or of a version-2 segment merged with the
+    plan's top level."""
+    esc = html.escape
+    wps = data.get("waypoints")
+    wps = wps if isinstance(wps, list) else []
+    margins = [float(w["margin"]) for w in wps if isinstance(w, dict)
+               and isinstance(w.get("margin"), (int, float))]
+    mu = data.get("mu") or {}
+    intervals = mu.get("intervals") if isinstance(mu, dict) else None
+    mu_text = (f"{mu.get('model', '')} {intervals[0]}" if isinstance(intervals, list)
+               and intervals else str(mu))
+    event = data.get("event") or {}
+    ev = (f"{event.get('kind', '')} ({event.get('detail', '')}) at t = "
+          f"{_cell(event.get('t', ''))} s" if isinstance(event, dict) else str(event))
+    control = data.get("control")
+    cells = [name, data.get("claim", ""), mu_text,
+             ", ".join(map(str, control)) if isinstance(control, list) else control or "",
+             data.get("policy", ""), len(wps),
+        _cell(min(margins)) if margins else "", ev]
+    return "<tr>" + "".join(f"<td>{esc(str(c))}</td>" for c in cells) + "</tr>"
+
+
+def _figures(root: Path, images: list[Path], heading: str | None) -> list[str]:
+    """``<figure>`` elements of ``images``, one ``<h3>`` per folder (``heading`` for the top)."""
+    esc = html.escape
+    out = []
+    folder = None
+    for rel in images:
+        if rel.parent != folder:
+            folder = rel.parent
+            out.append(f"<h3>{esc(str(folder) if str(folder) != '.' else heading or root.name)}"
+                       "</h3>")
+        encoded = base64.b64encode((root / rel).read_bytes()).decode("ascii")
+        mime = _MIME[rel.suffix.lower()]
+        out.append(
+            f"<figure><img alt='{esc(str(rel))}' src='data:{mime};base64,{encoded}'>"
+            f"<figcaption>{esc(str(rel))}</figcaption></figure>"
+        )
+    return out
+
+
+#: Folders shown before the tables, in order: the task in pictures (``qsplan demo``'s
+#: ``story/``: start, segments, goal, torque regions), then the torque bounds (``figures/``).
+STORY_FOLDERS = (("story", "The task: start, segments and goal"),
+                 ("figures", "Torque regions (Figures 10-13)"))
+
+
 def build_html(run_dir: str | Path) -> str:
-    """The report page as one HTML string with every image inlined as base64."""
+    """The report page as one HTML string with every image inlined as base64: the story
+    figures first (:data:`STORY_FOLDERS`), then what held (checks, summaries, plans), then the
+    other figures."""
     root = Path(run_dir)
     found = scan_run(root)
     esc = html.escape
@@ -137,8 +177,16 @@ def build_html(run_dir: str | Path) -> str:
         ".ok{background:#dfd}.bad{background:#fdd}.info{background:#eef}img{max-width:100%}"
         "</style></head><body>",
         f"<h1>qsplan report: {esc(root.name)}</h1>",
-        "<h2>What held and what did not</h2>",
     ]
+    rest = list(found.images)
+    if any(rel.parts[0] == "story" for rel in rest if len(rel.parts) > 1):
+        for name, title in STORY_FOLDERS:
+            mine = [rel for rel in rest if len(rel.parts) > 1 and rel.parts[0] == name]
+            if mine:
+                out.append(f"<h2>{esc(title)}</h2>")
+                out += _figures(root, mine, None)
+                rest = [rel for rel in rest if rel not in mine]
+    out.append("<h2>What held and what did not</h2>")
     for rel in found.checks:
         out.append(_checks_table(root, rel))
     if found.summaries:
@@ -159,17 +207,7 @@ def build_html(run_dir: str | Path) -> str:
         out.append("<h2>Plans</h2>")
         out.append(_plans_table(root, found.plans))
     out.append("<h2>Figures</h2>")
-    folder = None
-    for rel in found.images:
-        if rel.parent != folder:
-            folder = rel.parent
-            out.append(f"<h3>{esc(str(folder) if str(folder) != '.' else root.name)}</h3>")
-        encoded = base64.b64encode((root / rel).read_bytes()).decode("ascii")
-        mime = _MIME[rel.suffix.lower()]
-        out.append(
-            f"<figure><img alt='{esc(str(rel))}' src='data:{mime};base64,{encoded}'>"
-            f"<figcaption>{esc(str(rel))}</figcaption></figure>"
-        )
+    out += _figures(root, rest, None)
     out.append("</body></html>")
     return "\n".join(out)
 

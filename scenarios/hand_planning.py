@@ -1,4 +1,5 @@
-"""Scenarios: the Section 5.2 planning example (two-finger hand) -- plans and Figures 10-13."""
+"""Scenarios: the Section 5.2 planning example (two-finger hand) -- plans and Figures 10-13, and
+the whole Figure 9 task (``hand_task_plan``: the segment search to the goal grasp)."""
 
 from __future__ import annotations
 
@@ -53,3 +54,35 @@ register(Scenario(name="hand_plan", summary="two-finger hand: 4S torque bands fo
 register(Scenario(name="hand_plan_r2s", summary="negative-control plan: R2S-band torque, claims 4S",
                   reference="Sec. 5.2, Fig. 12", expect=Expect.INFO, run=run_hand_plan_negative,
                   tags=("plan", "negative-control")))
+
+
+def run_hand_task_plan(out_dir: Path, **options: Any) -> dict[str, Any]:
+    """Plan the whole Figure 9 task (docs/planning.md): the version-2 plan, the story figures
+    and a summary (segments, claims, events, smallest margins, reached)."""
+    from planner.files.atomic import atomic_write_json
+    from planner.plan.task_file import plan_hand_task, save_task_plan
+    from planner.plots.task import plot_task_regions, plot_task_story
+
+    plan = plan_hand_task(shipped_file("figure9_task_hand"),
+                          mu=tuple(options.get("mu", (0.0, 0.2))))
+    out_dir = Path(out_dir)
+    path = save_task_plan(plan, out_dir / "plan_task.json")
+    figs = [plot_task_story(plan, out_dir), plot_task_regions(plan, out_dir)]
+    summary = {
+        "scenario": "hand_task_plan", "status": "info", "plan": str(path),
+        "figures": [str(f) for f in figs], "reached": plan.reached,
+        "segments": [{"claim": seg.claim, "control": list(seg.control),
+                      "event": dict(seg.event), "start_s": float(t0),
+                      "smallest_margin": min(w.margin for w in seg.waypoints)}
+                     for seg, t0 in zip(plan.segments, plan.start_times())],
+        "diagnosis": plan.diagnosis,
+    }
+    atomic_write_json(out_dir / "summary.json", summary)
+    return summary
+
+
+register(Scenario(name="hand_task_plan",
+                  summary="two-finger hand: the whole task from the initial to the goal grasp "
+                          "(segment search, mu in [0, 0.2])",
+                  reference="Sec. 5.2, Fig. 9 (reconstructed goal)", expect=Expect.INFO,
+                  run=run_hand_task_plan, tags=("plan", "task")))

@@ -45,15 +45,18 @@ from sim.compare import (
     fault_verdict,
     mode_label,
 )
+from sim.hand_settings import (
+    ENGINE_SETTINGS,
+    contact_drive_speed,
+    effort_force,
+    hand_engine_settings,
+)
 from sim.run import Recording
 from sim.scene import BodyState
 
-#: Hand-scene settings per engine (docs/simulation.md, "Two-finger hand").
-ENGINE_SETTINGS: dict[str, EngineSettings] = {
-    "pymunk": EngineSettings(dt=1e-3),
-    "mujoco": EngineSettings(dt=1e-3, mass_scale=0.1, solref=(0.01, 1.0), creep=1e-8,
-                             settle=0.3, z_stiffness=1000.0),
-}
+__all__ = ["ENGINE_SETTINGS", "PlanRun", "Schedule", "contact_drive_speed",
+           "hand_engine_settings", "held_command", "judge_recording", "observed_segments",
+           "plan_hand_model", "run_plan", "run_schedule"]
 
 
 def plan_hand_model(plan: Plan) -> tuple[Hand, np.ndarray]:
@@ -68,10 +71,14 @@ def plan_hand_model(plan: Plan) -> tuple[Hand, np.ndarray]:
 class Schedule:
     """Per-waypoint commands and predictions read from a plan (``n`` waypoints).
 
-    ``times`` (n,) [s] increasing from 0; ``velocity`` (n,) [rad/s] command of the velocity
-    joint; ``torque`` (n,) [N m] command of the effort joint (both held until the next
-    waypoint); ``poses`` (n, 3) predicted workpiece pose; ``predicted`` (n,) predicted label
-    sets; ``claim``; ``controls`` (F,) per finger joint ``"velocity"`` / ``"effort"``.
+    ``times`` (n,) [s] increasing from 0; ``velocity`` (n,) [rad/s] command of the (first)
+    velocity joint; ``torque`` (n,) [N m] command of the (first) effort joint (both held until
+    the next waypoint); ``poses`` (n, 3) predicted workpiece pose; ``predicted`` (n,)
+    predicted label sets; ``claim``; ``controls`` (n_theta,) per joint ``"velocity"`` /
+    ``"effort"`` (one per finger for single-link fingers). ``commands`` (n, n_theta): every
+    joint's command [rad/s, m/s, N m or N] per waypoint, for hands with several velocity or
+    effort joints (:meth:`from_region_plan`); empty: each joint takes ``velocity`` or
+    ``torque`` by its control (a plan file's one velocity and one effort joint).
     """
 
     times: tuple[float, ...]
@@ -81,6 +88,7 @@ class Schedule:
     claim: Mode
     controls: tuple[str, ...]
     predicted: tuple[frozenset[ObservedMode], ...]
+    commands: tuple[tuple[float, ...], ...] = ()
 
     @classmethod
     def from_plan(cls, plan: Plan, n_contacts: int) -> Schedule:
@@ -101,13 +109,69 @@ class Schedule:
                             for w in plan.waypoints),
         )
 
+    @classmethod
+    def from_region_plan(cls, plan: Any, n_contacts: int,
+                         torques: np.ndarray | None = None) -> Schedule:
+        """The commands and predictions of a :class:`planner.plan.region_planner.RegionPlan`
+        (any hand): per waypoint the velocity joints' rates and the effort joints' torque
+        vector (the region's Chebyshev centre); the claim is the only predicted mode (the
+        region excludes every rival over the friction box). ``torques`` (n, p) replaces the
+        planned torque vectors (a negative control: torques outside the regions)."""
+        wps = plan.waypoints
+        n_j = len(plan.velocity_joints) + len(plan.effort_joints)
+        tau = np.array([w.torque_command for w in wps], dtype=float).reshape(len(wps), -1)
+        if torques is not None:
+            tau = np.asarray(torques, dtype=float).reshape(len(wps), -1)
+            if tau.shape[1] != len(plan.effort_joints):
+                raise InputError(f"torques: expected ({len(wps)}, {len(plan.effort_joints)}), "
+                                 f"got {np.shape(torques)}")
+        cmd = np.zeros((len(wps), n_j))
+        cmd[:, list(plan.velocity_joints)] = [np.asarray(w.velocity_commands, dtype=float)
+                                              for w in wps]
+        cmd[:, list(plan.effort_joints)] = tau
+        claim = Mode.parse(plan.claim, n_contacts)
+        controls = tuple("velocity" if j in plan.velocity_joints else "effort"
+                         for j in range(n_j))
+        def first(c: str) -> np.ndarray:
+            return cmd[:, controls.index(c)] if c in controls else np.zeros(len(wps))
+
+        return cls(
+            times=tuple(float(w.t) for w in wps),
+            velocity=tuple(float(v) for v in first("velocity")),
+            torque=tuple(float(v) for v in first("effort")),
+            poses=tuple((float(w.q[0]), float(w.q[1]), float(w.q[2])) for w in wps),
+            claim=claim, controls=controls,
+            predicted=tuple(frozenset({claim}) for _ in wps),
+            commands=tuple(tuple(float(v) for v in row) for row in cmd),
+        )
+
+    def joint_commands(self) -> np.ndarray:
+        """(n, n_theta) every joint's command per waypoint (see the class docstring)."""
+        if self.commands:
+            return np.asarray(self.commands, dtype=float)
+        by = {"velocity": np.asarray(self.velocity, dtype=float),
+              "effort": np.asarray(self.torque, dtype=float)}
+        return np.stack([by[c] for c in self.controls], axis=1)
+
+    def slowed(self, factor: float) -> Schedule:
+        """The same schedule ``factor`` times slower: times stretched, velocity commands
+        divided, efforts and poses unchanged (a positive scaling of the joint rates leaves
+        the quasistatic mode set unchanged)."""
+        if not (np.isfinite(factor) and factor >= 1.0):
+            raise InputError(f"slowed: expected a finite factor >= 1, got {factor}")
+        cmd = self.joint_commands()
+        cmd[:, [c == "velocity" for c in self.controls]] /= factor
+        return replace(self, times=tuple(t * factor for t in self.times),
+                       velocity=tuple(v / factor for v in self.velocity),
+                       commands=tuple(tuple(float(v) for v in row) for row in cmd))
+
     def truncated(self, n: int) -> Schedule:
         """The first ``n`` waypoints (a shorter run of the same plan, for tests)."""
         if not 2 <= n <= len(self.times):
             raise InputError(f"truncated: expected 2 <= n <= {len(self.times)}, got {n}")
         return replace(self, times=self.times[:n], velocity=self.velocity[:n],
                        torque=self.torque[:n], poses=self.poses[:n],
-                       predicted=self.predicted[:n])
+                       predicted=self.predicted[:n], commands=self.commands[:n])
 
 
 def held_command(times: np.ndarray, values: np.ndarray,
@@ -153,31 +217,27 @@ def run_schedule(
     step, details)``."""
     from sim.classify import observed_modes
     from sim.run import RunSettings, run_scene
-    from sim.scenes.hand import finger_angles, hand_scene
+    from sim.scenes.hand import finger_angles, hand_scene, joint_coordinates
 
-    check_engine(engine)
-    es = settings or ENGINE_SETTINGS[engine]
     t = np.asarray(schedule.times, dtype=float)
     if t.ndim != 1 or len(t) < 2 or t[0] != 0.0 or np.any(np.diff(t) <= 0):
         raise InputError(f"schedule.times: expected >= 2 increasing times from 0, got "
                          f"{t.tolist()[:5]}...")
     mu_arr = as_friction(mu, hand.n_contacts)
-    if len(schedule.controls) != hand.n_fingers:
-        raise InputError(f"controls: expected {hand.n_fingers} (one per finger), got "
+    if len(schedule.controls) != hand.n_joints:
+        per = "finger" if hand.n_joints == hand.n_fingers else "joint"
+        raise InputError(f"controls: expected {hand.n_joints} (one per {per}), got "
                          f"{len(schedule.controls)}")
-    vel = held_command(t, np.asarray(schedule.velocity, dtype=float), es.ramp)
-    tau = held_command(t, np.asarray(schedule.torque, dtype=float), es.ramp)
-    commands = [vel if c == "velocity" else tau for c in schedule.controls]
+    cmd = schedule.joint_commands()
+    if cmd.shape != (len(t), hand.n_joints):
+        raise InputError(f"schedule.commands: expected ({len(t)}, {hand.n_joints}), got "
+                         f"{cmd.shape}")
+    es = settings or hand_engine_settings(
+        hand, engine, effort_force(hand, q0, schedule.controls, cmd))
+    commands = [held_command(t, cmd[:, j], es.ramp) for j in range(hand.n_joints)]
     scene = hand_scene(hand, q0, mu_arr, schedule.controls, commands,
                        mass_scale=es.mass_scale)
-    # drive speed: the velocity joint's contact-point speed (classifier thresholds, SIM-NOTES)
-    v_joint = list(schedule.controls).index("velocity")
-    pts, _, _ = hand.contact_geometry(q0)
-    radius = max([float(np.linalg.norm(pts[i] - np.asarray(hand.fingers[c.finger].pivot)))
-                  for i, c in enumerate(hand.contacts)
-                  if c.kind != "palm" and c.finger == v_joint]
-                 or [hand.fingers[v_joint].length])
-    drive_speed = float(np.max(np.abs(schedule.velocity))) * radius
+    drive_speed = contact_drive_speed(hand, q0, schedule.controls, cmd)
     load = float(np.linalg.norm(hand.load_force)) or 1e-3
     wall = time.perf_counter()
     rec = run_scene(scene, make_backend(engine, es), RunSettings(
@@ -201,18 +261,21 @@ def run_schedule(
     if rec.fault is not None:
         # what the run showed up to one window before the fault (its blow-up excluded)
         before = rec.until(rec.fault.time - th.window)
-        verdict = _judge_plan(before, observed_modes(before, th), th, schedule, hand)
+        verdict = judge_recording(before, observed_modes(before, th), th, schedule, hand)
         return fault_verdict(rec.fault, verdict), rec, observed, details
-    verdict = _judge_plan(rec, observed, th, schedule, hand) or Verdict(
+    verdict = judge_recording(rec, observed, th, schedule, hand) or Verdict(
         Outcome.INCONCLUSIVE, ("no step could be judged",))
     k = np.clip(np.searchsorted(rec.times, t - 1e-9), 0, len(rec.times) - 1)
     details["simulated_poses"] = rec.poses[k, iw].tolist()
     details["simulated_angles"] = finger_angles(rec, hand)[k].tolist()
+    if hand.n_joints != hand.n_fingers:
+        details["simulated_joints"] = joint_coordinates(rec.poses[k], rec.body_names,
+                                                        hand).tolist()
     return verdict, rec, observed, details
 
 
-def _judge_plan(rec: Recording, observed: list[ObservedMode], th: Thresholds,
-                schedule: Schedule, hand: Hand) -> Verdict | None:
+def judge_recording(rec: Recording, observed: list[ObservedMode], th: Thresholds,
+                    schedule: Schedule, hand: Hand) -> Verdict | None:
     """The verdict of a recording (one that ended normally, or the part of a faulted one
     before its fault) against the schedule; None when nothing can be judged."""
     t = np.asarray(schedule.times, dtype=float)

@@ -1,10 +1,11 @@
 """Engine-neutral scene description and the backend interface.
 
 A :class:`Scene` is plain frozen data: rigid bodies (polygon / circle / capsule shapes, mass,
-centre of mass), joints of single bodies to the fixed base (revolute or prismatic, each
-velocity- or effort-controlled with a per-step command callback), bodies driven at a prescribed
-planar twist (fingertips of the paper's Section 4 examples), named contact pairs with static and
-kinetic friction, and constant external loads (the paper's ``g_obj``, eq. 2).
+centre of mass), joints of a body to the fixed base or to a parent body (revolute or prismatic,
+each velocity- or effort-controlled with a per-step command callback; chains of links), bodies
+driven at a prescribed planar twist (fingertips of the paper's Section 4 examples), named
+contact pairs with static and kinetic friction, and constant external loads (the paper's
+``g_obj``, eq. 2).
 
 Backends (:mod:`sim.backends.pymunk_engine`, :mod:`sim.backends.mujoco_engine`) implement
 :class:`Backend`:
@@ -160,11 +161,14 @@ class Body:
 
 @dataclass(frozen=True)
 class Joint:
-    """A joint between ``body`` and the fixed base (world).
+    """A joint between ``body`` and its ``parent`` body (``None``: the fixed base, world).
 
     ``anchor`` (2,) [m] world point of the revolute axis / a point on the prismatic line;
-    ``axis`` (2,) unit direction of a prismatic joint (world). ``command(t, states)`` returns
-    the joint velocity (velocity control) or effort (effort control) for the next step.
+    ``axis`` (2,) unit direction of a prismatic joint (world); both at the scene's initial
+    poses (a joint on a moving parent moves with it). ``command(t, states)`` returns the
+    joint velocity (velocity control) or effort (effort control) for the next step: the rate /
+    effort of ``body`` relative to ``parent`` (an effort acts on ``body`` and, opposite, on
+    ``parent``). Chains (a finger's links): list a parent body before its children.
     """
 
     name: str
@@ -174,6 +178,7 @@ class Joint:
     control: Control
     command: Command
     axis: tuple[float, float] = (1.0, 0.0)
+    parent: str | None = None
 
 
 @dataclass(frozen=True)
@@ -235,9 +240,18 @@ class Scene:
                 if nm not in names:
                     raise InputError(
                         f"pair {p.name!r}: unknown body {nm!r}; expected one of {names}")
+        jointed: set[str] = set()
         for j in self.joints:
             if j.body not in names:
                 raise InputError(f"joint {j.name!r}: unknown body {j.body!r}")
+            if j.body in jointed:
+                raise InputError(f"joint {j.name!r}: expected one joint per body, got a "
+                                 f"second joint on {j.body!r}")
+            jointed.add(j.body)
+            if j.parent is not None and (j.parent not in names or names.index(j.parent)
+                                         >= names.index(j.body)):
+                raise InputError(f"joint {j.name!r}: expected a parent body listed before "
+                                 f"{j.body!r}, got {j.parent!r}")
         for ld in self.loads:
             if ld.body not in names:
                 raise InputError(f"load: unknown body {ld.body!r}")

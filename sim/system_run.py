@@ -165,7 +165,7 @@ def simulate_system(system: System, engine: str, *, mu: Any = None, mu_kinetic: 
     from planner.predict.feasibility import feasible_modes
     from sim.backends import ENGINES, make_backend
     from sim.run import RunSettings, run_scene
-    from sim.scenes.system import system_scene
+    from sim.scenes.system import commanded_contact_speed, scale_velocities, system_scene
 
     if engine not in ENGINES:
         raise InputError(f"--engine: expected one of {', '.join(ENGINES)}, got {engine!r}")
@@ -179,9 +179,7 @@ def simulate_system(system: System, engine: str, *, mu: Any = None, mu_kinetic: 
     if not (np.isfinite(duration) and es["settle"] < duration <= 600.0):
         raise InputError(f"--duration: expected seconds in ({es['settle']}, 600] (longer than "
                          f"the {es['settle']} s settling time on {engine}), got {duration}")
-    vel = np.asarray(system.joint_inputs, dtype=float).reshape(-1, 2) \
-        if system.virtual_joints else np.zeros((0, 2))
-    fastest = float(np.max(np.linalg.norm(vel, axis=1))) if len(vel) else 0.0
+    fastest = commanded_contact_speed(system)  # chains: |J_i thetadot| (sim.scenes.system)
     probe = system_scene(sim_sys)  # checks the geometry; gives the scene size
     size = probe.length_scale
     if not fastest > 0:
@@ -193,7 +191,7 @@ def simulate_system(system: System, engine: str, *, mu: Any = None, mu_kinetic: 
     scale = drive / fastest
     scene = system_scene(sim_sys, speed_scale=scale, mu_kinetic=muk)
     # predicted at the scene's speeds, so the certificate's qdot is the twist to observe
-    pred = feasible_modes(judge_sys.with_joint_inputs(np.asarray(judge_sys.joint_inputs) * scale))
+    pred = feasible_modes(scale_velocities(judge_sys, scale))
     predicted: list[ObservedMode] = [m.mode for m in pred.all_modes] or [JAM]
     g = np.asarray(system.g_obj, dtype=float)
     load = max(float(np.linalg.norm(g[:2])), abs(float(g[2])) / size)

@@ -24,6 +24,29 @@ def small_plans():
             for p in ("midband", "rival:R2S")}
 
 
+@pytest.fixture(scope="module")
+def task_plan():
+    from planner.plan.task_file import plan_hand_task
+
+    return plan_hand_task(DATA_DIR / "figure9_task_hand.json", waypoints=5)
+
+
+def _task_stub(negative_passes: bool, segment_fails: bool):
+    def job(j):
+        agree = j["expect"] == "agree"
+        ok = (agree and not segment_fails) or (not agree and negative_passes)
+        rows = [{"segment": k + 1, "status": "agreed", "claim_fraction": 1.0,
+                 "final_error_of_travel": 0.001} for k in range(3)]
+        if agree and segment_fails:
+            rows[2].update(status="disagreed", claim_fraction=0.7)
+        return {"kind": "task", "scenario": j["name"], "engine": j["engine"], "mu": j["mu"],
+                "expect": j["expect"], "status": "agreed" if ok else "disagreed",
+                "reason": "" if ok else "segment 1: disagreed", "segments": rows,
+                "passed": ok == agree, "wall_time_s": 0.1, "folder": j["out"], "fault": None,
+                "observed_counts": {}}
+    return job
+
+
 def _stub(negative_passes: bool):
     def job(j):
         agree = j["expect"] == "agree"
@@ -43,28 +66,43 @@ def _stub(negative_passes: bool):
     return job
 
 
-@pytest.mark.parametrize("negative_passes, code", [(False, 0), (True, 1)])
-def test_demo_expectations(small_plans, monkeypatch, tmp_path, capsys, negative_passes, code):
-    """All expectations held -> 0; a negative control that passes validation -> 1."""
+@pytest.mark.parametrize("negative_passes, segment_fails, code",
+                         [(False, False, 0), (True, False, 1), (False, True, 1)])
+def test_demo_expectations(small_plans, task_plan, monkeypatch, tmp_path, capsys,
+                           negative_passes, segment_fails, code):
+    """All expectations held -> 0; a negative control that passes validation, or one segment
+    of the whole task that disagrees -> 1."""
     import planner.plan.segment_planner as hp
+    import planner.plan.task_file as tf
     import qsplan.commands.demo as demo
 
     monkeypatch.setattr(hp, "plan_hand", lambda s, mu, policy: small_plans[policy])
+    monkeypatch.setattr(tf, "plan_hand_task", lambda path: task_plan)
     monkeypatch.setattr(demo, "_validate_job", _stub(negative_passes))
+    monkeypatch.setattr(demo, "_task_job", _task_stub(negative_passes, segment_fails))
     out = tmp_path / "report"
     assert main(["demo", "--out", str(out), "--jobs", "1", "--no-render"]) == code
     checks = json.loads((out / "checks.json").read_text())
     assert checks["held"] is (code == 0)
     names = [c["check"] for c in checks["checks"]]
-    assert sum("negative control" in n for n in names) == 4
-    assert sum("4S plan in" in n for n in names) == 12  # 2 engines x 3 mu x (mode, pose)
+    assert sum(n.startswith("negative control in") for n in names) == 4  # R2S: 2 engines x 2
+    assert sum("negative control (torques reversed)" in n for n in names) == 2
+    assert sum(n.startswith("task segment") for n in names) == 18  # 2 engines x 3 mu x 3
+    assert sum(n.startswith("whole task in") for n in names) == 6
     held = {c["check"]: c["held"] for c in checks["checks"]}
     assert held["plan.json reloads to the same plan"]
     assert held["a plan with one torque edited by hand is rejected"]
+    assert held["whole task planned to its goal (Figure 9, mu in [0, 0.2])"]
+    seg3 = [v for k, v in held.items() if k.startswith("task segment 3 in")]
+    assert len(seg3) == 6 and all(seg3) is (not segment_fails)
     report = (out / "REPORT.md").read_text()
     assert ("all expectations held" if code == 0 else "SOME EXPECTATIONS FAILED") in report
+    assert report.index("## The task") < report.index("Figures 10-13") < report.index(
+        "## Checks")  # the story first, then the torque regions, then the tables
     assert (out / "index.html").is_file() and (out / "plan.json").is_file()
+    assert (out / "task" / "plan_task.json").is_file()
     assert (out / "negative_control" / "plan_negative.json").is_file()
+    assert (out / "negative_control" / "task" / "plan_task_negative.json").is_file()
     assert not (out / "negative_control" / "tampered_copy.json").exists()
 
 
@@ -77,10 +115,11 @@ def test_demo_bad_input(tmp_path, capsys):
 
 @pytest.mark.slow
 def test_quick_demo_end_to_end(tmp_path):
-    """The real thing on the first quarter of the segment, both engines (~1 min)."""
+    """The real thing: the whole task at mu = 0.1 and both negative controls, both engines."""
     out = tmp_path / "report"
     assert main(["demo", "--out", str(out), "--quick"]) == 0
     checks = json.loads((out / "checks.json").read_text())
-    assert checks["held"] and len(checks["runs"]) == 8
-    assert (out / "validate" / "mujoco" / "mu_0.1" / "animation.gif").is_file()
+    assert checks["held"] and len(checks["runs"]) == 6
+    assert (out / "task" / "mujoco" / "mu_0.1" / "summary.json").is_file()
+    assert (out / "story" / "task_story.png").is_file()
     assert (out / "figures" / "fig13_guaranteed.png").is_file()

@@ -12,6 +12,7 @@ from planner.files.hand_file import hand_from_dict, load_hand
 from sim.backends import make_backend
 from sim.hand_run import ENGINE_SETTINGS
 from sim.run import RunSettings, run_scene
+from sim.scene import preload_depth
 from sim.scenes.hand import hand_scene, pair_names, polygon_inertia
 
 
@@ -82,3 +83,47 @@ def test_bad_inputs_rejected(hand_file):
     del broken["palm"]
     with pytest.raises(InputError, match="expected key 'palm'"):
         hand_from_dict(broken)
+
+
+@pytest.fixture(scope="module")
+def acute_tip():
+    """Segment 3 of the Figure 9 task: the left tip starts at vertex 3, whose interior angle
+    is 32 deg, on edge 3 (the link flush along that edge: edge-to-edge)."""
+    from planner.plan.task_file import plan_hand_task
+    from scenarios.registry import shipped_file
+
+    seg = plan_hand_task(shipped_file("figure9_task_hand")).segments[2]
+    hand, q = seg.hand_model
+    i = next(k for k, c in enumerate(hand.contacts) if c.kind == "tip" and c.finger == 0)
+    return hand, q, i
+
+
+def test_a_tip_pair_touches_its_declared_edge_only(acute_tip):
+    hand, q, i = acute_tip
+    V = np.asarray(hand.vertices)
+    e = hand.contacts[i].edge
+    a, b, prev = V[e], V[(e + 1) % len(V)], V[e - 1]
+    u, w = (b - a) / np.linalg.norm(b - a), (prev - a) / np.linalg.norm(prev - a)
+    assert np.degrees(np.arccos(u @ w)) < 90.0  # the acute vertex this guards
+    scene = _scene(hand, q, mu=0.2, tau=0.0, speed=0.0)
+    cap = scene.body("workpiece").shapes[scene.pairs[i].shape_b]
+    # a capsule along the edge, its surface on the edge line (body frame)
+    inward = np.array([-u[1], u[0]])
+    for end, vert in ((cap.a, a), (cap.b, b)):
+        assert np.allclose(np.asarray(end), vert + cap.radius * inward, atol=1e-12)
+
+
+@pytest.mark.parametrize("engine", ["pymunk", "mujoco"])
+def test_a_tip_at_an_acute_vertex_reads_its_edge(acute_tip, engine):
+    """The tip's first reading: the declared edge's normal and the pre-load depth (with the
+    whole polygon MuJoCo read 1.3 mm on the neighbouring edge's box)."""
+    hand, q, i = acute_tip
+    pts, nrm, _ = hand.contact_geometry(q)
+    scene = _scene(hand, q, mu=0.2, tau=0.0, speed=0.0)
+    backend = make_backend(engine, ENGINE_SETTINGS[engine])
+    backend.build(scene)
+    backend.step(1e-4)
+    r = backend.contacts()[scene.pairs[i].name]
+    assert r.present
+    assert abs(float(np.asarray(r.normal) @ nrm[i])) > 1 - 1e-6
+    assert r.depth < 10 * preload_depth(hand.length_scale)  # the pre-load's order, not 1.3 mm

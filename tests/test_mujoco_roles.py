@@ -103,3 +103,31 @@ def test_ruler_start_without_bounce() -> None:
     slip, lost = _start(None)
     assert slip < 1e-5, slip
     assert lost < 0.01, lost
+
+
+def test_pair_settings_reach_the_pair_they_name() -> None:
+    """MuJoCo's compiler sorts pairs by body signature, so a pair's index in the compiled model
+    is not the order it was added in. Friction and the per-role impedance must land on the
+    pair they name (a lookup by index once put the table's soft impedance and friction on the
+    stacked blocks' interface, and the upper block slid off at 0.6 of the drive)."""
+    from planner.files.system_file import load_system
+    from scenarios.registry import DATA_DIR
+    from sim.backends import SUPPORT_SOLIMP, make_backend
+    from sim.scenes.multibody import multibody_scene
+
+    mu = [0.5, 0.45, 0.3, 0.25, 0.1]
+    scene = multibody_scene(load_system(DATA_DIR / "stacked_blocks_lower.json").with_mu(mu))
+    be = make_backend("mujoco")
+    be.build(scene)
+    m = be.model
+    order = [m.pair(i).name.split("#")[0] for i in range(m.npair)]
+    assert order != sorted(order, key=[p.name for p in scene.pairs].index)  # the trap is live
+    for i, name in enumerate(order):
+        pair = scene.pairs[[p.name for p in scene.pairs].index(name)]
+        assert m.pair_friction[i, 0] == pytest.approx(pair.mu_static)
+        soft = np.allclose(m.pair_solimp[i], SUPPORT_SOLIMP)
+        assert soft == (be.roles[name] == "support"), name
+    be.set_friction("c3", 0.05)
+    for i, name in enumerate(order):
+        if name == "c3":
+            assert m.pair_friction[i, 0] == pytest.approx(0.05)

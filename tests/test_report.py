@@ -78,3 +78,24 @@ def test_checks_file_is_shown_first(tmp_path):
     assert scan_run(tmp_path).checks == (Path("checks.json"),)
     assert "NOT every expectation held" in page and "1 of 2 checks" in page
     assert page.index("negative control fails") < page.index("<th>scenario</th>")
+
+
+def test_the_story_comes_first_then_the_torque_regions_then_the_tables(tmp_path):
+    """A demo folder: story/ figures, then figures/ (Figs. 10-13), then the tables, then the
+    other figures."""
+    import json as _json
+
+    from qsplan.report import build_html
+
+    png = bytes.fromhex("89504e470d0a1a0a")  # the PNG signature is enough to embed
+    for rel in ("story/task_story.png", "figures/fig13_guaranteed.png",
+                "task/pymunk/timeline.png"):
+        (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / rel).write_bytes(png)
+    (tmp_path / "task" / "pymunk" / "summary.json").write_text(_json.dumps(
+        {"scenario": "whole task", "status": "agreed", "passed": True}))
+    page = build_html(tmp_path)
+    order = [page.index(x) for x in ("story/task_story.png", "figures/fig13_guaranteed.png",
+                                     "<th>scenario</th>", "task/pymunk/timeline.png")]
+    assert order == sorted(order)
+    assert page.index("The task: start, segments and goal") < page.index("What held")

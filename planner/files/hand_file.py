@@ -7,7 +7,8 @@ key is an error unless the format gives a default; an unknown key is an error na
 (free-text keys :data:`planner.files.fields.FREE_KEYS` are allowed in every object).
 A finger is either the paper's single revolute link (``pivot``, ``length``, ``width``,
 ``angle``; Section 5.2) or a chain ``"links": [...]`` of revolute and prismatic joints, each with
-its capsule link; fixed surfaces besides the palm (a table) are listed under ``environment``.
+its capsule link; fixed surfaces besides the palm (a table) are listed under ``environment``;
+an optional ``goal`` says where a whole task should end (:mod:`planner.files.hand_goal`).
 
 Public: :func:`load_hand` / :func:`load_hand_file` (from a path), :func:`hand_from_dict` /
 :func:`hand_file_from_dict` (from parsed content) and :func:`hand_from_plan` (the hand a plan
@@ -34,6 +35,7 @@ from planner.files.fields import (
     string,
     type_name,
 )
+from planner.files.hand_goal import Goal, parse_goal
 from planner.files.reader import read_json
 from planner.model.geometry import rot90
 from planner.model.hand import CONTACT_KINDS, JOINT_KINDS, ContactSpec, Finger, Hand, Link, rotation
@@ -79,8 +81,9 @@ class SegmentSpec:
 class HandFile:
     """A loaded hand file: ``hand``, ``q0``, the optional ``segment`` section, the ``mu``
     section's ``mu_interval`` (``(lo, hi)`` pairs, one or one per contact; None when absent)
-    and ``validate_mu`` (friction values for the simulators), and ``data`` (the parsed JSON,
-    embedded verbatim in plans)."""
+    and ``validate_mu`` (friction values for the simulators), ``data`` (the parsed JSON,
+    embedded verbatim in plans) and the optional ``goal`` (:class:`planner.files.hand_goal.Goal`,
+    what a whole task should reach)."""
 
     hand: Hand
     q0: np.ndarray
@@ -88,6 +91,7 @@ class HandFile:
     mu_interval: tuple[tuple[float, float], ...] | None
     validate_mu: tuple[float, ...]
     data: Mapping[str, Any]
+    goal: Goal | None = None
 
 
 def load_hand_file(path: str | os.PathLike[str]) -> HandFile:
@@ -214,8 +218,8 @@ def _environment(raw: Any) -> tuple[tuple[str, np.ndarray], ...]:
 
 
 def _contact(d: Any, i: int, n_v: int, fingers: list[Finger],
-             env: tuple[tuple[str, np.ndarray], ...]) -> ContactSpec:
-    where = f"contacts[{i}]"
+             env: tuple[tuple[str, np.ndarray], ...], section: str = "contacts") -> ContactSpec:
+    where = f"{section}[{i}]"
     n_f = len(fingers)
     d = as_object(d, where)
     check_keys(d, where, required=("kind",),
@@ -321,7 +325,7 @@ def _mu_section(mu: Any, n_c: int) -> tuple[tuple[tuple[float, float], ...] | No
 def _hand_file(data: Any) -> HandFile:
     data = as_object(data, "hand")
     check_keys(data, "hand", required=("palm", "fingers", "workpiece", "contacts"),
-               optional=("format", "version", "load", "segment", "mu", "environment"),
+               optional=("format", "version", "load", "segment", "mu", "environment", "goal"),
                free=FREE_KEYS)
     fmt, ver = data.get("format", HAND_FORMAT), data.get("version", HAND_VERSION)
     if fmt != HAND_FORMAT or ver != HAND_VERSION or isinstance(ver, bool):
@@ -379,10 +383,14 @@ def _hand_file(data: Any) -> HandFile:
         )
     segment = _segment(data["segment"], hand.n_joints) if "segment" in data else None
     interval, validate = _mu_section(data["mu"], len(contacts)) if "mu" in data else (None, ())
+    goal = None
+    if "goal" in data:
+        goal = parse_goal(data["goal"], hand.length_scale, lambda c, i: _contact(
+            c, i, len(V), fingers, env, "goal.contacts"))
     q0 = np.concatenate([pose, angles])
     try:
         fixed = hand.default_fixed(q0)
         q0 = hand.close(q0, fixed=fixed)
     except (DegenerateError, InputError) as exc:
         raise FileFormatError(f"initial configuration: {exc}") from None
-    return HandFile(hand, q0, segment, interval, validate, data)
+    return HandFile(hand, q0, segment, interval, validate, data, goal)

@@ -17,11 +17,15 @@ Format (documented key by key in ``docs/file-formats.md``; JSON Schema
           "chain": {"joints": [{"type": "revolute"|"prismatic", "parent": -1, "origin": [x, y],
                                 "angle": a}, ...], "base_pose": [x, y, phi]},
           "q": [...], "contact_links": [body index per contact, null = environment],
+          "link_radius": m,                              -- chain only, simulators; optional
           "joints": [{"velocity": 0.1}, {"effort": 2.0}, ...],     -- one per column/joint
           "joint_loads": [...]                                      -- g_man, default zeros
       },
       "workpiece": {"polygon": [[x, y], ...], "mass": kg, "com": [x, y]}   -- optional
     }
+
+Several workpieces: a ``"workpieces"`` list instead of ``workpiece`` and ``external_wrench``,
+and per contact ``"body"``/``"other"`` (:mod:`planner.files.multibody_file`).
 
 A missing key is an error unless a default is listed above; a key the format does not know is an
 error naming it, except the free-text keys :data:`planner.files.fields.FREE_KEYS` (``name``,
@@ -33,6 +37,7 @@ object and ignored.  Units: SI (m, N, N m, rad, s, kg).  Files are read by
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from collections.abc import Mapping
 from pathlib import Path
@@ -51,7 +56,16 @@ from planner.files.fields import (
     short,
     type_name,
 )
+from planner.files.multibody_file import (
+    BODY_KEYS,
+    contact_bodies_to_dict,
+    parse_contact_bodies,
+    parse_workpieces,
+    refuse_body_keys,
+    workpieces_to_dict,
+)
 from planner.files.reader import parse_json, read_json
+from planner.model.chain_geometry import ChainGeometry
 from planner.model.kinematics import chain_from_dict
 from planner.model.system import JointControl, System
 from planner.model.workpiece import WorkpieceGeometry
@@ -61,12 +75,12 @@ SYSTEM_FORMAT = "qsplan-system"
 SYSTEM_VERSION = 1
 
 _TOP = ("format", "version", "contacts", "wrench_matrix", "mu", "environment",
-        "external_wrench", "manipulator", "workpiece")
+        "external_wrench", "manipulator", "workpiece", "workpieces")
 _FORMS = ("contact_velocities", "jacobian", "chain")
 _FORM_KEYS = {
     "contact_velocities": ("contact_velocities", "joint_loads"),
     "jacobian": ("jacobian", "joints", "joint_loads"),
-    "chain": ("chain", "q", "contact_links", "joints", "joint_loads"),
+    "chain": ("chain", "q", "contact_links", "joints", "joint_loads", "link_radius"),
 }
 
 
@@ -151,6 +165,24 @@ def _system(data: Any) -> System:
         kwargs["joints"] = manip.get("joints")
     if "workpiece" in data:
         kwargs["workpiece"] = _workpiece(data["workpiece"])
+    multi = "workpieces" in data
+    if multi:
+        for key in ("workpiece", "external_wrench", "wrench_matrix"):
+            if key in data:
+                raise FileFormatError(
+                    f"top-level {key!r}: expected no {key!r} beside 'workpieces' (each workpiece "
+                    f"carries its own load and geometry; contacts are given geometrically), "
+                    f"got both"
+                )
+        loads, geoms = parse_workpieces(data["workpieces"])
+        kwargs["external_wrench"] = loads
+        kwargs["n_bodies"] = len(loads)
+        if len(loads) == 1:
+            kwargs["workpiece"] = geoms[0] if geoms else None
+        else:
+            kwargs["workpieces"] = geoms
+    elif "contacts" in data:
+        refuse_body_keys(data["contacts"])
 
     if "contacts" in data:
         for key in ("mu", "environment"):
@@ -160,10 +192,16 @@ def _system(data: Any) -> System:
                     f"each contact carries its own {key!r}, got a top-level {key!r} as well"
                 )
         pts, nrm, mu, env = _contacts(data["contacts"])
+        geom = None
+        off_chain = list(env)
+        if multi:
+            kwargs["bodies"] = parse_contact_bodies(data["contacts"], kwargs["n_bodies"], env)
+            off_chain = [e or b[1] >= 0 for e, b in zip(env, kwargs["bodies"])]
         if form == "chain":
-            kwargs["jacobian"] = _chain_jacobian(manip, pts, nrm, env)
+            kwargs["jacobian"], geom = _chain_jacobian(manip, pts, nrm, off_chain)
             kwargs["joints"] = manip.get("joints")
-        return System.from_contacts(points=pts, normals=nrm, mu=mu, environment=env, **kwargs)
+        system = System.from_contacts(points=pts, normals=nrm, mu=mu, environment=env, **kwargs)
+        return system if geom is None else dataclasses.replace(system, chain=geom)
     if "mu" not in data:
         raise FileFormatError(
             "'wrench_matrix': expected a top-level 'mu' (one per contact) beside it, got no 'mu'"
@@ -185,10 +223,12 @@ def _system(data: Any) -> System:
             raise FileFormatError(
                 f"environment: expected {n_c} flags (one per contact), got {len(env)}"
             )
-        kwargs["jacobian"] = _chain_jacobian(
+        kwargs["jacobian"], geom = _chain_jacobian(
             manip, contact_points_from_wrench(Wm).tolist(), Wm[0:2, 0::2].T.tolist(), env
         )
         kwargs["joints"] = manip.get("joints")
+        return dataclasses.replace(System.from_wrench_matrix(
+            W, _numbers(data["mu"], "mu"), environment=env_raw, **kwargs), chain=geom)
     return System.from_wrench_matrix(W, _numbers(data["mu"], "mu"), environment=env_raw,
                                      **kwargs)
 
@@ -203,8 +243,8 @@ def _contacts(contacts: Any) -> tuple[list[Any], list[Any], list[Any], list[bool
     for i, c in enumerate(contacts):
         where = f"contact {i + 1}"
         c = as_object(c, where)
-        check_keys(c, where, required=("point", "normal", "mu"), optional=("environment",),
-                   free=FREE_KEYS)
+        check_keys(c, where, required=("point", "normal", "mu"),
+                   optional=("environment", *BODY_KEYS), free=FREE_KEYS)
         pts.append(_numbers(c["point"], f"{where} point"))
         nrm.append(_numbers(c["normal"], f"{where} normal"))
         mu.append(_numbers(c["mu"], f"{where} mu"))
@@ -220,7 +260,10 @@ def _workpiece(raw: Any) -> WorkpieceGeometry:
     return WorkpieceGeometry(_numbers(wp["polygon"], "workpiece.polygon"), mass, com)
 
 
-def _chain_jacobian(manip: Mapping[str, Any], pts: Any, nrm: Any, env: list[bool]) -> np.ndarray:
+def _chain_jacobian(manip: Mapping[str, Any], pts: Any, nrm: Any, env: list[bool]
+                    ) -> tuple[np.ndarray, ChainGeometry]:
+    """The contact Jacobians (n_c, 2, n_theta) of a ``manipulator.chain`` and the chain's
+    geometry (scene data for the simulators)."""
     chain_raw = as_object(manip["chain"], "manipulator.chain")
     check_keys(chain_raw, "manipulator.chain", required=("joints",), optional=("base_pose",),
                free=FREE_KEYS)
@@ -240,7 +283,7 @@ def _chain_jacobian(manip: Mapping[str, Any], pts: Any, nrm: Any, env: list[bool
             if b is not None:
                 raise FileFormatError(
                     f"contact_links[{i}]: expected null for contact {i + 1} (a contact with the "
-                    f"fixed environment touches no link), got {short(b)}"
+                    f"fixed environment or between two workpieces touches no link), got {short(b)}"
                 )
         elif isinstance(b, bool) or not isinstance(b, int):
             raise FileFormatError(
@@ -252,7 +295,10 @@ def _chain_jacobian(manip: Mapping[str, Any], pts: Any, nrm: Any, env: list[bool
     if moving:
         out[moving] = chain.contact_jacobian(q, [links[i] for i in moving],
                                              [pts[i] for i in moving], [nrm[i] for i in moving])
-    return out
+    radius = (number(manip["link_radius"], "manipulator.link_radius", positive=True)
+              if "link_radius" in manip else None)
+    return out, ChainGeometry(chain, q, tuple(None if env[i] else links[i]
+                                              for i in range(len(pts))), radius)
 
 
 def system_to_dict(system: System) -> dict[str, Any]:
@@ -261,25 +307,50 @@ def system_to_dict(system: System) -> dict[str, Any]:
 
     out: dict[str, Any]
     env = system.environment
-    if np.allclose(wrench_matrix(system.points, system.normals), system.W, rtol=0, atol=1e-12):
+    multi = system.n_bodies > 1
+    geometric = multi or np.allclose(wrench_matrix(system.points, system.normals), system.W,
+                                     rtol=0, atol=1e-12)
+    if geometric:
         out = {
             "contacts": [
                 {"point": p.tolist(), "normal": n.tolist(), "mu": float(m),
-                 **({"environment": True} if e else {})}
-                for p, n, m, e in zip(system.points, system.normals, system.mu, env)
+                 **({"environment": True} if e else {}),
+                 **(contact_bodies_to_dict(system, i) if multi else {})}
+                for i, (p, n, m, e) in enumerate(zip(system.points, system.normals, system.mu,
+                                                      env))
             ],
         }
     else:  # given as a (rounded) wrench matrix: keep it exactly
         out = {"wrench_matrix": system.W.tolist(), "mu": system.mu.tolist()}
         if any(env):
             out["environment"] = list(env)
-    out["external_wrench"] = system.g_obj.tolist()
+    if multi:
+        out["workpieces"] = workpieces_to_dict(system)
+    else:
+        out["external_wrench"] = system.g_obj.tolist()
     if system.virtual_joints:
         out["manipulator"] = {
             "contact_velocities": system.joint_inputs.reshape(-1, 2).tolist(),
         }
         if np.any(system.g_man != 0):
             out["manipulator"]["joint_loads"] = system.g_man.tolist()
+    elif system.chain is not None:  # the geometry it came from (simulators build the links)
+        geom = system.chain
+        out["manipulator"] = {
+            "chain": {"joints": [{"type": j.kind, "parent": j.parent, "origin": list(j.origin),
+                                  "angle": j.angle, **({"name": j.name} if j.name else {})}
+                                 for j in geom.chain.joints],
+                      "base_pose": list(geom.chain.base_pose)},
+            "q": list(geom.q),
+            "contact_links": list(geom.contact_links),
+            "joints": [
+                {"velocity" if c is JointControl.VELOCITY else "effort": float(v)}
+                for c, v in zip(system.control, system.joint_inputs)
+            ],
+            "joint_loads": system.g_man.tolist(),
+        }
+        if geom.link_radius is not None:
+            out["manipulator"]["link_radius"] = geom.link_radius
     else:
         out["manipulator"] = {
             "jacobian": system.J.reshape(system.n_contacts, 2, -1).tolist(),

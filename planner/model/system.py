@@ -18,19 +18,24 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from enum import Enum
-from functools import lru_cache
 from typing import Any
 
 import numpy as np
 
 from planner.errors import InputError
+from planner.model.bodies import (
+    check_body_contacts_still,
+    check_contact_bodies,
+    multibody_wrench_matrix,
+)
+from planner.model.chain_geometry import ChainGeometry
 from planner.model.geometry import (
     check_wrench_matrix,
     contact_points_from_wrench,
     rot90,
     wrench_matrix,
 )
+from planner.model.joints import JointControl, joint_partition, parse_joint
 from planner.model.validation import (
     as_array,
     as_friction,
@@ -39,13 +44,6 @@ from planner.model.validation import (
     unit_normal,
 )
 from planner.model.workpiece import WorkpieceGeometry, check_environment
-
-
-class JointControl(str, Enum):
-    """Control mode of one manipulator joint (Section 3.2)."""
-
-    VELOCITY = "velocity"
-    EFFORT = "effort"
 
 
 @dataclass(frozen=True)
@@ -82,16 +80,18 @@ class Contact:
 
 @dataclass(frozen=True, eq=False)
 class System:
-    """A planar workpiece in contact with a manipulator (Section 3).
+    """Planar workpieces in contact with a manipulator (Section 3; ``n_b >= 1`` workpieces,
+    Sec. 6, see :mod:`planner.model.bodies`).
 
     Attributes
     ----------
-    W : (3, 2 n_c)
-        Global wrench matrix, columns ``[w_1n w_1t ... ]`` (eqs. 1-2).
+    W : (n_q, 2 n_c), n_q = 3 n_b
+        Global wrench matrix, columns ``[w_1n w_1t ... ]`` (eqs. 1-2); with several workpieces
+        block-structured, rows ``3a:3a+3`` for body ``a`` (:func:`multibody_wrench_matrix`).
     mu : (n_c,)
         Friction coefficients (diagonal of ``U``, eq. 8).
-    g_obj : (3,) [N, N, N m]
-        External wrench on the workpiece about the world origin (eq. 2).
+    g_obj : (n_q,) [N, N, N m]
+        External wrench on each workpiece about the world origin (eq. 2), stacked per body.
     J : (2 n_c, n_theta)
         Contact Jacobians stacked per contact, rows ``[j_1n; j_1t; j_2n; ...]``, each
         expressed in its contact frame (eqs. 3, 5).
@@ -112,6 +112,16 @@ class System:
     environment : tuple of bool, length n_c
         True for a contact with the fixed environment (its manipulator velocity is zero:
         zero Jacobian rows, or a zero contact velocity); scene data, changes no prediction.
+    chain : ChainGeometry or None
+        The chain, joint positions and contact links a ``manipulator.chain`` system file gave
+        ``J`` from; scene data for simulators, changes no prediction.
+    contact_bodies : tuple of (a_i, b_i), length n_c
+        Body ``a_i`` the normal points into and the other side ``b_i`` (another body, or
+        ``MANIPULATOR = -1`` for the manipulator or environment); ``()`` at construction means
+        one workpiece, every contact ``(0, -1)``. Consistent with ``W``'s blocks.
+    workpieces : tuple of WorkpieceGeometry
+        Scene data of each body when ``n_b > 1`` (``()`` or one per body; with one body use
+        ``workpiece``); changes no prediction.
     """
 
     W: np.ndarray
@@ -126,6 +136,9 @@ class System:
     virtual_joints: bool = False
     workpiece: WorkpieceGeometry | None = None
     environment: tuple[bool, ...] = ()
+    chain: ChainGeometry | None = None
+    contact_bodies: tuple[tuple[int, int], ...] = ()
+    workpieces: tuple[WorkpieceGeometry, ...] = ()
 
     def __post_init__(self) -> None:
         for name in ("W", "mu", "g_obj", "J", "joint_inputs", "g_man", "points", "normals"):
@@ -134,6 +147,15 @@ class System:
             object.__setattr__(self, name, arr)
         object.__setattr__(self, "control", tuple(self.control))
         n_c = self.n_contacts
+        if self.W.ndim != 2 or self.W.shape[0] < 3 or self.W.shape[0] % 3:
+            raise InputError(
+                f"W: expected shape (3 n_b, 2 n_c) (three rows per workpiece), got {self.W.shape}"
+            )
+        if self.g_obj.shape != (self.n_q,):
+            raise InputError(
+                f"external_wrench: expected {self.n_q} values (f_x, f_y, m_z per workpiece), "
+                f"got shape {self.g_obj.shape}"
+            )
         if self.mu.shape != (n_c,):
             raise InputError(f"mu: expected {n_c} coefficients, got shape {self.mu.shape}")
         if self.J.ndim != 2 or self.J.shape[0] != 2 * n_c:
@@ -151,6 +173,17 @@ class System:
             raise InputError(f"joint_loads: expected {n_t} values, got shape {self.g_man.shape}")
         env = check_environment(self.environment, self.J, self.joint_inputs, self.virtual_joints)
         object.__setattr__(self, "environment", env)
+        pairs = check_contact_bodies(self.contact_bodies, n_c, self.n_bodies)
+        object.__setattr__(self, "contact_bodies", pairs)
+        check_body_contacts_still(pairs, self.J, self.joint_inputs, self.virtual_joints)
+        wps = tuple(self.workpieces)
+        if wps and (len(wps) != self.n_bodies
+                    or not all(isinstance(w, WorkpieceGeometry) for w in wps)):
+            raise InputError(
+                f"workpieces: expected {self.n_bodies} WorkpieceGeometry (one per body) or none, "
+                f"got {describe_value(self.workpieces)}"
+            )
+        object.__setattr__(self, "workpieces", wps)
         if self.workpiece is not None and not isinstance(self.workpiece, WorkpieceGeometry):
             raise InputError(
                 "workpiece: expected a WorkpieceGeometry or None, "
@@ -162,6 +195,16 @@ class System:
     def n_contacts(self) -> int:
         """Number of contacts ``n_c``."""
         return self.W.shape[1] // 2
+
+    @property
+    def n_q(self) -> int:
+        """``3 n_b``: workpiece velocity unknowns ``qdot`` (rows of ``W``)."""
+        return self.W.shape[0]
+
+    @property
+    def n_bodies(self) -> int:
+        """Number of workpieces ``n_b`` (1 in the paper)."""
+        return self.W.shape[0] // 3
 
     @property
     def n_joints(self) -> int:
@@ -181,8 +224,9 @@ class System:
 
     @property
     def dof(self) -> int:
-        """``3 + |tau_I|``: kinematic constraints every candidate mode must supply (Sec. 4.7)."""
-        return 3 + len(joint_partition(self.control)[0])
+        """``3 n_b + |tau_I|``: kinematic constraints every candidate mode must supply
+        (Sec. 4.7, eq. 49; ``3 + |tau_I|`` for one workpiece)."""
+        return self.n_q + len(joint_partition(self.control)[0])
 
     @property
     def tangents(self) -> np.ndarray:
@@ -207,13 +251,16 @@ class System:
         points: Any = None,
         normals: Any = None,
         mu: Any = None,
-        external_wrench: Any = (0.0, 0.0, 0.0),
+        external_wrench: Any = None,
         contact_velocities: Any = None,
         jacobian: Any = None,
         joints: Sequence[Any] | None = None,
         joint_loads: Any = None,
         workpiece: WorkpieceGeometry | None = None,
         environment: Sequence[bool] | None = None,
+        bodies: Sequence[tuple[int, int]] | None = None,
+        n_bodies: int | None = None,
+        workpieces: Sequence[WorkpieceGeometry] = (),
     ) -> System:
         """Build a system from geometric contacts (point, inward unit normal, mu).
 
@@ -223,6 +270,12 @@ class System:
         ``{"velocity": v}`` or ``{"effort": tau}`` per column; or a :class:`JointControl`,
         value pair) and optional ``joint_loads`` ``g_man``.  ``workpiece`` and ``environment``
         (one flag per contact) are scene data (see the class docstring).
+
+        Several workpieces (:mod:`planner.model.bodies`): ``bodies`` gives per contact
+        ``(a_i, b_i)``, the body the normal points into and the other side (a body index or
+        ``-1`` for the manipulator or environment); ``n_bodies`` defaults to one more than the
+        largest body index; ``external_wrench`` is then ``(3 n_b,)`` or ``(n_b, 3)`` (one load
+        per body, default zeros) and ``workpieces`` one geometry per body (scene data).
         """
         if contacts is not None:
             if points is not None or normals is not None:
@@ -244,10 +297,21 @@ class System:
                 [unit_normal(v, f"normal of contact {i + 1}") for i, v in enumerate(raw_n)]
             )
             mu_arr = as_friction(0.0 if mu is None else mu, pts.shape[0])
-        W = wrench_matrix(pts, nrm)
+        if bodies is None and n_bodies in (None, 1):
+            W = wrench_matrix(pts, nrm)
+            pairs: tuple[tuple[int, int], ...] = ()
+        else:
+            raw = [] if bodies is None else list(bodies)
+            if n_bodies is None:
+                n_bodies = 1 + max((max(int(x) for x in p) for p in raw
+                                    if isinstance(p, (tuple, list)) and len(p) == 2
+                                    and all(isinstance(x, (int, np.integer)) for x in p)),
+                                   default=0)
+            pairs = check_contact_bodies(raw, pts.shape[0], n_bodies)
+            W = multibody_wrench_matrix(pts, nrm, pairs, n_bodies)
         return cls._assemble(
             W, mu_arr, external_wrench, contact_velocities, jacobian, joints, joint_loads,
-            pts, nrm, workpiece, environment,
+            pts, nrm, workpiece, environment, pairs, tuple(workpieces),
         )
 
     @classmethod
@@ -293,9 +357,16 @@ class System:
         normals: np.ndarray,
         workpiece: WorkpieceGeometry | None = None,
         environment: Sequence[bool] | None = None,
+        contact_bodies: tuple[tuple[int, int], ...] = (),
+        workpieces: tuple[WorkpieceGeometry, ...] = (),
     ) -> System:
-        n_c = W.shape[1] // 2
-        g_obj = as_array(external_wrench, (3,), "external_wrench")
+        n_c, n_q = W.shape[1] // 2, W.shape[0]
+        g_raw = np.asarray(external_wrench, dtype=float) if is_numeric(external_wrench) else None
+        if external_wrench is None:
+            external_wrench = np.zeros(n_q)
+        elif g_raw is not None and g_raw.shape == (n_q // 3, 3):
+            external_wrench = g_raw.reshape(-1)
+        g_obj = as_array(external_wrench, (n_q,), "external_wrench")
         if (contact_velocities is None) == (jacobian is None):
             raise InputError(
                 "manipulator: expected exactly one of contact_velocities or jacobian"
@@ -348,47 +419,5 @@ class System:
             W=W, mu=mu, g_obj=g_obj, J=J, control=control, joint_inputs=inputs, g_man=g_man,
             points=points, normals=normals, virtual_joints=virtual, workpiece=workpiece,
             environment=() if environment is None else environment,  # type: ignore[arg-type]
+            contact_bodies=contact_bodies, workpieces=workpieces,
         )
-
-
-@lru_cache(maxsize=256)
-def joint_partition(control: tuple[JointControl, ...]) -> tuple[np.ndarray, np.ndarray]:
-    """``(effort_joints, velocity_joints)``: read-only index arrays of a control partition
-    (Section 3.2), cached per partition (it depends on nothing else)."""
-    E = np.array([j for j, c in enumerate(control) if c is JointControl.EFFORT], dtype=int)
-    V = np.array([j for j, c in enumerate(control) if c is JointControl.VELOCITY], dtype=int)
-    E.setflags(write=False)
-    V.setflags(write=False)
-    return E, V
-
-
-def parse_joint(spec: Any, index: int) -> tuple[JointControl, float]:
-    """Parse one joint command: ``{"velocity": v}`` or ``{"effort": tau}`` (exactly one)."""
-    if isinstance(spec, tuple) and len(spec) == 2 and isinstance(spec[0], JointControl):
-        value = as_array(spec[1], (), f"joint {index + 1}")
-        return spec[0], float(value)
-    if not isinstance(spec, dict):
-        raise InputError(
-            f"joint {index + 1}: expected {{\"velocity\": v}} or {{\"effort\": tau}}, "
-            f"got {describe_value(spec)}"
-        )
-    has_v = "velocity" in spec
-    has_e = "effort" in spec
-    if has_v == has_e:
-        raise InputError(
-            f"joint {index + 1}: expected exactly one of 'velocity' or 'effort', "
-            f"got {sorted(k for k in spec if k in ('velocity', 'effort')) or 'neither'}"
-        )
-    key = "velocity" if has_v else "effort"
-    value = spec[key]
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise InputError(
-            f"joint {index + 1}: expected a number for '{key}', got {describe_value(value)}"
-        )
-    try:
-        val = float(value)
-    except OverflowError:
-        val = float("inf")
-    if not np.isfinite(val):
-        raise InputError(f"joint {index + 1}: expected a finite '{key}', got {str(value)[:40]}")
-    return (JointControl.VELOCITY if has_v else JointControl.EFFORT), val

@@ -42,6 +42,8 @@ PLAN_KEYS = ("format", "version", "claim", "control", "mu", "policy", "event", "
              "extra", "hand", "waypoints", "digest")
 WAYPOINT_KEYS = ("t", "pose", "angles", "velocity_command", "torque_command", "band", "margin",
                  "predicted", "rivals")
+#: Optional waypoint keys of version-2 segments (any number of velocity and effort joints).
+WAYPOINT_LISTS = ("velocity_commands", "torque_commands")
 
 
 @dataclass(frozen=True)
@@ -54,6 +56,10 @@ class Waypoint:
     (``+-inf`` allowed); ``margin`` N m from the command to the nearest end of ``band`` over the
     hold interval (negative = outside); ``predicted`` mode labels the planner predicts at the
     command; ``rivals`` labels of the other modes that are possible for some torque here.
+    Version-2 segments (:mod:`planner.plan.task_file`) with any control partition also give
+    ``velocity_commands`` (one per velocity-controlled joint, in joint order) and
+    ``torque_commands`` (one per effort-controlled joint); the scalar fields then hold the first
+    of each (0 when there is none), and ``band`` is ``torque_command -+ margin``.
     """
 
     t: float
@@ -65,9 +71,15 @@ class Waypoint:
     margin: float
     predicted: tuple[str, ...]
     rivals: tuple[str, ...]
+    velocity_commands: tuple[float, ...] = ()
+    torque_commands: tuple[float, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
-        return {
+        extra: dict[str, Any] = {}
+        if self.velocity_commands or self.torque_commands:  # version-2 segments, any partition
+            extra = {"velocity_commands": list(self.velocity_commands),
+                     "torque_commands": list(self.torque_commands)}
+        return {**extra,
             "t": self.t,
             "pose": list(self.pose),
             "angles": list(self.angles),
@@ -275,12 +287,20 @@ def plan_from_dict(data: Any) -> Plan:
     """Verify parsed plan content (format, version, digest, fields) and build the :class:`Plan`."""
     if not isinstance(data, dict):
         raise FileFormatError(f"expected a JSON object, got {type(data).__name__}")
-    check_keys(data, "plan", optional=PLAN_KEYS)
     fmt, ver = data.get("format"), data.get("version")
     if fmt != PLAN_FORMAT:
         raise FileFormatError(f"expected format {PLAN_FORMAT!r}, got {_short(fmt)}")
     if ver != PLAN_VERSION:
-        raise FileFormatError(f"expected plan version {PLAN_VERSION}, got {_short(ver)}")
+        raise FileFormatError(f"expected plan version {PLAN_VERSION}, got {_short(ver)}"
+                              + ("; a whole-task plan (segments): read it with planner.plan."
+                                 "task_file.load_task_plan" if ver == 2 else ""))
+    check_keys(data, "plan", optional=PLAN_KEYS)
+    check_digest(data)
+    return plan_from_body(data)
+
+
+def check_digest(data: dict[str, Any]) -> None:
+    """Verify the ``digest`` of parsed plan content (any version)."""
     dg = _get(data, "digest", "plan")
     value = _get(dg, "value", "digest")
     check_keys(dg, "digest", required=("algorithm", "value"))
@@ -298,8 +318,18 @@ def plan_from_dict(data: Any) -> Plan:
             "digest mismatch: the plan was modified after it was written "
             f"(expected sha256 {value[:12]}..., content hashes to {actual[:12]}...)"
         )
+
+
+def plan_from_body(data: dict[str, Any], *, any_control: bool = False) -> Plan:
+    """The :class:`Plan` of checked-digest content (every field but ``format``/``version``/
+    ``digest``).  ``any_control``: a version-2 segment, any number of effort joints (at least
+    one velocity joint); else exactly one effort joint (version 1)."""
     control = _strs(_get(data, "control", "plan"), "control")
-    if sorted(set(control)) != ["effort", "velocity"] or control.count("effort") != 1:
+    if any_control:
+        if "velocity" not in control or set(control) - {"effort", "velocity"}:
+            raise FileFormatError(f"control: expected 'velocity' or 'effort' per joint, at "
+                                  f"least one 'velocity', got {list(control)}")
+    elif sorted(set(control)) != ["effort", "velocity"] or control.count("effort") != 1:
         raise FileFormatError(
             f"control: expected one 'effort' joint and the rest 'velocity', got {list(control)}"
         )
@@ -337,7 +367,12 @@ def plan_from_dict(data: Any) -> Plan:
     for i, w in enumerate(wps_raw):
         where = f"waypoints[{i}]"
         if isinstance(w, dict):
-            check_keys(w, where, required=WAYPOINT_KEYS)
+            check_keys(w, where, required=WAYPOINT_KEYS,
+                       optional=WAYPOINT_LISTS if any_control else ())
+        lists = (tuple(_nums(w.get("velocity_commands"), f"{where}.velocity_commands",
+                             control.count("velocity"))),
+                 tuple(_nums(w.get("torque_commands"), f"{where}.torque_commands",
+                             control.count("effort")))) if any_control else ((), ())
         band = _band(_get(w, "band", where), f"{where}.band")
         if band[0] > band[1]:
             raise FileFormatError(f"{where}.band: expected lower <= upper, got {list(band)}")
@@ -352,6 +387,8 @@ def plan_from_dict(data: Any) -> Plan:
             margin=math.inf if math.isnan(margin) else margin,
             predicted=_strs(_get(w, "predicted", where), f"{where}.predicted"),
             rivals=_strs(_get(w, "rivals", where), f"{where}.rivals"),
+            velocity_commands=lists[0],
+            torque_commands=lists[1],
         ))
     ts = [w.t for w in wps]
     if ts[0] != 0.0 or any(b <= a for a, b in zip(ts, ts[1:])):

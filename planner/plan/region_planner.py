@@ -126,6 +126,15 @@ class RegionPlan:
         return min(w.margin for w in self.waypoints)
 
 
+class NoRegionError(DegenerateError):
+    """A partial plan asked for, but not even the segment's first waypoint has a region:
+    ``shortfall`` says why there (:class:`Shortfall`)."""
+
+    def __init__(self, message: str, shortfall: Shortfall) -> None:
+        super().__init__(message)
+        self.shortfall = shortfall
+
+
 def joint_inputs(hand: Hand, V: tuple[int, ...], rates: Any) -> list[dict[str, float]]:
     """Per joint ``{"velocity": rate}`` for ``V`` (rates in order) and ``{"effort": 0}`` else."""
     r = dict(zip(V, (float(x) for x in rates)))
@@ -160,18 +169,22 @@ def evaluate_partition_set(hand: Hand, seg: Segment, V: tuple[int, ...], E: tupl
 def plan_regions(hand: Hand, q0: Any, *, drive: Drive, speed: Speed, mode: str, mu: Any,
                  max_time: float = 60.0, steps: int = 200, waypoints: int = 41,
                  model: str = "common", control: tuple[int, ...] | None = None,
-                 partial: bool = False) -> RegionPlan:
+                 partial: bool = False, segment: Segment | None = None) -> RegionPlan:
     """Plan one segment of any hand (module docstring).  ``drive``/``speed``: the joints that
     move the segment and their rates; ``control``: the velocity-controlled joints (default:
     every partition of :func:`control_partitions` is tried).  Raises
     :class:`DegenerateError` naming every partition's reason when none is usable -- unless
     ``partial``: then the plan stops before the first waypoint without a region of the
-    partition that got furthest, and says where and why (:attr:`RegionPlan.shortfall`)."""
+    partition that got furthest, and says where and why (:attr:`RegionPlan.shortfall`).
+    ``segment``: an already integrated segment from ``q0`` (e.g. the task planner's, ended at
+    its goal); it is resampled at ``waypoints`` instead of integrating again."""
     lo, hi = friction_interval(mu, hand.n_contacts)
     if model == "common" and not (np.all(lo == lo[0]) and np.all(hi == hi[0])):
         model = "independent"  # per-contact intervals: the box
-    seg = integrate_segment(hand, q0, drive=drive, speed=speed, mode=mode, max_time=max_time,
-                            steps=steps).resample(hand, waypoints)
+    if segment is None:
+        segment = integrate_segment(hand, q0, drive=drive, speed=speed, mode=mode,
+                                    max_time=max_time, steps=steps)
+    seg = segment.resample(hand, waypoints)
     parts = control_partitions(hand.n_joints, seg.mode)
     if control is not None:
         parts = [(V, E) for V, E in parts if V == tuple(control)]
@@ -187,8 +200,11 @@ def plan_regions(hand: Hand, q0: Any, *, drive: Drive, speed: Speed, mode: str, 
                         for r in results)
         furthest = max(results, key=lambda r: sum(not g.empty for g in r.regions))
         good = [g for g in furthest.regions if not g.empty]
-        if not partial or not good:
+        if not partial:
             raise DegenerateError(f"no control partition guarantees {seg.mode}: {why}")
+        if not good:
+            raise NoRegionError(f"no control partition guarantees {seg.mode}: {why}",
+                                _shortfall(hand, seg, furthest, 0, lo, hi, model))
         best = furthest
         shortfall = _shortfall(hand, seg, furthest, len(good), lo, hi, model)
         regs = tuple(good)

@@ -16,14 +16,20 @@ The segment ends at the first event:
 * ``lost contact`` -- a contact point runs off the end of its edge or finger;
 * ``mode change`` -- the mode stops being kinematically admissible (a sliding direction would
   reverse, a breaking contact would close, or the rank conditions 30-31 fail);
+* ``goal`` -- the caller's ``stop(q)`` holds (the task planner's goal pose, ``planner.plan.task``);
 * ``time limit``.
+
+A feature pair that touches at the start but is not a contact of the hand (a contact the segment
+releases: its mode would be ``B``) is watched with a small penetration tolerance
+(``1e-9`` of the workpiece size) instead of ``<= 0``, so the segment can start; if the pair
+closes instead of opening, that is a ``new contact`` event within the first step.
 
 Events are located by bisection on the driven joint's angle to ``1e-9`` of a step.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -170,10 +176,12 @@ def integrate_segment(
     mode: str = "4S",
     max_time: float,
     steps: int = 400,
+    stop: Callable[[np.ndarray], bool] | None = None,
 ) -> Segment:
     """Integrate the quasistatic motion of ``mode`` from ``q0`` with joint ``drive`` at
     ``speed`` (rad/s or m/s; or lists: several driven joints, a zero rate holds a joint) until
-    an event or ``max_time`` (s); ``steps`` RK4 steps over ``max_time``.
+    an event or ``max_time`` (s); ``steps`` RK4 steps over ``max_time``.  ``stop(q)``: an
+    optional goal test; the segment ends (event ``goal``) at the first state where it holds.
     """
     drives, speeds = drive_rates(drive, speed)
     for d in drives:
@@ -188,6 +196,13 @@ def integrate_segment(
     q = hand.close(hand.check_q(q0), fixed=fixed)
     label = _mode_label(hand, q, drives, speeds, mode)
     h = max_time / steps
+    slack = 1e-9 * hand.length_scale
+    released = {name for name, d in hand.clearances(q).items() if d <= slack}
+    # A contact that starts at its feature's end (a vertex just past a link's end, a tip at an
+    # edge's vertex) may sit a rounding error outside [0, 1]: it gets the same small slack.
+    s0 = hand.contact_geometry(q)[2]
+    s_lo = np.where(s0 < 0.0, -1e-9, 0.0)
+    s_hi = np.where(s0 > 1.0, 1.0 + 1e-9, 1.0)
 
     def rate(qq: np.ndarray) -> Rate | None:
         vel = mode_velocity(hand, qq, drives, speeds, label)
@@ -220,15 +235,17 @@ def integrate_segment(
     def event_at(qq: np.ndarray) -> tuple[Event | None, Rate | None]:
         """``(event or None, rate at qq)``; the rate is reused when the state is accepted."""
         _, _, s = hand.contact_geometry(qq)
-        off = np.flatnonzero((s < 0.0) | (s > 1.0))
+        off = np.flatnonzero((s < s_lo) | (s > s_hi))
         if off.size:
             i = int(off[0])
             return Event("lost contact", f"contact {i + 1} ran off its feature (s = {s[i]:.3f})",
                          0.0), None
         cl = hand.clearances(qq)
-        hit = [name for name, d in cl.items() if d <= 0.0]
+        hit = [name for name, d in cl.items() if d <= (-slack if name in released else 0.0)]
         if hit:
             return Event("new contact", f"{hit[0]} touches", 0.0), None
+        if stop is not None and stop(qq):
+            return Event("goal", "the goal is reached", 0.0), None
         r = rate(qq)
         if r is None:
             return Event("mode change", f"{label} is no longer kinematically admissible", 0.0), None

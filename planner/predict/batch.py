@@ -42,11 +42,11 @@ from planner.predict.indeterminate import (
     DEFAULT_MAX_ROW_SUBSETS,
     GEN_TOL,
     MAX_MODES_PER_VELOCITY,
+    certified_by_determinants,
+    closed_bases_stacked,
     modes_of_pattern,
-    near_dependent,
-    pair_span_rows,
 )
-from planner.predict.linalg import batch_det_solve
+from planner.predict.linalg import batch_det_solve, det_solve
 from planner.predict.relaxed_modes import IndeterminateKinematics, stacked_relaxed_kinematics
 from planner.predict.stages import DEFAULT_SINGULAR_TOL, DEFAULT_TOL, FeasibleMode
 
@@ -134,7 +134,7 @@ def _block(
     """Predictions of one block of configurations (stacked stages, module docstring)."""
     B = len(systems)
     n_c, k, M = cand.n_contacts, cand.n_rows, len(cand)
-    W = np.stack([s.W for s in systems])  # (B, 3, 2 n_c)
+    W = np.stack([s.W for s in systems])  # (B, 3 n_b, 2 n_c)
     J = np.stack([s.J for s in systems])  # (B, 2 n_c, n_theta)
     inputs = np.stack([s.joint_inputs for s in systems])
     # Equilibrated K (as planner.predict.stages.equilibrated_kinematics, per system).
@@ -148,16 +148,18 @@ def _block(
     row[row == 0] = 1.0
     Kn, bn = Kc / row[:, :, None], rhs / row
     # Kinematic stage, eqs. (13)-(16), (23)-(25).
-    det, z = batch_det_solve(Kn[:, cand.rows].reshape(B * M, k, k),
-                             bn[:, cand.rows].reshape(B * M, k))
+    # One LU per (configuration, candidate): rows of the stacked Kn (B 2 n_c, k).
+    flat_rows = (np.arange(0, B * 2 * n_c, 2 * n_c)[:, None, None] + cand.rows).reshape(B * M, k)
+    det, z = det_solve(Kn.reshape(B * 2 * n_c, k), bn.reshape(-1), flat_rows)
     nonsingular = (np.abs(det) > singular_tol).reshape(B, M)
     z = z.reshape(B, M, k)
     z[~nonsingular] = np.nan
     z = z / col[:, None, :]
-    qdot = z[..., :3]
+    n_q = W.shape[1]  # 3 n_b
+    qdot = z[..., :n_q]
     thetadot = np.empty((B, M, inputs.shape[1]))
     thetadot[..., V] = inputs[:, None, V]
-    thetadot[..., E] = z[..., 3:]
+    thetadot[..., E] = z[..., n_q:]
     v = qdot @ W - thetadot @ J.transpose(0, 2, 1)  # (B, M, 2 n_c), eq. (5)
     codes = cand.codes
     is_slide = codes == SLIDE
@@ -216,37 +218,43 @@ def _block(
     relaxed_limit = [""] * B
     structure_ok = np.zeros(B, bool)
     if indeterminate is not False:
-        structure_ok = _closed_bases_stacked(Kn, n_c, k)
+        structure_ok = _closed_bases_stacked(Kn, n_c, k, det.reshape(B, M))
         cfg, gen_codes, relaxed_limit = _generate(
             v / row[:, None, :], nonsingular, structure_ok, row, vel_scale, bn, k, tol)
         relaxed_kin = stacked_relaxed_kinematics(
             Kn, bn, col, vel_scale, W, J, inputs, E, V, cfg, gen_codes, B,
             tol=tol, singular_tol=singular_tol)
+    # Per configuration: its feasible pairs and boundary candidates (bi and the boundary rows
+    # are sorted by configuration).
+    feas = np.flatnonzero(feasible)
+    feas_start = np.searchsorted(bi[feas], np.arange(B + 1)).tolist()
+    bb, bm = np.nonzero(boundary)
+    bound_start = np.searchsorted(bb, np.arange(B + 1)).tolist()
+    degenerate_all = (M - np.count_nonzero(nonsingular, axis=1) + f_singular).tolist()
+    code_list, mi_list = codes.tolist(), mi.tolist()
     out = []
     for b, system in enumerate(systems):
-        sel = np.flatnonzero((bi == b) & feasible)
-        modes = tuple(
-            FeasibleMode(
-                mode=Mode(tuple(int(c) for c in codes[mi[p]]),
-                          tuple(int(x) for x in xi[b, mi[p]])),
-                qdot=qdot[b, mi[p]].copy(),
-                joint_velocities=thetadot[b, mi[p]].copy(),
-                contact_velocities=v[b, mi[p]].reshape(-1, 2).copy(),
+        modes = []
+        for p in feas[feas_start[b]:feas_start[b + 1]].tolist():
+            i = mi_list[p]
+            m_p = float(margin[p])
+            modes.append(FeasibleMode(
+                mode=Mode(tuple(code_list[i]), tuple(xi[b, i].tolist())),
+                qdot=qdot[b, i].copy(),
+                joint_velocities=thetadot[b, i].copy(),
+                contact_velocities=v[b, i].reshape(-1, 2).copy(),
                 contact_forces=forces[p].copy(),
                 joint_efforts=efforts[p].copy(),
-                margin=float(margin[p]),
-                on_boundary=bool(abs(margin[p]) <= tol),
-            )
-            for p in sel
-        )
-        bound = tuple(Mode(tuple(int(c) for c in codes[i]), tuple(int(x) for x in xi[b, i]))
-                      for i in np.flatnonzero(boundary[b]))
-        degenerate = int(np.count_nonzero(~nonsingular[b])) + int(f_singular[b])
+                margin=m_p,
+                on_boundary=abs(m_p) <= tol,
+            ))
+        bound = tuple(Mode(tuple(code_list[i]), tuple(xi[b, i].tolist()))
+                      for i in bm[bound_start[b]:bound_start[b + 1]].tolist())
         known = None
         if relaxed_kin is not None and structure_ok[b]:
             known = (tuple(relaxed_kin[b]), relaxed_limit[b])
         out.append(finish_prediction(
-            system, np.array(mus[b], dtype=float), modes, bound, degenerate,
+            system, mus[b], tuple(modes), bound, degenerate_all[b],
             float(vel_scale[b]), tol=tol, singular_tol=singular_tol,
             indeterminate=indeterminate, max_subsets=max_subsets, relaxed=None,
             method="exhaustive, batched", relaxed_kinematics=known,
@@ -277,8 +285,17 @@ def _generate(
     pattern = np.concatenate([
         vm[:, 0::2] > st[:, 0::2], zm[:, 0::2], zm[:, 1::2], np.abs(vm[:, 1::2]) > st[:, 1::2],
     ], axis=1)
-    uniq = np.unique(np.concatenate([b_idx[:, None], pattern], axis=1), axis=0)
-    cfg, pat = uniq[:, 0], uniq[:, 1:].astype(bool).reshape(-1, 4, n_c)
+    # Distinct (configuration, pattern) rows: one integer key per row when it fits in 63 bits
+    # (a 1-D sort), else the row-wise unique.
+    n_bits = 4 * n_c
+    if n_bits + B.bit_length() <= 62:
+        key = pattern @ (np.int64(1) << np.arange(n_bits, dtype=np.int64))
+        key += b_idx.astype(np.int64) << n_bits
+        first = np.unique(key, return_index=True)[1]
+        cfg, pat = b_idx[first], pattern[first].reshape(-1, 4, n_c)
+    else:
+        uniq = np.unique(np.concatenate([b_idx[:, None], pattern], axis=1), axis=0)
+        cfg, pat = uniq[:, 0], uniq[:, 1:].astype(bool).reshape(-1, 4, n_c)
     can_b, zn, zt, can_s = pat[:, 0], pat[:, 1], pat[:, 2], pat[:, 3]
     n_opt = can_b.astype(int) + zn * (zt.astype(int) + can_s)
     single = np.all(n_opt == 1, axis=1)  # one state per contact: read off directly
@@ -299,14 +316,16 @@ def _generate(
     return both[:, 0].astype(np.int64), both[:, 1:].astype(np.int8), limits
 
 
-def _closed_bases_stacked(Kn: np.ndarray, n_c: int, k: int) -> np.ndarray:
+def _closed_bases_stacked(Kn: np.ndarray, n_c: int, k: int, det: np.ndarray) -> np.ndarray:
     """:func:`planner.predict.indeterminate.closed_bases_suffice` for every configuration of
-    the stacked equilibrated ``Kn (B, 2 n_c, k)`` (one batched test per pair count)."""
+    the stacked equilibrated ``Kn (B, 2 n_c, k)``: proved by the determinants ``det (B, M)`` of
+    the eq. (49) candidates where they suffice, else one batched Gram test per pair count."""
     B = Kn.shape[0]
-    ok = np.ones(B, bool)
     p_max = (k - 1) // 2
     if sum(n_c * comb(n_c - 1, p) for p in range(1, p_max + 1)) * B > 4_000_000:
         return np.zeros(B, bool)  # too many tests: the row-subset scan decides
-    for p in range(1, min(p_max, n_c - 1) + 1):
-        ok &= ~np.any(near_dependent(Kn[:, pair_span_rows(n_c, p)]), axis=1)
+    ok = certified_by_determinants(det, n_c, k)
+    rest = np.flatnonzero(~ok)
+    if rest.size:
+        ok[rest] = closed_bases_stacked(Kn[rest])
     return ok

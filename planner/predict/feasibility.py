@@ -26,6 +26,7 @@ Matrices whose equilibrated determinant is below ``singular_tol`` violate the ra
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from enum import Enum
 from typing import Any
@@ -45,6 +46,7 @@ from planner.model.system import System
 from planner.model.validation import as_friction
 from planner.predict.indeterminate import (
     DEFAULT_MAX_ROW_SUBSETS,
+    GEN_TOL,
     IndeterminateKinematics,
     closed_bases_suffice,
     codes_from_velocities,
@@ -197,27 +199,27 @@ def feasible_modes(
     if not isinstance(system, System):
         raise InputError(f"system: expected a planner System, got {type(system).__name__}")
     mu_arr = system.mu if mu is None else as_friction(mu, system.n_contacts)
-    if not (np.isfinite(tol) and tol >= 0):
+    if not (math.isfinite(tol) and tol >= 0):
         raise InputError(f"tol: expected a finite number >= 0, got {tol}")
     n_c, k = system.n_contacts, system.dof
     n_cand = candidate_count(n_c, k)
     if n_cand > MAX_EXHAUSTIVE_CANDIDATES:
         raise InputError(
             f"feasible_modes: expected at most {MAX_EXHAUSTIVE_CANDIDATES} candidate modes "
-            f"(eq. 49) for exhaustive enumeration, got {n_cand} (n_c = {n_c}, 3 + |tau_I| = "
+            f"(eq. 49) for exhaustive enumeration, got {n_cand} (n_c = {n_c}, 3 n_b + |tau_I| = "
             f"{k}); use planner.predict.search.search_modes (qsplan modes --search)"
         )
     chunk = stream_chunk(n_c)
     # Relaxed-utility modes from the determinate candidates' velocities when the structural
     # test allows it (indeterminate.closed_bases_suffice), else by the row-subset scan.
-    from_candidates = indeterminate is not False and closed_bases_suffice(system)
     if n_cand <= chunk:
         prediction, _ = predict_candidates(
             system, enumerate_modes(n_c, k), mu_arr, tol=tol, singular_tol=singular_tol,
             indeterminate=indeterminate, max_subsets=max_subsets,
-            relaxed_from_candidates=from_candidates,
+            relaxed_from_candidates=None,
         )
         return prediction
+    from_candidates = indeterminate is not False and closed_bases_suffice(system)
     # Streamed: the kinematic stage chunk by chunk, keeping the admissible and boundary
     # candidates (same arithmetic per candidate; eq. 24's LU does not see its batch).
     kept, singular, n_chunks = [], 0, 0
@@ -245,22 +247,32 @@ class RelaxedCodes:
     candidate is added): :func:`planner.predict.indeterminate.codes_from_velocities`."""
 
     def __init__(self, system: System, tol: float) -> None:
-        self.system, self.k = system, system.dof
-        self.strict, self.gen = generation_thresholds(system, tol)
-        self.row = equilibrated_kinematics(system).row
+        self.system, self.k, self.tol = system, system.dof, tol
+        eq = equilibrated_kinematics(system)
+        self.row, self.gen = eq.row, GEN_TOL * eq.b_scale
+        self.strict: np.ndarray | None = None  # generation_thresholds, when first needed
         self.found: set[bytes] = set()
         self.codes: list[np.ndarray] = []
         self.limit = ""
 
     def add(self, kin: KinematicStage) -> None:
-        """Read the modes off the nonsingular candidates of one kinematic stage."""
-        self.add_velocities(kin.v[kin.nonsingular])
+        """Read the modes off the nonsingular candidates of one kinematic stage (the singular
+        ones' velocities are NaN: no row of theirs counts as vanishing)."""
+        self.add_velocities(kin.v)
 
     def add_velocities(self, v: np.ndarray) -> None:
         """Read the modes off relative velocities ``v (m, 2 n_c)`` (eq. 5) of nonsingular
         candidates."""
+        ve = v / self.row
+        # At generic velocities exactly k rows vanish: nothing to read off (the common case).
+        if not ve.shape[0]:
+            return
+        if np.maximum.reduce(np.add.reduce(np.abs(ve) <= self.gen, axis=1)) <= self.k:
+            return
+        if self.strict is None:
+            self.strict = generation_thresholds(self.system, self.tol)[0]
         self.limit = codes_from_velocities(
-            v / self.row, self.k, self.strict, self.gen, self.found, self.codes) or self.limit
+            ve, self.k, self.strict, self.gen, self.found, self.codes) or self.limit
 
 
 def predict_candidates(
@@ -274,7 +286,7 @@ def predict_candidates(
     max_subsets: int = DEFAULT_MAX_ROW_SUBSETS,
     extra_degenerate: int = 0,
     method: str = "exhaustive",
-    relaxed_from_candidates: bool = False,
+    relaxed_from_candidates: bool | None = False,
     relaxed: RelaxedCodes | None = None,
 ) -> tuple[Prediction, int]:
     """Kinematic then force stage on the candidates ``cand`` and the :class:`Prediction`
@@ -287,41 +299,50 @@ def predict_candidates(
     ``indeterminate`` and ``max_subsets`` as in :func:`feasible_modes`.  The relaxed-utility
     candidates come from ``relaxed`` (collected over streamed chunks), from ``cand``'s own
     velocities (``relaxed_from_candidates``: ``cand`` is every eq. (49) candidate and the
-    structural test holds), or else from the row-subset scan.
+    structural test holds; None: ``cand`` is every eq. (49) candidate, apply the structural
+    test, helped by the kinematic stage's determinants), or else from the row-subset scan.
     """
     kin = kinematic_stage(system, cand, tol=tol, singular_tol=singular_tol)
-    idx = np.flatnonzero(kin.ok)
+    idx = kin.ok.nonzero()[0]
     fs = force_stage(system, cand, idx, kin.xi[idx], mu_arr, singular_tol=singular_tol)
+    f_ok = fs.nonsingular[0]
     margin = np.minimum(fs.margin[0], kin.margin[idx])
-    feasible = fs.nonsingular[0] & (margin >= -tol)
-    finite = np.isfinite(kin.qdot[idx]).all(axis=1) & np.isfinite(fs.c_A[0]).all(axis=1)
-    if np.any(fs.nonsingular[0] & ~finite):
-        raise DegenerateError(
-            "numerical overflow while solving eqs. (24)/(26): expected inputs whose magnitudes "
-            "fit in double precision products (rescale lengths, forces or speeds)"
-        )
+    feasible = f_ok & (margin >= -tol)
+    # Overflow check (qdot of admissible candidates and c_A of nonsingular Q_AI must be finite):
+    # the largest magnitudes are finite in the common case (no sum: it could overflow); else
+    # look closer.
+    if not (math.isfinite(np.maximum.reduce(np.abs(kin.qdot.take(idx, axis=0)), axis=None,
+                                            initial=0.0))
+            and math.isfinite(np.maximum.reduce(np.abs(fs.c_A[0]), axis=None, initial=0.0))):
+        finite = np.isfinite(kin.qdot[idx]).all(axis=1) & np.isfinite(fs.c_A[0]).all(axis=1)
+        if np.any(f_ok & ~finite):
+            raise DegenerateError(
+                "numerical overflow while solving eqs. (24)/(26): expected inputs whose "
+                "magnitudes fit in double precision products (rescale lengths, forces or speeds)"
+            )
+    codes, xi = cand.codes, kin.xi
     modes = []
-    for j in np.flatnonzero(feasible):
-        i = idx[j]
+    for j in feasible.nonzero()[0].tolist():
+        i = int(idx[j])
+        m_j = float(margin[j])
         modes.append(
             FeasibleMode(
-                mode=Mode(tuple(int(c) for c in cand.codes[i]), tuple(int(x) for x in kin.xi[i])),
+                mode=Mode(tuple(codes[i].tolist()), tuple(xi[i].tolist())),
                 qdot=kin.qdot[i].copy(),
-                joint_velocities=kin.joint_velocities[i].copy(),
+                joint_velocities=kin.joint_velocities_of(i),
                 contact_velocities=kin.v[i].reshape(-1, 2).copy(),
                 contact_forces=fs.contact_forces[0, j].copy(),
                 joint_efforts=fs.joint_efforts[0, j].copy(),
-                margin=float(margin[j]),
-                on_boundary=bool(abs(margin[j]) <= tol),
+                margin=m_j,
+                on_boundary=abs(m_j) <= tol,
             )
         )
-    boundary = tuple(
-        Mode(tuple(int(c) for c in cand.codes[i]), tuple(int(x) for x in kin.xi[i]))
-        for i in np.flatnonzero(kin.boundary)
-    )
-    degenerate = extra_degenerate + int(np.count_nonzero(~kin.nonsingular)) + int(
-        np.count_nonzero(~fs.nonsingular[0])
-    )
+    boundary = tuple(Mode(tuple(codes[i].tolist()), tuple(xi[i].tolist()))
+                     for i in kin.boundary.nonzero()[0].tolist())
+    degenerate = (extra_degenerate + len(cand) - int(np.count_nonzero(kin.nonsingular))
+                  + len(idx) - int(np.count_nonzero(f_ok)))
+    if relaxed_from_candidates is None:
+        relaxed_from_candidates = indeterminate is not False and closed_bases_suffice(system, kin)
     if indeterminate is not False and relaxed is None and relaxed_from_candidates:
         relaxed = RelaxedCodes(system, tol)
         relaxed.add(kin)

@@ -21,7 +21,6 @@ those few modes.
 from __future__ import annotations
 
 import itertools
-import weakref
 from collections.abc import Iterator
 from dataclasses import dataclass
 from functools import lru_cache
@@ -29,9 +28,9 @@ from math import comb
 
 import numpy as np
 
-from planner.model.modes import BREAK, ROLL, SLIDE
+from planner.model.modes import BREAK, ROLL, SLIDE, enumerate_modes
 from planner.model.system import System
-from planner.predict.linalg import lu_det_solve
+from planner.predict.linalg import batch_det, lu_det_solve
 from planner.predict.relaxed_modes import (
     IndeterminateKinematics,
     coulomb_rows,
@@ -43,6 +42,7 @@ from planner.predict.stages import (
     DEFAULT_SINGULAR_TOL,
     DEFAULT_TOL,
     FeasibleMode,
+    KinematicStage,
     equilibrated_kinematics,
 )
 
@@ -126,7 +126,7 @@ def scan_indeterminate(
         return IndeterminateScan((), 0, 0)
     if count > max_subsets:
         return IndeterminateScan((), 0, 0, (
-            f"force-indeterminate (relaxed-utility) modes not searched: C(2 n_c, 3 + |tau_I|) "
+            f"force-indeterminate (relaxed-utility) modes not searched: C(2 n_c, 3 n_b + |tau_I|) "
             f"= C({2 * n_c}, {k}) = {count} row subsets exceed max_subsets = {max_subsets}"
         ))
     eq = equilibrated_kinematics(system)
@@ -202,7 +202,7 @@ SPAN_TOL = 1e-6
 MAX_STRUCTURE_TESTS = 50_000
 
 
-def closed_bases_suffice(system: System) -> bool:
+def closed_bases_suffice(system: System, kinematics: KinematicStage | None = None) -> bool:
     """Cheap structural test: True when every relaxed-utility mode contains an eq. (49)
     candidate (``n_R`` rolling pairs and ``n_S`` sliding normals, ``k`` rows) that is
     nonsingular, so that the velocities of the determinate candidates already reveal every
@@ -217,12 +217,93 @@ def closed_bases_suffice(system: System) -> bool:
     no normal does (Gram determinant of ``[n_j; n_a; t_a; ...]`` above ``SPAN_TOL^2``); e.g.
     a pinch grasp (opposite normals on one line) fails it.  Answers False
     (scan everything) when that takes more than :data:`MAX_STRUCTURE_TESTS` tests."""
-    hit = _CLOSED_BASES.get(system)
+    eq = equilibrated_kinematics(system)
+    hit = eq.derived.get("closed_bases")
     if hit is None:
         n_c, k = system.n_contacts, system.dof
-        hit = _CLOSED_BASES[system] = structure_tests_fit(n_c, k) and _no_normal_in_pair_span(
-            equilibrated_kinematics(system).Kn, n_c, (k - 1) // 2)
+        if not structure_tests_fit(n_c, k):
+            hit = False
+        elif kinematics is not None and kinematics.candidates is enumerate_modes(n_c, k) and \
+                bool(certified_by_determinants(kinematics.det[None], n_c, k)[0]):
+            hit = True
+        else:
+            hit = bool(closed_bases_stacked(eq.Kn[None])[0])
+        eq.derived["closed_bases"] = hit
     return hit
+
+
+#: An eq. (49) candidate with equilibrated ``|det P_AI|`` above this certifies every structural
+#: test whose rows it contains (:func:`certified_by_determinants`; 2x for rounding).
+DET_CERTIFICATE = 2 * SPAN_TOL
+
+
+def certified_by_determinants(det: np.ndarray, n_c: int, k: int) -> np.ndarray:
+    """``(B,)`` bool: True where the equilibrated determinants ``det (B, M)`` of the eq. (49)
+    candidates (:func:`planner.model.modes.enumerate_modes` order) prove every test of
+    :func:`closed_bases_suffice`; False means "not proved" (run the Gram tests).
+
+    A test's rows ``S`` (``n_j`` and ``p`` rolling pairs, all unit rows of ``Kn``) are a
+    subset of a candidate's rows ``A``; by Fischer's inequality ``det P_A^2 = det(P_A P_A^T) <=
+    det(Kn_S Kn_S^T) prod |other rows|^2 = det(Kn_S Kn_S^T)``, so ``|det P_A| > SPAN_TOL``
+    implies the Gram determinant exceeds ``SPAN_TOL^2``: the test passes."""
+    cover = structure_test_cover(n_c, k)
+    B, M = det.shape
+    if cover is None or not cover.shape[0]:
+        return np.zeros(B, bool) if cover is None else np.ones(B, bool)
+    # good[:, M] is False: the padding of cover's rows points there.  (Boolean gathers, not a
+    # matrix product: no BLAS threads for this.)
+    good = np.zeros((B, M + 1), bool)
+    np.greater(np.abs(det), DET_CERTIFICATE, out=good[:, :M])
+    witnessed = np.logical_or.reduce(good.take(cover, axis=1), axis=2)  # (B, T)
+    return np.logical_and.reduce(witnessed, axis=1)
+
+
+@lru_cache(maxsize=64)
+def structure_test_cover(n_c: int, k: int) -> np.ndarray | None:
+    """``(T, C)`` indices of the eq. (49) candidates (:func:`planner.model.modes.enumerate_modes`
+    order) that contain the rows of each test of :func:`closed_bases_suffice` (all ``p``,
+    :func:`pair_span_rows` order), padded with ``M`` (no candidate); None when the table
+    would be large (more than 2e7 entries x rows to build)."""
+    cand = enumerate_modes(n_c, k)
+    p_max = min((k - 1) // 2, n_c - 1)
+    tests = [pair_span_rows(n_c, p) for p in range(1, p_max + 1)]
+    T, M = sum(len(t) for t in tests), len(cand)
+    if T * M * 2 * n_c > 20_000_000:
+        return None
+    has_c = np.zeros((M, 2 * n_c), bool)
+    np.put_along_axis(has_c, cand.rows, True, axis=1)
+    has_t = np.zeros((T, 2 * n_c), bool)
+    start = 0
+    for t in tests:  # one block of tests per p
+        np.put_along_axis(has_t[start:start + len(t)], t, True, axis=1)
+        start += len(t)
+    contains = ~np.any(has_t[:, None, :] & ~has_c[None], axis=2)  # (T, M)
+    width = max(int(contains.sum(axis=1).max()) if T else 0, 1)
+    cover = np.full((T, width), M, dtype=np.int64)
+    for i, row in enumerate(contains):
+        idx = np.flatnonzero(row)
+        cover[i, :len(idx)] = idx
+    cover.setflags(write=False)
+    return cover
+
+
+def closed_bases_stacked(Kn: np.ndarray) -> np.ndarray:
+    """:func:`closed_bases_suffice`'s rank tests for every configuration of the stacked
+    equilibrated ``Kn (B, 2 n_c, k)`` (unit rows): ``(B,)`` bool, True where no normal row
+    ``Kn[2 j]`` lies (nearly) in the span of ``p <= (k - 1) / 2`` rolling pairs of other
+    contacts.  Each test's Gram matrix is read off the Gram matrix ``Kn Kn^T`` of all rows."""
+    B, two_n, k = Kn.shape
+    n_c = two_n // 2
+    ok = np.ones(B, bool)
+    p_max = min((k - 1) // 2, n_c - 1)
+    if p_max < 1:
+        return ok
+    gram = (Kn @ np.swapaxes(Kn, 1, 2)).reshape(B, two_n * two_n)
+    for p in range(1, p_max + 1):
+        g = gram.take(pair_span_gram_index(n_c, p), axis=1)  # (B, T, 2 p + 1, 2 p + 1)
+        # det(X X^T) is the product of the squared singular values: 0 for dependent rows.
+        ok &= ~np.logical_or.reduce(batch_det(g) <= SPAN_TOL ** 2, axis=1)
+    return ok
 
 
 @lru_cache(maxsize=256)
@@ -233,23 +314,14 @@ def structure_tests_fit(n_c: int, k: int) -> bool:
     return tests <= MAX_STRUCTURE_TESTS
 
 
-#: Per-system cache of :func:`closed_bases_suffice` (friction-independent).
-_CLOSED_BASES: weakref.WeakKeyDictionary[System, bool] = weakref.WeakKeyDictionary()
-
-
-def _no_normal_in_pair_span(Kn: np.ndarray, n_c: int, p_max: int) -> bool:
-    """No normal row ``Kn[2 j]`` (near) in the span of ``p <= p_max`` pairs of other contacts."""
-    for p in range(1, min(p_max, n_c - 1) + 1):
-        if np.any(near_dependent(Kn[pair_span_rows(n_c, p)])):
-            return False
-    return True
-
-
-def near_dependent(X: np.ndarray) -> np.ndarray:
-    """``X (..., r, k)`` with unit rows: True where ``det(X X^T) <= SPAN_TOL^2`` (the product
-    of the squared singular values: exactly dependent rows give 0)."""
-    gram = X @ np.swapaxes(X, -1, -2)
-    return np.linalg.det(gram) <= SPAN_TOL ** 2
+@lru_cache(maxsize=64)
+def pair_span_gram_index(n_c: int, p: int) -> np.ndarray:
+    """Flat indices ``(T, 2 p + 1, 2 p + 1)`` into the ``(2 n_c)^2`` Gram matrix of ``K``'s
+    rows: the Gram matrix of each row set of :func:`pair_span_rows` ``(n_c, p)``."""
+    rows = pair_span_rows(n_c, p)
+    idx = rows[:, :, None] * (2 * n_c) + rows[:, None, :]
+    idx.setflags(write=False)
+    return idx
 
 
 @lru_cache(maxsize=64)

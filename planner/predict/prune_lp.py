@@ -109,7 +109,7 @@ class Pruner:
         # Power row: (K^T c) . z - b . c <= eps_f vs N, with K^T c = [h_obj; -h_E] (eq. 26).
         power = np.zeros(nv)
         if coupled:
-            power[:k] = np.concatenate([h[:3], -h[3:]]) / kin.col
+            power[:k] = np.concatenate([h[:system.n_q], -h[system.n_q:]]) / kin.col
             power[k:nN] = -kin.rhs
         power[nN] = -force_eps * vs
         pn = float(np.max(np.abs(power)))

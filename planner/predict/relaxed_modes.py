@@ -121,10 +121,11 @@ def stacked_relaxed_kinematics(
             continue
         c = cfg[idx]
         z = z / col[c]
-        qdot = z[:, :3]
+        n_q = W.shape[1]  # 3 n_b
+        qdot = z[:, :n_q]
         thetadot = np.empty((idx.size, n_joints))
         thetadot[:, V] = inputs[c][:, V]
-        thetadot[:, E] = z[:, 3:]
+        thetadot[:, E] = z[:, n_q:]
         v = (np.einsum("gi,gir->gr", qdot, W[c])
              - np.einsum("gj,grj->gr", thetadot, J[c]))  # eq. (5)
         v_n, v_t = v[:, 0::2], v[:, 1::2]

@@ -10,7 +10,8 @@ described in :mod:`planner.predict.feasibility` and ``docs/conventions.md``.
 from __future__ import annotations
 
 import weakref
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from functools import cached_property, lru_cache
 from typing import Any
 
 import numpy as np
@@ -30,6 +31,8 @@ __all__ = [
 DEFAULT_TOL = 1e-9
 #: Equilibrated |det| below which P_AI or Q_AI is treated as singular (conditions 30-32).
 DEFAULT_SINGULAR_TOL = 1e-10
+#: Smallest positive normal double: a zero column norm becomes this (the column stays 0).
+_TINY = float(np.finfo(float).tiny)
 
 
 @dataclass(frozen=True, eq=False)
@@ -40,8 +43,8 @@ class FeasibleMode:
     ----------
     mode : Mode
         Contact interactions and sliding directions.
-    qdot : (3,) [m/s, m/s, rad/s]
-        Workpiece velocity (point at the world origin), world frame.
+    qdot : (3 n_b,) [m/s, m/s, rad/s]
+        Workpiece velocity (point at the world origin), world frame, per body.
     joint_velocities : (n_theta,)
         All joint velocities (given ones and the solved ones of effort-controlled joints).
     contact_velocities : (n_c, 2) [m/s]
@@ -89,9 +92,6 @@ class FeasibleMode:
         }
 
 
-
-
-
 # ---------------------------------------------------------------------------------------------
 # Kinematic stage (eqs. 13-16, 23-25): independent of friction.
 # ---------------------------------------------------------------------------------------------
@@ -103,25 +103,46 @@ class KinematicStage:
     ----------
     candidates : CandidateSet
     nonsingular : (M,) bool      P_AI invertible (conditions 30, 32).
-    qdot : (M, 3)                workpiece velocity (NaN where singular).
-    joint_velocities : (M, n_theta)
+    qdot : (M, 3 n_b)            workpiece velocities (NaN where singular).
+    effort_velocities : (M, |tau_I|)  velocities of the effort-controlled joints (eq. 24).
     v : (M, 2 n_c)               relative contact velocities [v_1n, v_1t, ...] (eq. 5).
     xi : (M, n_c) int8           sliding directions (eq. 16), 0 where not sliding.
     margin : (M,)                smallest normalised strict kinematic slack (inf if none).
     ok : (M,) bool               kinematically admissible: margin > tol.
     boundary : (M,) bool         |margin| <= tol (strict constraint on its boundary).
+    velocity_scale : float       largest commanded contact-point speed (the margin's unit).
+    thetadot_base : (n_theta,)   commanded joint velocities, 0 at effort-controlled joints.
+    effort_joints : (|tau_I|,)   their indices.
+    det : (M,)                   equilibrated determinant of P_AI (rank test 30-32).
+    joint_velocities : (M, n_theta)  all joint velocities (built on first use).
     """
 
     candidates: CandidateSet
     nonsingular: np.ndarray
     qdot: np.ndarray
-    joint_velocities: np.ndarray
+    effort_velocities: np.ndarray
     v: np.ndarray
     xi: np.ndarray
     margin: np.ndarray
     ok: np.ndarray
     boundary: np.ndarray
     velocity_scale: float
+    thetadot_base: np.ndarray
+    effort_joints: np.ndarray
+    det: np.ndarray
+
+    @cached_property
+    def joint_velocities(self) -> np.ndarray:
+        """``(M, n_theta)``: the given velocities and the solved ones of effort joints."""
+        out = np.repeat(self.thetadot_base[None], self.qdot.shape[0], axis=0)
+        out[:, self.effort_joints] = self.effort_velocities
+        return out
+
+    def joint_velocities_of(self, i: int) -> np.ndarray:
+        """``(n_theta,)``: :attr:`joint_velocities` of candidate ``i`` (a new array)."""
+        out = self.thetadot_base.copy()
+        out[self.effort_joints] = self.effort_velocities[i]
+        return out
 
 
 @dataclass(frozen=True, eq=False)
@@ -129,7 +150,10 @@ class EquilibratedKinematics:
     """``K = [W^T  -J_E]`` (2 n_c, 3 + |tau_I|) scaled for rank tests: ``Kn = diag(1/row) K
     diag(1/col)`` with unit-max columns then unit rows, ``bn = rhs / row`` where ``rhs`` is
     ``J_V thetadot_V`` (eq. 24's right side per constraint row).  A solution ``z'`` of the
-    scaled rows gives ``z = z' / col``.  ``b_scale`` is ``max |bn|`` (0 without rows)."""
+    scaled rows gives ``z = z' / col``.  ``b_scale`` is ``max |bn|`` (0 without rows).
+    ``KT = K^T`` (3 + |tau_I|, 2 n_c), C-contiguous: ``v = z KT - rhs`` is eq. (5) for row
+    vectors ``z = (qdot, thetadot_E)``.  ``thetadot_base (n_theta,)``: the commanded
+    velocities of the velocity-controlled joints, 0 at the effort-controlled ones."""
 
     Kn: np.ndarray
     bn: np.ndarray
@@ -138,6 +162,12 @@ class EquilibratedKinematics:
     rhs: np.ndarray
     velocity_scale: float
     b_scale: float = 0.0
+    KT: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    thetadot_base: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    #: Friction-independent results derived from these rows by other modules (e.g. the
+    #: structural test of :func:`planner.predict.indeterminate.closed_bases_suffice`), cached
+    #: with the system's set-up.
+    derived: dict[str, Any] = field(default_factory=dict)
 
 
 @dataclass(frozen=True, eq=False)
@@ -145,15 +175,19 @@ class ForceSetup:
     """Friction-independent data of eq. (26) for one system: ``G = [W^T  J_E]``
     (2 n_c, 3 + |tau_I|), whose rows are the loads of unit contact-force components, the
     global row scaling ``rs`` of ``Q`` (largest ``|G|`` per column, 0 -> 1), the right side
-    ``rhs = [-g_obj; tau_I - g_man_I]`` (:func:`force_rhs`) and ``rhs / rs``."""
+    ``rhs = [-g_obj; tau_I - g_man_I]`` (:func:`force_rhs`) and ``rhs / rs``;
+    ``normal_rows``, ``tangent_rows`` (n_c, 3 + |tau_I|): the normal and the tangent rows of
+    ``G``, C-contiguous."""
 
     G: np.ndarray
     rs: np.ndarray
     rhs: np.ndarray
     rhs_scaled: np.ndarray
+    normal_rows: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    tangent_rows: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
 
 
-#: Per-system cache of :func:`equilibrated_kinematics` and :func:`force_setup` (a System's
+#: Per-system cache of :func:`system_setup` (a System's
 #: arrays are read-only; keyed by identity, so copies of a System do not share it).
 _SETUP: weakref.WeakKeyDictionary[System, tuple[EquilibratedKinematics, ForceSetup]] = (
     weakref.WeakKeyDictionary()
@@ -177,22 +211,44 @@ def equilibrated_kinematics(system: System) -> EquilibratedKinematics:
 
 def _build_setup(system: System) -> tuple[EquilibratedKinematics, ForceSetup]:
     E, V = system.effort_joints, system.velocity_joints
-    WT, J_E = system.W.T, system.J[:, E]
+    J, inputs = system.J, system.joint_inputs
+    # K = [W^T  -J_E] and G = [W^T  J_E] (rows: constraint rows; columns: the k unknowns).
+    WT, J_E = system.W.T, J[:, E]  # (indexed, not taken: K keeps its layout and its bits)
     K = np.concatenate([WT, -J_E], axis=1)
-    rhs = system.J[:, V] @ system.joint_inputs[V]  # J_V thetadot_V per constraint row
-    vel_scale = float(np.abs(rhs).max()) if rhs.size else 0.0
-    col = np.abs(K).max(axis=0)
-    col[col == 0] = 1.0
+    rhs = J[:, V] @ inputs[V]  # J_V thetadot_V per constraint row (as indexed: same bits)
+    vel_scale = float(np.maximum.reduce(np.abs(rhs))) if rhs.size else 0.0
+    col = np.maximum.reduce(np.abs(K), axis=0)
+    _zero_to_one(col)
     Kc = K / col
     row = np.sqrt(np.add.reduce(Kc * Kc, axis=1))  # numpy.linalg.norm(Kc, axis=1)
-    row[row == 0] = 1.0
+    _zero_to_one(row)
     bn = rhs / row
-    b_scale = float(np.abs(bn).max()) if bn.size else 0.0
-    eq = EquilibratedKinematics(Kc / row[:, None], bn, col, row, rhs, vel_scale, b_scale)
+    b_scale = float(np.maximum.reduce(np.abs(bn))) if bn.size else 0.0
+    base = np.zeros(len(inputs))
+    base[V] = inputs.take(V)
+    eq = EquilibratedKinematics(Kc / row[:, None], bn, col, row, rhs, vel_scale, b_scale,
+                                np.ascontiguousarray(K.T), base)
     # G's column maxima equal K's (|-x| = |x|): rs is col.
-    f_rhs = np.concatenate([-system.g_obj, system.joint_inputs[E] - system.g_man[E]])
+    f_rhs = np.empty(K.shape[1])  # [-g_obj; tau_I - g_man_I]
+    n_q = system.n_q  # 3 n_b
+    np.negative(system.g_obj, out=f_rhs[:n_q])
+    np.subtract(inputs.take(E), system.g_man.take(E), out=f_rhs[n_q:])
     G = np.concatenate([WT, J_E], axis=1)
-    return eq, ForceSetup(G, col, f_rhs, f_rhs / col)
+    return eq, ForceSetup(G, col, f_rhs, f_rhs / col, G[0::2].copy(), G[1::2].copy())
+
+
+@lru_cache(maxsize=256)
+def _row_offsets(P: int, stride: int) -> np.ndarray:
+    """``(P, 1)``: ``0, stride, 2 stride, ...`` (read-only; the flat row offset of each pair)."""
+    out = np.arange(0, P * stride, stride)[:, None]
+    out.setflags(write=False)
+    return out
+
+
+def _zero_to_one(x: np.ndarray) -> None:
+    """Replace exact zeros of the scaling vector ``x`` by 1, in place."""
+    if np.count_nonzero(x) < x.shape[0]:
+        x[x == 0] = 1.0
 
 
 def kinematic_stage(
@@ -209,40 +265,41 @@ def kinematic_stage(
     side is ``J_AV thetadot_V``.
     """
     cand = candidates if candidates is not None else enumerate_modes(system.n_contacts, system.dof)
-    E, V = system.effort_joints, system.velocity_joints
-    n_c = system.n_contacts
     M = len(cand)
     # Equilibrate: global column scaling, then unit rows (rows of P_AI are rows of K).
-    eq = equilibrated_kinematics(system)
+    eq = system_setup(system)[0]
     vel_scale = eq.velocity_scale
     # P_AI = Kn[rows] and its right side bn[rows]; one LU per candidate gives both |det|
     # (30-32) and z (eq. 24).
     det, z = det_solve(eq.Kn, eq.bn, cand.rows)
     nonsingular = np.abs(det) > singular_tol
-    all_nonsingular = bool(nonsingular.all())
+    all_nonsingular = np.count_nonzero(nonsingular) == M
     if not all_nonsingular:
         z[~nonsingular] = np.nan
     z /= eq.col
-    qdot = z[:, :3]
-    thetadot = np.empty((M, system.n_joints))
-    thetadot[:, V] = system.joint_inputs[V]
-    thetadot[:, E] = z[:, 3:]
-    v = qdot @ system.W - thetadot @ system.J.T  # (M, 2 n_c), eq. (5)
+    v = z @ eq.KT  # (M, 2 n_c), eq. (5): v = W^T qdot - J_E thetadot_E - J_V thetadot_V
+    v -= eq.rhs
     v_n, v_t = v[:, 0::2], v[:, 1::2]
     is_break, is_slide, _ = cand.masks
-    scale = vel_scale if vel_scale > 0 else 1.0
     strict = np.where(is_break, v_n, np.where(is_slide, np.abs(v_t), np.inf))
-    margin = strict.min(axis=1) / scale if n_c else np.full(M, np.inf)
+    if strict.shape[1]:
+        margin = np.minimum.reduce(strict, axis=1)
+        if vel_scale > 0:
+            margin /= vel_scale
+    else:
+        margin = np.full(M, np.inf)
     # xi = sgn(v_t) (eq. 16) at sliding contacts of nonsingular candidates; NaN counts as 0.
     xi = (v_t > 0).view(np.int8) - (v_t < 0).view(np.int8)
     if all_nonsingular:
-        xi *= is_slide
+        xi *= is_slide.view(np.int8)
     else:
         margin[~nonsingular] = -np.inf
         xi *= is_slide & nonsingular[:, None]
     ok = margin > tol  # singular candidates have margin -inf
     boundary = np.abs(margin) <= tol
-    return KinematicStage(cand, nonsingular, qdot, thetadot, v, xi, margin, ok, boundary, vel_scale)
+    n_q = system.n_q  # 3 n_b
+    return KinematicStage(cand, nonsingular, z[:, :n_q], z[:, n_q:], v, xi, margin, ok, boundary,
+                          vel_scale, eq.thetadot_base, system.effort_joints, det)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -269,12 +326,6 @@ def force_rhs(system: System) -> np.ndarray:
     return system_setup(system)[1].rhs.copy()
 
 
-def force_setup(system: System) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(G, rs, rhs)`` of :class:`ForceSetup` (cached per system)."""
-    fs = system_setup(system)[1]
-    return fs.G, fs.rs, fs.rhs
-
-
 def force_matrices(
     system: System, rows: np.ndarray, sliding: np.ndarray, contact: np.ndarray,
     xi: np.ndarray, mu: np.ndarray,
@@ -296,16 +347,9 @@ def force_matrices(
         Row ``j`` is the wrench and effort-joint load of unit ``c_A[j]``: ``[w; j_E]`` of its
         row, minus ``mu_i xi_i [w_t; j_tE]`` when it is a sliding contact's normal (eq. 17).
     """
-    return _force_matrices(system_setup(system)[1].G, rows, sliding, contact,
-                           2 * contact + 1, xi, mu)
-
-
-def _force_matrices(
-    G: np.ndarray, rows: np.ndarray, sliding: np.ndarray, contact: np.ndarray,
-    tangent_rows: np.ndarray, xi: np.ndarray, mu: np.ndarray,
-) -> np.ndarray:
+    G = system_setup(system)[1].G
     base = G[rows]  # (m, k, q)
-    tang = G[tangent_rows]  # tangent row of the same contact
+    tang = G[2 * contact + 1]  # tangent row of the same contact
     xi_rows = xi[np.arange(xi.shape[0])[:, None], contact].astype(float)  # (m, k)
     coef = mu[:, contact] * (xi_rows * sliding)[None]  # (L, m, k)
     return base[None] - coef[..., None] * tang[None]
@@ -322,51 +366,70 @@ def force_stage(
 ) -> ForceStage:
     """Solve eq. (26) and test eq. (28) for candidates ``index`` at friction vectors ``mu``.
 
-    ``xi`` is ``(len(index), n_c)``; ``mu`` is ``(n_c,)`` or ``(L, n_c)``.
+    ``xi`` is ``(len(index), n_c)``: the kinematic stage's sliding directions
+    (:attr:`KinematicStage.xi`: ``sgn v_t`` at sliding contacts, 0 at the others); ``mu`` is
+    ``(n_c,)`` or ``(L, n_c)``.
     """
-    mu2 = np.atleast_2d(np.asarray(mu, dtype=float))
-    L = mu2.shape[0]
+    mu2 = np.asarray(mu, dtype=float)
+    if mu2.ndim != 2:
+        mu2 = mu2.reshape(1, -1)
+    L, m = mu2.shape[0], len(index)
     n_c, k = system.n_contacts, candidates.n_rows
-    rows = candidates.rows[index]
-    contact = candidates.contact[index]
-    _, slide_mask, roll_mask = candidates.masks
-    is_s, is_r = slide_mask[index], roll_mask[index]
-    m = rows.shape[0]
+    P = L * m  # (friction vector, candidate) pairs, friction-major
     setup = system_setup(system)[1]
-    QT = _force_matrices(setup.G, rows, candidates.sliding[index], contact,
-                         candidates.tangent_rows[index], xi, mu2)  # (L, m, k, k)
-    # Equilibrate: global scaling of Q's rows (columns of QT), unit columns of Q per mode.
+    _, slide_mask, roll_mask = candidates.masks
+    rows = candidates.rows.take(index, axis=0)
+    is_s, is_r = slide_mask.take(index, axis=0), roll_mask.take(index, axis=0)
+    if L == 1:
+        mu_p = mu2  # broadcasts over the m pairs
+        muxi = mu2 * xi.astype(float)  # (P, n_c): mu_i xi_i (0 unless sliding)
+    else:
+        mu_p = np.repeat(mu2, m, axis=0)
+        muxi = mu_p * np.tile(xi, (L, 1)).astype(float)
+        rows, is_s, is_r = np.tile(rows, (L, 1)), np.tile(is_s, (L, 1)), np.tile(is_r, (L, 1))
+    # Q_AI^T (eqs. 17-20, 26): the rows of G, a sliding contact's normal row minus mu_i xi_i
+    # times its tangent row.
+    Gn, Gt = setup.normal_rows, setup.tangent_rows  # (n_c, q)
+    Gmu = np.empty((P, n_c, 2, Gn.shape[1]))
+    Gmu[:, :, 1] = Gt
+    np.subtract(Gn, muxi[..., None] * Gt, out=Gmu[:, :, 0])
+    flat = _row_offsets(P, 2 * n_c) + rows  # (P, k) into (P * 2 n_c)
+    QT = Gmu.reshape(P * 2 * n_c, Gn.shape[1]).take(flat, axis=0)  # (P, k, k)
+    # Equilibrate: global scaling of Q's rows (columns of QT), then unit columns of Q per mode
+    # (a zero column stays zero: singular).
     QT /= setup.rs
-    cn = np.sqrt(np.einsum("...i,...i->...", QT, QT))  # (L, m, k) column norms
-    cn[cn == 0] = 1.0
+    cn = np.sqrt(np.einsum("...i,...i->...", QT, QT))  # (P, k) column norms
+    if np.count_nonzero(cn) < cn.size:
+        np.maximum(cn, _TINY, out=cn)
     QT /= cn[..., None]
     # Q_AI = QTn^T per mode: one LU per matrix gives |det| (30-32) and y (eq. 26).
-    det, y = transposed_det_solve(QT.reshape(L * m, k, k), setup.rhs_scaled)
-    nonsingular = (np.abs(det) > singular_tol).reshape(L, m)
-    y = y.reshape(L, m, k)
-    all_nonsingular = bool(nonsingular.all())
+    det, y = transposed_det_solve(QT, setup.rhs_scaled)
+    nonsingular = np.abs(det) > singular_tol
+    all_nonsingular = np.count_nonzero(nonsingular) == P
     if not all_nonsingular:
         y[~nonsingular] = np.nan
     c_A = y / cn
     # Scatter to full contact forces; sliding tangential force c_t = -mu xi c_n (eq. 17).
-    c_full = np.zeros((L, m, 2 * n_c))
-    c_full[:, np.arange(m)[:, None], rows] = c_A
-    cn_all = c_full[..., 0::2]
-    c_full[..., 1::2] += np.where(is_s, -mu2[:, None, :] * xi * cn_all, 0.0)
-    forces = c_full.reshape(L, m, n_c, 2)
-    efforts = c_full @ system.J + system.g_man  # eq. (3): tau = J^T c + g_man
+    c_full = np.zeros((P, 2 * n_c))
+    c_full.reshape(-1)[flat] = c_A
+    fn, ft = c_full[:, 0::2], c_full[:, 1::2]
+    ft -= muxi * fn
+    # eq. (3): tau = J^T c + g_man (a stacked product, as before: same bits, no BLAS threads)
+    efforts = c_full.reshape(L, m, 2 * n_c) @ system.J
+    efforts += system.g_man
     # Coulomb (eqs. 21-22): rolling mu c_n - |c_t| >= 0, sliding c_n >= 0.
-    fn, ft = forces[..., 0], forces[..., 1]
     # A rolling contact also needs c_n >= 0 (implied by the cone only when mu > 0).
-    slack = np.where(
-        is_r, np.minimum(mu2[:, None, :] * fn - np.abs(ft), fn), np.where(is_s, fn, np.inf),
-    )
-    f_scale = np.abs(c_A).max(axis=-1) if k else np.zeros((L, m))
-    f_scale[~(f_scale > 0)] = 1.0  # zero or NaN (singular)
-    margin = slack.min(axis=-1) / f_scale if n_c else np.full((L, m), np.inf)
+    cone = mu_p * fn
+    cone -= np.abs(ft)
+    slack = np.where(is_r, np.minimum(cone, fn), np.where(is_s, fn, np.inf))
+    if k and n_c:
+        # Largest applicable force; 0 -> _TINY (all forces 0: the slacks are 0 or inf).
+        f_scale = np.maximum.reduce(np.abs(c_A), axis=1)
+        margin = np.minimum.reduce(slack, axis=1) / np.maximum(f_scale, _TINY, out=f_scale)
+    else:
+        margin = np.full(P, np.inf)
     if not all_nonsingular:
         margin[~nonsingular] = -np.inf
+    c_A, nonsingular, margin = c_A.reshape(L, m, k), nonsingular.reshape(L, m), margin.reshape(L, m)
+    forces = c_full.reshape(L, m, n_c, 2)
     return ForceStage(c_A, forces, efforts, margin, nonsingular)
-
-
-# ---------------------------------------------------------------------------------------------

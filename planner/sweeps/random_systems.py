@@ -12,6 +12,8 @@ seed gives the same system in every process and on every machine running the sam
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from planner.errors import InputError
@@ -150,3 +152,71 @@ def random_system(
                 for j in range(n_t)],
         joint_loads=g_man,
     )
+
+
+def random_multibody_system(
+    seed: int,
+    n_bodies: int,
+    n_contacts: int,
+    *,
+    n_velocity: int = 2,
+    n_effort: int = 0,
+    body_contact_share: float = 0.4,
+    mu_range: tuple[float, float] = (0.0, 0.8),
+) -> System:
+    """A seeded random system of ``n_b`` workpieces (:mod:`planner.model.bodies`), loads planted.
+
+    Each workpiece is a random convex polygon placed side by side (``1.5 m`` apart); each
+    contact lies on the boundary of a random body ``a_i`` (normal into it) and touches, with
+    probability ``body_contact_share`` (when ``n_b > 1``), another random body ``b_i`` (zero
+    Jacobian rows, eq. 5), else the manipulator (random Jacobian rows ~ N(0, 1)). Every body
+    has at least one contact. Loads are planted as in :func:`random_system`: a contact force
+    ``c`` strictly inside the friction cones (``c_n`` in 0.1..1 N) gives ``g_obj = -W c``
+    (3 n_b,) and ``tau_E = J_E^T c + g_man_E``, so eq. (26) is solvable.
+
+    Returns
+    -------
+    System
+        ``W (3 n_b, 2 n_c)``, ``J (2 n_c, n_effort + n_velocity)``, joint order shuffled.
+    """
+    for name, value, lo in (("n_bodies", n_bodies, 1), ("n_contacts", n_contacts, n_bodies),
+                            ("n_velocity", n_velocity, 1), ("n_effort", n_effort, 0)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < lo:
+            raise InputError(f"{name}: expected an integer >= {lo}, got {value!r}")
+    if n_contacts > MAX_CONTACTS:
+        raise InputError(f"n_contacts: expected at most {MAX_CONTACTS}, got {n_contacts}")
+    lo_mu, hi_mu = mu_range
+    if not (0.0 <= lo_mu <= hi_mu):
+        raise InputError(f"mu_range: expected 0 <= lo <= hi, got ({lo_mu}, {hi_mu})")
+    rng = np.random.default_rng(seed)
+    polys = [random_convex_polygon(rng, n_vertices=int(rng.integers(4, 8))) + (1.5 * a, 0.0)
+             for a in range(n_bodies)]
+    owner = np.concatenate([np.arange(n_bodies),
+                            rng.integers(0, n_bodies, n_contacts - n_bodies)])
+    rng.shuffle(owner)
+    points, normals, bodies = np.empty((n_contacts, 2)), np.empty((n_contacts, 2)), []
+    for i, a in enumerate(owner):
+        p, n = contacts_on_polygon(rng, polys[a], 1)
+        points[i], normals[i] = p[0], n[0]
+        other = -1
+        if n_bodies > 1 and rng.random() < body_contact_share:
+            other = int(rng.choice([b for b in range(n_bodies) if b != a]))
+        bodies.append((int(a), other))
+    n_t = n_effort + n_velocity
+    J = rng.normal(0.0, 1.0, (n_contacts, 2, n_t))
+    J[[i for i, (_, b) in enumerate(bodies) if b >= 0]] = 0.0
+    mu = rng.uniform(lo_mu, hi_mu, n_contacts)
+    g_man = rng.normal(0.0, 0.3, n_t)
+    is_effort = rng.permutation(n_t) < n_effort
+    inputs = rng.normal(0.0, 1.0, n_t)
+    c_n = rng.uniform(0.1, 1.0, n_contacts)  # every contact loaded: no mode sits on c_n = 0
+    c = np.c_[c_n, rng.uniform(-1.0, 1.0, n_contacts) * mu * c_n].reshape(-1)
+    Jm = J.reshape(2 * n_contacts, n_t)
+    inputs[is_effort] = Jm[:, is_effort].T @ c + g_man[is_effort]
+    system = System.from_contacts(
+        points=points, normals=normals, mu=mu, bodies=bodies, n_bodies=n_bodies,
+        jacobian=J, joints=[{"effort" if e else "velocity": float(v)}
+                            for e, v in zip(is_effort, inputs)],
+        joint_loads=g_man,
+    )
+    return dataclasses.replace(system, g_obj=-(system.W @ c))

@@ -1,21 +1,29 @@
 """``qsplan demo --out report [--quick]``: the two-finger hand task end to end (Section 5.2,
-Figs. 9-13).
+Figs. 9-13), from the initial to the goal grasp.
 
-1. plan the two-finger hand's 4S segment for friction in [0, 0.2] (``policy midband``) and a
+1. plan the whole Figure 9 task (``figure9_task_hand``: a chain of guaranteed 4S segments to the
+   goal grasp, :mod:`qsplan.demo_task`) and its negative control (every torque reversed, still
+   claiming each mode); the story pictures (start, segments, goal; torque regions); plan the
+   first segment alone for friction in [0, 0.2] (``policy midband``, Figures 10-13) and its
    negative control that puts the torque in the R2S band during the first half while still
    claiming 4S (``policy rival:R2S``); check that the plan file reloads to the same plan and
-   that a tampered copy is rejected; Figures 10-13;
-2. validate the plan in pymunk and MuJoCo at every ``mu.validate`` value (0, 0.1, 0.2) and the
-   negative control at mu = 0.2 (two worker processes);
-3. write ``report/``: the plans, one folder per run (summary.json, timeline.png,
-   animation.gif), ``checks.json``, ``REPORT.md`` (one page: what held, with numbers) and
-   ``index.html`` (:mod:`qsplan.report`).
+   that a tampered copy is rejected;
+2. validate the whole task in pymunk and MuJoCo at the friction interval's ends and middle
+   (``mu.validate``: 0, 0.1, 0.2; every segment, each from the simulated end of the one
+   before, :mod:`sim.task_run`), and the negative controls: the reversed-torque task and the
+   R2S segment at mu = 0.2 (two worker processes);
+3. write ``report/``: the story (``story/``), the plans, one folder per run (summary.json; the
+   R2S runs also timeline.png and animation.gif), ``checks.json``, ``REPORT.md`` (one page: the
+   task in pictures, the torque regions, then what held, with numbers) and ``index.html``
+   (:mod:`qsplan.report`).
 
-Exit 0 only when every expectation held: every positive run passes (claimed mode >= 95 % of the
-segment, final position within 2 % of the travel), the negative control fails validation in
-both engines with R2S observed in its first half, the plan round-trips and tampering is caught.
-``--quick`` runs the first quarter of the segment (the part where R2S is a rival) instead of
-all of it. Simulators are imported lazily (in the worker processes).
+Exit 0 only when every expectation held: the task is planned to its goal in >= 3 segments within
+10 s, every segment of every run agrees (claimed mode >= 95 % of the segment, final position
+within 2 % of its travel) and the whole task ends within 2 % of its travel, both negative
+controls fail validation in both engines (R2S observed in the first half), the plan
+round-trips and tampering is caught.  ``--quick`` runs the task at the middle friction value
+only and the R2S control over the first quarter of its segment (else its first half).
+Simulators are imported lazily (in the worker processes).
 """
 
 from __future__ import annotations
@@ -30,6 +38,14 @@ from pathlib import Path
 from typing import Any
 
 from planner.errors import InputError
+from qsplan.demo_task import (
+    plan_task,
+    task_jobs,
+    task_plan_checks,
+    task_report_lines,
+    task_run_checks,
+)
+from qsplan.demo_task import task_job as _task_job
 from qsplan.options import check_int
 from scenarios.registry import shipped_file
 from sim.backends import ENGINES
@@ -44,13 +60,15 @@ TASK = "two-finger hand, guaranteed 4S under uncertain friction (Sec. 5.2)"
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "demo",
-        help="plan the two-finger hand segment, validate it in pymunk and MuJoCo, write a report",
+        help="plan the two-finger hand's whole task, validate it in pymunk and MuJoCo, write a "
+             "report",
         description=(
-            "The two-finger hand task (Sec. 5.2): plan the 4S segment of the two-finger hand "
-            "for mu in [0, 0.2], validate it in pymunk and MuJoCo at mu = 0, 0.1, 0.2, run the R2S "
-            "negative control, and write a report folder (plans, Figures 10-13, summaries, "
-            "timelines, GIFs, REPORT.md, index.html). Exit 0 only if every expectation held, "
-            "1 otherwise, 2 bad input, 3 simulator fault."
+            "The two-finger hand task (Sec. 5.2, Fig. 9): plan the whole task from the initial "
+            "to the goal grasp (guaranteed 4S segments for mu in [0, 0.2]), validate it in "
+            "pymunk and MuJoCo at mu = 0, 0.1, 0.2, run two negative controls (reversed "
+            "torques; the first segment's R2S torque), and write a report folder (the task in "
+            "pictures, plans, Figures 10-13, summaries, REPORT.md, index.html). Exit 0 only if "
+            "every expectation held, 1 otherwise, 2 bad input, 3 simulator fault."
         ),
         epilog="example: qsplan demo --out report",
     )
@@ -58,7 +76,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="report folder; its contents are replaced only when the demo has "
                         "finished (a failed run leaves the old report whole)")
     p.add_argument("--quick", action="store_true",
-                   help="simulate only the first quarter of the segment")
+                   help="simulate the task at the middle friction value only, the R2S control "
+                        "over the first quarter of its segment")
     p.add_argument("--scenario", default=SCENARIO, help="hand file or name")
     p.add_argument("--engines", default=",".join(ENGINES), help="comma-separated engines")
     p.add_argument("--jobs", type=int, default=2, help=f"worker processes, 1..{MAX_JOBS}")
@@ -114,6 +133,11 @@ def _rival_stats(plan: Any, res: Any, n_wp: int | None) -> dict[str, Any]:
         if rival_wp and res.verdict.plan is not None and res.verdict.plan.waypoint_observed
         else None,
     }
+
+
+def _job(job: dict[str, Any]) -> dict[str, Any]:
+    """A worker's job: a whole-task run (``kind`` ``task``) or a single-segment run."""
+    return _task_job(job) if job.get("kind") == "task" else _validate_job(job)
 
 
 def _check(name: str, expected: str, measured: str, held: bool) -> dict[str, Any]:
@@ -175,16 +199,17 @@ def _run(args: argparse.Namespace, engines: list[str], out: Path) -> int:
         from planner.plots.bounds import plot_bounds
 
         figures = [p.name for p in plot_bounds(plan, out / "figures")]
+    task = plan_task(out, render=not args.no_render)
+    checks += task_plan_checks(task)
 
     # 2. simulations --------------------------------------------------------------------------
-    n_wp = max(2, (len(plan.waypoints) + 3) // 4) if args.quick else None
-    jobs = []
-    for engine in engines:
-        for mu in plan.validate_mu:
-            jobs.append({"plan": str(plan_path), "engine": engine, "mu": float(mu),
-                         "out": str(out / "validate" / engine / f"mu_{mu:g}"),
-                         "waypoints": n_wp, "render": not args.no_render,
-                         "name": f"4S plan, {engine}, mu={mu:g}", "expect": "agree"})
+    # the R2S control: the first quarter (--quick) or the first half, where R2S is the rival
+    n_wp = max(2, (len(plan.waypoints) + (3 if args.quick else 1)) // (4 if args.quick else 2))
+    # the whole task at the friction interval's ends and middle (--quick: the middle only)
+    mus = [float(m) for m in task["plan"].validate_mu] or [0.0, 0.1, 0.2]
+    if args.quick:
+        mus = [mus[len(mus) // 2]]
+    jobs = task_jobs(task["path"], task["negative_path"], engines, mus, out, NEGATIVE_MU)
     for engine in engines:
         jobs.append({"plan": str(neg_path), "engine": engine, "mu": NEGATIVE_MU,
                      "out": str(out / "negative_control" / engine),
@@ -195,9 +220,9 @@ def _run(args: argparse.Namespace, engines: list[str], out: Path) -> int:
     t0 = time.perf_counter()
     if args.jobs > 1 and len(jobs) > 1:
         with ProcessPoolExecutor(max_workers=min(args.jobs, len(jobs), os.cpu_count() or 1)) as ex:
-            results = list(ex.map(_validate_job, jobs))
+            results = list(ex.map(_job, jobs))
     else:
-        results = [_validate_job(j) for j in jobs]
+        results = [_job(j) for j in jobs]
     t_sims = time.perf_counter() - t0
     for r in results:
         r["folder"] = Path(r.get("folder", "")).relative_to(out).as_posix()
@@ -207,38 +232,30 @@ def _run(args: argparse.Namespace, engines: list[str], out: Path) -> int:
                     "final_angle_error_rad"):
             r.setdefault(key, float("nan"))
     faults = [r for r in results if r["status"] == "fault"]
-    for r in results:
+    checks += task_run_checks(task, results)
+    for r in results:  # the single-segment runs: the R2S negative control
+        if r.get("kind") == "task":
+            continue
         where = f"{r['engine']}, mu={r['settings']['mu'][0]:g}"
-        if r["expect"] == "agree":
-            checks.append(_check(
-                f"4S plan in {where}: claimed mode observed", ">= 95 % of the segment",
-                f"{r['claim_fraction']:.1%}",
-                r["status"] != "fault" and r["claim_fraction"] >= 0.95))
-            checks.append(_check(
-                f"4S plan in {where}: final workpiece position", "<= 2 % of the travel",
-                f"{r['final_error_of_travel']:.2%} of {1e3 * r['travel_m']:.2f} mm "
-                f"(angle {r['final_angle_error_rad']:.1e} rad)",
-                r["status"] != "fault" and r["final_error_of_travel"] <= 0.02))
-        else:
-            checks.append(_check(
-                f"negative control in {where}: validation", "fails (claim not observed)",
-                f"{r['status']}: 4S on {r['claim_fraction']:.1%}", r["status"] == "disagreed"))
-            first = r.get("rival_first_observed_s")
-            ok = (r["status"] == "disagreed" and first is not None
-                  and r.get("rival_first_interval_majority") in r.get("rival_predicted", []))
-            stretch = r.get("rival_stretch_s") or [0, 0]
-            checks.append(_check(
-                f"negative control in {where}: {RIVAL} observed where predicted",
-                f"predicted {', '.join(r.get('rival_predicted', []))} observed in the first "
-                f"half ({stretch[0]:.1f}-{stretch[1]:.1f} s)",
-                (f"observed from {first:.2f} s for {r['rival_observed_s']:.2f} s "
-                 f"({r['rival_observed_fraction']:.0%} of the stretch); majority of the first "
-                 f"interval: {r.get('rival_first_interval_majority')}") if first is not None
-                else "not observed", ok))
+        checks.append(_check(
+            f"negative control in {where}: validation", "fails (claim not observed)",
+            f"{r['status']}: 4S on {r['claim_fraction']:.1%}", r["status"] == "disagreed"))
+        first = r.get("rival_first_observed_s")
+        ok = (r["status"] == "disagreed" and first is not None
+              and r.get("rival_first_interval_majority") in r.get("rival_predicted", []))
+        stretch = r.get("rival_stretch_s") or [0, 0]
+        checks.append(_check(
+            f"negative control in {where}: {RIVAL} observed where predicted",
+            f"predicted {', '.join(r.get('rival_predicted', []))} observed in the first "
+            f"half ({stretch[0]:.1f}-{stretch[1]:.1f} s)",
+            (f"observed from {first:.2f} s for {r['rival_observed_s']:.2f} s "
+             f"({r['rival_observed_fraction']:.0%} of the stretch); majority of the first "
+             f"interval: {r.get('rival_first_interval_majority')}") if first is not None
+            else "not observed", ok))
     for engine in engines:
-        wall = sum(r["settings"]["wall_time_s"] for r in results
+        wall = sum(r["wall_time_s"] for r in results
                    if r["engine"] == engine and r["expect"] == "agree")
-        checks.append(_check(f"simulation wall time, {engine}, all validate mu (info)",
+        checks.append(_check(f"simulation wall time, {engine}, whole task, all mu (info)",
                              "(benchmark: see benchmarks/validate_bench.py)", f"{wall:.1f} s",
                              True))
     total = time.perf_counter() - t_start
@@ -247,12 +264,13 @@ def _run(args: argparse.Namespace, engines: list[str], out: Path) -> int:
     atomic_write_json(out / "checks.json", {
         "task": TASK,
         "quick": bool(args.quick), "held": held, "checks": checks,
-        "plan_seconds": t_plan, "simulation_seconds": t_sims, "total_seconds": total,
+        "plan_seconds": t_plan, "task_plan_seconds": task["seconds"],
+        "simulation_seconds": t_sims, "total_seconds": total,
         "runs": results,
     })
     atomic_write_text(out / "REPORT.md", _report_md(plan, neg, checks, results, figures,
                                                     args.quick, n_wp, t_plan, t_sims, total,
-                                                    status))
+                                                    status, task))
     from qsplan.report import write_report
 
     write_report(out, out / "index.html")
@@ -268,17 +286,21 @@ def _run(args: argparse.Namespace, engines: list[str], out: Path) -> int:
 
 
 def _report_md(plan, neg, checks, results, figures, quick, n_wp, t_plan, t_sims, total,
-               status) -> str:
+               status, task) -> str:
     import numpy as np
 
     bands = plan.bands()
     tau = plan.torques()
     L = []
-    L.append("# Two-finger hand: guaranteed 4S under uncertain friction (Sec. 5.2)\n")
+    L.append("# Two-finger hand: the whole task of Figure 9, guaranteed 4S segments under "
+             "uncertain friction (Sec. 5.2)\n")
     L.append(f"**Result: {status}.** "
              f"{sum(c['held'] for c in checks)} of {len(checks)} checks held"
-             + (f" (quick run: first {n_wp} of {len(plan.waypoints)} waypoints)." if quick
-                else " (full segment).") + "\n")
+             + (" (quick run: the task at one friction value)." if quick else ".")
+             + f" The R2S control runs the first {n_wp} of {len(plan.waypoints)} waypoints of "
+               "its segment, where R2S is the rival.\n")
+    L += task_report_lines(task, results)
+    L.append("## The first segment in detail: torque regions (Figures 10-13)\n")
     L.append(f"Plan: `plan.json` - claim `{plan.claim}` (contacts in file order: 1, 2 palm "
              f"vertices, 3 left finger side, 4 right finger tip), control "
              f"{', '.join(f'{n}={c}' for n, c in zip(['left', 'right'], plan.control))}, friction "
@@ -304,6 +326,8 @@ def _report_md(plan, neg, checks, results, figures, quick, n_wp, t_plan, t_sims,
              "observed (most frequent) | wall [s] | folder |")
     L.append("|---|---|---|---|---|---|---|---|")
     for r in results:
+        if r.get("kind") == "task":
+            continue
         top = sorted(r["observed_counts"].items(), key=lambda kv: -kv[1])[:2]
         n = max(1, sum(r["observed_counts"].values()))
         obs = "; ".join(f"{k} {v / n:.0%}" for k, v in top)
@@ -312,7 +336,7 @@ def _report_md(plan, neg, checks, results, figures, quick, n_wp, t_plan, t_sims,
                  f"{r['predicted_fraction']:.1%} | {r['final_error_of_travel']:.2%} | {obs} | "
                  f"{r['settings']['wall_time_s']:.1f} | {folder} |")
     L.append("")
-    negs = [r for r in results if r["expect"] == "disagree"]
+    negs = [r for r in results if r["expect"] == "disagree" and r.get("kind") != "task"]
     if negs:
         L.append("### What the negative control shows\n")
         for r in negs:
@@ -331,7 +355,10 @@ def _report_md(plan, neg, checks, results, figures, quick, n_wp, t_plan, t_sims,
     L.append("## Figures and files\n")
     L.append("- `figures/`: " + (", ".join(figures) if figures else "(not rendered)")
              + " (torque bounds along the segment: Figs. 10-13)")
-    L.append("- `validate/<engine>/mu_<mu>/` and `negative_control/<engine>/`: summary.json, "
+    L.append("- `story/`: the task in pictures; `task/plan_task.json`: the task plan (version 2); "
+             "`task/<engine>/mu_<mu>/summary.json`: the whole task's runs (a row per segment); "
+             "`negative_control/task/`: the reversed-torque control")
+    L.append("- `negative_control/<engine>/`: summary.json, "
              "timeline.png (predicted per waypoint vs observed per contact), animation.gif "
              "(dashed: predicted workpiece)")
     L.append("- `checks.json`: every check and run summary; `index.html`: this report with all "

@@ -153,7 +153,8 @@ def format_prediction(pred: Any) -> str:
         lines.append(f"mode {m.label}  ({m.mode.family})  margin {fmt(m.margin, '.3g')}"
                      + (f"  [{', '.join(flags)}]" if flags else ""))
         qdot = _rounding_noise_to_zero(m.qdot, pred.tol)
-        lines.append(f"  qdot (vx, vy, omega): {fmt_list(qdot.tolist())}")
+        per_body = " per body" if qdot.size > 3 else ""  # several workpieces: 3 per body
+        lines.append(f"  qdot (vx, vy, omega){per_body}: {fmt_list(qdot.tolist())}")
         joint_v = _rounding_noise_to_zero(m.joint_velocities, pred.tol)
         lines.append(f"  joint velocities:     {fmt_list(joint_v.tolist())}")
         lines.append("  contact   v_n         v_t         c_n         c_t")

@@ -1,4 +1,5 @@
-"""``qsplan plan SCENARIO --mu 0:0.2 --out plan.json [--figures DIR]``: plan a hand segment."""
+"""``qsplan plan SCENARIO --mu 0:0.2 --out plan.json [--figures DIR]``: plan a hand segment, or
+the whole task to the hand file's ``goal`` (a version-2 plan, docs/planning.md)."""
 
 from __future__ import annotations
 
@@ -24,9 +25,12 @@ def register(sub: argparse._SubParsersAction) -> None:
             "scenarios/data such as two_finger_hand), choose the control partition (Sec. 3.2), "
             "compute the torque band that guarantees the segment's mode and excludes every rival "
             "for all friction in --mu (eq. 28, Figs. 10-13) and write the plan (versioned JSON, "
-            "docs/plan-format.md) and, with --figures, Figures 10-13. Exit 0 ok, 1 when no "
-            "control partition can guarantee the mode (nothing is written), 2 bad input, "
-            "3 internal fault."
+            "docs/plan-format.md) and, with --figures, Figures 10-13. A hand file with a 'goal' "
+            "is planned as a whole task (a chain of guaranteed segments, docs/planning.md); a "
+            "hand other than one velocity- and one effort-controlled joint is planned over every "
+            "control partition; both write a version-2 plan (segments). Exit 0 ok, 1 when no "
+            "control partition can guarantee the mode or the task stops short of its goal (a "
+            "partial plan is still written, with its diagnosis), 2 bad input, 3 internal fault."
         ),
     )
     p.add_argument("scenario", help="hand file or scenario name (e.g. two_finger_hand)")
@@ -40,6 +44,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="index of the velocity-controlled joint, or auto (utility conditions)")
     p.add_argument("--waypoints", type=int,
                    help=f"number of waypoints, 2..{MAX_WAYPOINTS} (default from the file)")
+    p.add_argument("--max-expansions", type=int, default=40,
+                   help="task search: nodes expanded at most (1..1000; hand files with a goal)")
     p.add_argument("--out", default="plan.json", help="plan file to write")
     p.add_argument("--figures", help="folder for Figures 10-13 (PNG); written together with the "
                                      "plan, only when both succeed")
@@ -72,6 +78,8 @@ def run(args: argparse.Namespace) -> int:
     if args.waypoints is not None:
         check_int(args.waypoints, "--waypoints", 2, MAX_WAYPOINTS)
     t0 = time.perf_counter()
+    if _is_task(shipped_file(args.scenario)):
+        return _run_task(args, mu, t0)
     with contextlib.ExitStack() as stack:
         fig_dir = stack.enter_context(output_set(args.figures, "dir", "--figures")) \
             if args.figures is not None else None
@@ -115,3 +123,51 @@ def _int(text: str, name: str) -> int:
         return int(text)
     except ValueError:
         raise InputError(f"{name}: expected an integer or 'auto', got {text!r}") from None
+
+
+def _is_task(path: Path) -> bool:
+    """True when the hand file is planned as a version-2 plan: it has a goal, or is not the
+    one-velocity-one-effort shape of version 1."""
+    from planner.files.hand_file import load_hand_file
+
+    hf = load_hand_file(path)
+    seg = hf.segment
+    return hf.goal is not None or hf.hand.n_joints != 2 or (
+        seg is not None and len(seg.drives) != 1)
+
+
+def _run_task(args: argparse.Namespace, mu: object, t0: float) -> int:
+    from planner.files.outputs import output_set
+    from planner.plan.task_file import plan_hand_task, save_task_plan
+
+    if args.policy != "midband" or args.control != "auto" or args.figures is not None:
+        raise InputError("--policy, --control and --figures: expected their defaults for a "
+                         "whole-task or any-hand plan (version 2: Chebyshev centres of the "
+                         "torque regions), got "
+                         f"{args.policy!r}, {args.control!r}, {args.figures!r}")
+    from planner.errors import DegenerateError
+
+    check_int(args.max_expansions, "--max-expansions", 1, 1000)
+    with output_set(args.out, "file", "--out") as tmp:
+        try:
+            plan = plan_hand_task(shipped_file(args.scenario), mu=mu, model=args.model,
+                                  max_expansions=args.max_expansions, waypoints=args.waypoints)
+        except DegenerateError as exc:
+            print(f"qsplan plan: cannot guarantee the mode: {exc}", file=sys.stderr)
+            return 1
+        save_task_plan(plan, tmp)
+    if not getattr(args, "quiet", False):
+        print(f"plan: {args.out}  (version 2, {len(plan.segments)} segment(s), "
+              f"{time.perf_counter() - t0:.2f} s); goal reached: {plan.reached}")
+        for k, (seg, start) in enumerate(zip(plan.segments, plan.start_times())):
+            m = min(w.margin for w in seg.waypoints)
+            print(f"  {k + 1}. t = {fmt(start, '.3g')} s: {seg.claim}; control "
+                  f"{', '.join(seg.control)}; ends {seg.event['kind']} ({seg.event['detail']}); "
+                  f"smallest margin {fmt(m, '.3g')}")
+        if plan.diagnosis is not None:
+            failed = plan.diagnosis.get("failed") or {}
+            print(f"  stops short of the goal: {failed.get('what', '')}: {failed.get('why', '')}")
+            if failed.get("widest_mu") is not None:
+                print(f"  widest friction interval that would work there: "
+                      f"{failed['widest_mu']}")
+    return 0 if plan.reached else 1

@@ -25,7 +25,10 @@ def register(sub: argparse._SubParsersAction) -> None:
             "Run PLAN.json (written by `qsplan plan`) in slow motion in the chosen engine, "
             "classify the observed contact modes from contact data and compare them and the "
             "workpiece poses with the plan: the claimed mode on >= 95% of the segment and the "
-            "final position within 2% of the travel. Exit 0 pass, 1 fail, 2 bad input, "
+            "final position within 2% of the travel. A version-2 plan (a whole task) runs "
+            "in one continuous simulation (every segment's contacts in one scene, joints "
+            "switching control at segment boundaries), sliced per segment for a verdict per "
+            "segment and one for the whole. Exit 0 pass, 1 fail, 2 bad input, "
             "3 simulator fault."
         ),
         epilog="example: qsplan validate plan.json --engine mujoco --mu 0.1 --out val/",
@@ -71,13 +74,15 @@ def run(args: argparse.Namespace) -> int:
 def _run(args: argparse.Namespace, path: Path, mus: list[float] | None,
          work: Path | None) -> int:
     """Validate the plan at ``path``; outputs go to ``work`` (the staging folder of --out)."""
+    from planner.files.reader import read_json
     from planner.plan.plan_file import load_plan
+    from planner.plan.task_file import TASK_PLAN_VERSION
 
+    head = read_json(path, "plan file")
+    if isinstance(head, dict) and head.get("version") == TASK_PLAN_VERSION:
+        return _run_task(args, path, mus, work)
     plan = load_plan(path)  # FileFormatError (a ValueError) -> exit 2 in cli.main
-    if mus is None:
-        mus = list(plan.validate_mu)
-        if not mus:
-            raise InputError("--mu: the plan lists no mu.validate values; expected --mu VALUE")
+    mus = _mu_values(mus, plan.validate_mu)
     from sim.compare import Outcome
     from sim.hand_run import run_plan
 
@@ -101,8 +106,56 @@ def _run(args: argparse.Namespace, path: Path, mus: list[float] | None,
         if v.outcome is not Outcome.AGREED:
             for r in v.reasons:
                 print(f"    {r}")
+    return _exit_code(statuses)
+
+
+def _mu_values(mus: list[float] | None, validate_mu: tuple[float, ...]) -> list[float]:
+    """``--mu`` values, else the plan's ``mu.validate`` list (an error when it is empty)."""
+    if mus is None:
+        mus = list(validate_mu)
+        if not mus:
+            raise InputError("--mu: the plan lists no mu.validate values; expected --mu VALUE")
+    return mus
+
+
+def _exit_code(statuses: list) -> int:
+    """3 on a simulator fault, 1 when a run did not agree, else 0."""
+    from sim.compare import Outcome
+
     if any(s is Outcome.FAULT for s in statuses):
         return 3
-    if any(s is not Outcome.AGREED for s in statuses):
-        return 1
-    return 0
+    return 0 if all(s is Outcome.AGREED for s in statuses) else 1
+
+
+def _run_task(args: argparse.Namespace, path: Path, mus: list[float] | None,
+              work: Path | None) -> int:
+    """A version-2 plan: one continuous simulation of the whole task (:mod:`sim.task_run`),
+    a verdict per segment and for the whole."""
+    from planner.files.atomic import atomic_write_json
+    from planner.plan.task_file import load_task_plan
+
+    plan = load_task_plan(path)
+    mus = _mu_values(mus, plan.validate_mu)
+    from sim.compare import Outcome
+    from sim.task_run import run_task
+
+    statuses = []
+    for mu in mus:
+        res = run_task(plan, args.engine, mu)
+        statuses.append(res.whole.outcome)
+        print(f"{args.engine} mu={fmt(mu)}: {res.whole.outcome.value.upper()} (whole task, "
+              f"{len(res.verdicts)} of {len(plan.segments)} segments run)")
+        for row, v in zip(res.summary["segments"], res.verdicts):
+            pm = v.plan
+            extra = (f"claim observed {pm.claim_fraction:.1%}, final position "
+                     f"{pm.final_error_of_travel:.2%} of its travel" if pm is not None else
+                     v.reason)
+            print(f"  segment {row['segment']} {row['claim']}: {v.outcome.value} ({extra})")
+        if res.whole.outcome is not Outcome.AGREED:
+            for r in res.whole.reasons:
+                print(f"    {r}")
+        if work is not None:
+            out = work if len(mus) == 1 else work / f"mu_{fmt(mu)}"
+            out.mkdir(parents=True, exist_ok=True)
+            atomic_write_json(out / "summary.json", res.summary)
+    return _exit_code(statuses)

@@ -12,7 +12,8 @@ degree of freedom on every dynamic body (noslip does nothing in a strictly plana
   inertia.
 * Driven body: slide x, slide y, hinge z, mass ``1e6`` times the heaviest dynamic body, with
   ``qpos``/``qvel`` overwritten before every step (mocap bodies do not transmit friction).
-* Joint to the base: hinge z (revolute) or slide along ``axis`` (prismatic) at ``anchor``;
+* Joint to the base: hinge z (revolute) or slide along ``axis`` (prismatic) at ``anchor``; a
+  joint on a parent body (a chain link): the body nested in its parent, same joint types;
   velocity-controlled joints get a huge armature and their ``qpos``/``qvel`` overwritten every step;
   effort-controlled joints get the effort in ``qfrc_applied``.
 * Loads: ``xfrc_applied`` (force at the body COM and a torque about z).
@@ -27,11 +28,14 @@ velocities of contact points with ``mj_jac``.
 
 from __future__ import annotations
 
+from typing import Any
+
 import mujoco
 import numpy as np
 
 from sim.backends import CARRY_IMPRATIO, CARRY_SOLREF, SUPPORT_SOLIMP
 from sim.backends.roles import CARRY, SQUEEZE, SUPPORT, contact_roles
+from sim.backends.switching import replace_joint, switch_joint
 from sim.scene import (
     ABSENT,
     BodyKind,
@@ -96,14 +100,16 @@ class MujocoBackend:
         joints_of = {j.body: j for j in scene.joints}
         self._geoms: dict[tuple[str, int], list[str]] = {}
         self._dofs: dict[str, list[str]] = {}
+        created: dict[str, Any] = {}
         for b in scene.bodies:
             x, y, th = b.pose
             if b.kind == BodyKind.STATIC:
                 body = spec.worldbody.add_body(name=b.name, pos=[x, y, 0.0],
                                                quat=[np.cos(th / 2), 0, 0, np.sin(th / 2)])
             else:
-                body = spec.worldbody.add_body(name=b.name, pos=[x, y, 0.0],
-                                               quat=[np.cos(th / 2), 0, 0, np.sin(th / 2)])
+                host, (rx, ry, rth) = self._chain_host(spec, scene, b.name, created)
+                body = host.add_body(name=b.name, pos=[rx, ry, 0.0],
+                                     quat=[np.cos(rth / 2), 0, 0, np.sin(rth / 2)])
                 mass = heavy if b.kind == BodyKind.DRIVEN else b.mass
                 izz = b.inertia if b.inertia is not None else mass * scene.length_scale ** 2 / 6
                 if b.kind == BodyKind.DRIVEN:
@@ -143,6 +149,7 @@ class MujocoBackend:
                             jn.damping = [2.0 * np.sqrt(k * mass), 0.0, 0.0]
                         names.append(f"{b.name}:{suffix}")
                 self._dofs[b.name] = names
+            created[b.name] = body
             for k, shp in enumerate(b.shapes):
                 gname = f"{b.name}:g{k}"
                 if isinstance(shp, Polygon):
@@ -178,6 +185,10 @@ class MujocoBackend:
         self.model = spec.compile()
         self.data = mujoco.MjData(self.model)
         m = self.model
+        # the compiler sorts pairs (by body signature), so a pair's index in the model is not
+        # the order it was added in: look every sub-pair up by name
+        self._subpairs = {name: [int(m.pair(f"{name}#{k}").id) for k in ks]
+                          for name, ks in self._subpairs.items()}
         self._qadr = {nm: int(m.jnt_qposadr[m.joint(nm).id]) for v in self._dofs.values()
                       for nm in v}
         self._vadr = {nm: int(m.jnt_dofadr[m.joint(nm).id]) for v in self._dofs.values()
@@ -195,6 +206,22 @@ class MujocoBackend:
         mujoco.mj_forward(m, self.data)
         self._set_roles()
         self._readings: dict[str, ContactReading] = {}
+
+    # -- chains: a link body nested in its parent link --------------------------------
+    @staticmethod
+    def _chain_host(spec: Any, scene: Scene, name: str, created: dict[str, Any]
+                    ) -> tuple[Any, tuple[float, float, float]]:
+        """Where to attach body ``name``: the MjSpec body of its joint's parent (a chain link
+        nests in the previous link, so MuJoCo's joint acts between the two) and its pose
+        relative to that parent; the world body and its world pose otherwise."""
+        joint = next((j for j in scene.joints if j.body == name), None)
+        x, y, th = scene.body(name).pose
+        if joint is None or joint.parent is None:
+            return spec.worldbody, (x, y, th)
+        px, py, pth = scene.body(joint.parent).pose
+        c, s = np.cos(pth), np.sin(pth)
+        dx, dy = x - px, y - py
+        return created[joint.parent], (c * dx + s * dy, -s * dx + c * dy, th - pth)
 
     def _set_roles(self) -> None:
         """Contact impedance per pair role (:mod:`sim.backends.roles`, measured in
@@ -356,3 +383,23 @@ class MujocoBackend:
         for i in self._subpairs[pair]:
             self.model.pair_friction[i, 0] = mu
             self.model.pair_friction[i, 1] = mu
+
+    # -- control switching (a whole task: segments with other control partitions) ----------
+    def set_control(self, joint: str, control: Control) -> None:
+        """Switch revolute joint ``joint`` to ``control`` from the next step on: velocity
+        control gives its degree of freedom the heavy armature and the ``qpos``/``qvel``
+        override (the target starts at the joint's present position), effort control takes
+        both away (armature 0; the command goes to ``qfrc_applied``)."""
+        j = switch_joint(self.scene, joint, control)
+        if j is None:
+            return
+        nm = f"{j.body}:{j.name}"
+        if control == Control.VELOCITY:
+            heavy = HEAVY_RATIO * max([b.mass for b in self.scene.bodies
+                                       if b.kind == BodyKind.DYNAMIC] or [1.0])
+            self.model.dof_armature[self._vadr[nm]] = heavy * self.scene.length_scale ** 2
+            self._target[nm] = float(self.data.qpos[self._qadr[nm]])
+        else:
+            self.model.dof_armature[self._vadr[nm]] = 0.0
+        self.scene = replace_joint(self.scene, j, control)
+

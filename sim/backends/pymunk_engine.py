@@ -6,7 +6,9 @@ pre-solve callback (pymunk otherwise multiplies the two shapes' friction values)
 contact site so one arbiter holds one contact. Driven bodies are kinematic bodies; velocity
 joints: revolute = pivot + SimpleMotor of unbounded force, prismatic = a kinematic carriage moving
 along the axis with the body welded to it by pivot + gear joints; effort joints: pivot (or
-groove + gear) with the effort applied as a body torque / force every step.
+groove + gear) with the effort applied as a body torque / force every step. Joints on a parent
+body (chains, :meth:`PymunkBackend._add_child_joint`): the same constraints between the two
+bodies, efforts applied equal and opposite.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ import numpy as np
 import pymunk
 
 from planner.errors import InputError
+from sim.backends.switching import replace_joint, switch_joint
 from sim.scene import (
     ABSENT,
     Body,
@@ -26,6 +29,7 @@ from sim.scene import (
     Circle,
     ContactReading,
     Control,
+    Joint,
     JointKind,
     Polygon,
     Scene,
@@ -100,11 +104,15 @@ class PymunkBackend:
             self.shapes[b.name] = shapes
         # joints
         self.carriages: dict[str, pymunk.Body] = {}
+        self._slide_axes: dict[str, tuple[pymunk.Vec2d, pymunk.Vec2d]] = {}
+        self._slides: dict[str, pymunk.SlideJoint] = {}
         self.motors: dict[str, pymunk.SimpleMotor] = {}
         static = space.static_body
         for j in scene.joints:
             body = self.bodies[j.body]
-            if j.kind == JointKind.REVOLUTE:
+            if j.parent is not None:
+                self._add_child_joint(j, j.parent)
+            elif j.kind == JointKind.REVOLUTE:
                 space.add(pymunk.PivotJoint(static, body, _xy(j.anchor)))
                 if j.control == Control.VELOCITY:
                     motor = pymunk.SimpleMotor(static, body, 0.0)
@@ -116,8 +124,9 @@ class PymunkBackend:
                     car = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
                     car.position = _xy(j.anchor)
                     space.add(car)
+                    # gear phase = the body's angle: Chipmunk holds b.angle - a.angle = phase
                     space.add(pymunk.PivotJoint(car, body, _xy(j.anchor)),
-                              pymunk.GearJoint(car, body, 0.0, 1.0))
+                              pymunk.GearJoint(car, body, body.angle, 1.0))
                     self.carriages[j.name] = car
                 else:
                     axis = np.asarray(j.axis, dtype=float)
@@ -126,7 +135,7 @@ class PymunkBackend:
                     bb = _xy(anchor + 100.0 * scene.length_scale * axis)
                     space.add(pymunk.GrooveJoint(static, body, a, bb,
                                                  body.world_to_local(_xy(anchor))),
-                              pymunk.GearJoint(static, body, 0.0, 1.0))
+                              pymunk.GearJoint(static, body, body.angle, 1.0))
         # contact pairs: one collision type per manipulator shape, one per workpiece shape
         self._readings: dict[str, ContactReading] = {}
         self._mu: dict[str, float] = {}
@@ -201,6 +210,70 @@ class PymunkBackend:
             depth=float(-cp.distance),
         )
 
+    # -- chains: joints between two bodies ---------------------------------------------
+    def _add_child_joint(self, j: Joint, parent_name: str) -> None:
+        """A joint of ``j.body`` on its parent body (a chain link on the previous link).
+
+        Revolute: pivot at the anchor; velocity control by a ``SimpleMotor`` of unbounded
+        force on the relative rate, effort control by equal and opposite body torques.
+        Prismatic: a groove along the axis on the parent (fixed in the parent's frame) and a
+        gear joint holding the relative angle; effort control by equal and opposite forces at
+        the anchor; velocity control (Chipmunk has no linear motor) by a slide joint of equal
+        min and max distance from a point on the axis, moved by ``u dt`` every step with
+        ``error_bias = 0`` (the solver closes the whole distance error in the step)."""
+        parent, body = self.bodies[parent_name], self.bodies[j.body]
+        space = self.space
+        if j.kind == JointKind.REVOLUTE:
+            space.add(pymunk.PivotJoint(parent, body, _xy(j.anchor)))
+            if j.control == Control.VELOCITY:
+                motor = pymunk.SimpleMotor(parent, body, 0.0)
+                motor.max_force = float("inf")
+                space.add(motor)
+                self.motors[j.name] = motor
+            return
+        axis = np.asarray(j.axis, dtype=float)
+        anchor = np.asarray(j.anchor, dtype=float)
+        reach = 100.0 * self.scene.length_scale
+        ga = parent.world_to_local(_xy(anchor - reach * axis))
+        gb = parent.world_to_local(_xy(anchor + reach * axis))
+        space.add(pymunk.GrooveJoint(parent, body, ga, gb, body.world_to_local(_xy(anchor))),
+                  pymunk.GearJoint(parent, body, body.angle - parent.angle, 1.0))
+        if j.control == Control.VELOCITY:
+            # the slide as a distance from a point one length scale back on the axis, its
+            # target moved by u dt each step; error_bias 0 corrects the whole error in one step,
+            # so the relative slide velocity is the command
+            back = self.scene.length_scale
+            slide = pymunk.SlideJoint(parent, body,
+                                      parent.world_to_local(_xy(anchor - back * axis)),
+                                      body.world_to_local(_xy(anchor)), back, back)
+            slide.error_bias = 0.0
+            space.add(slide)
+            self._slides[j.name] = slide
+            return
+        self._slide_axes[j.name] = (parent.world_to_local(_xy(anchor + axis))
+                                    - parent.world_to_local(_xy(anchor)),
+                                    body.world_to_local(_xy(anchor)))
+
+    def _command_child_joint(self, j: Joint, parent_name: str, u: float) -> None:
+        """Apply one step's command of a joint on a parent body (see :meth:`_add_child_joint`)."""
+        parent, body = self.bodies[parent_name], self.bodies[j.body]
+        if j.kind == JointKind.REVOLUTE:
+            if j.control == Control.VELOCITY:
+                self.motors[j.name].rate = -u  # Chipmunk drives w_a - w_b = rate
+            else:
+                body.torque = body.torque + u
+                parent.torque = parent.torque - u
+            return
+        if j.control == Control.VELOCITY:
+            slide = self._slides[j.name]
+            slide.min = slide.max = slide.max + u * self._dt
+            return
+        axis_local, anchor_local = self._slide_axes[j.name]
+        axis = np.asarray(axis_local.rotated(parent.angle), dtype=float)
+        at = body.local_to_world(anchor_local)
+        body.apply_force_at_world_point(_xy(u * axis), at)
+        parent.apply_force_at_world_point(_xy(-u * axis), at)
+
     # -- stepping ----------------------------------------------------------------------
     def _states_now(self) -> Mapping[str, BodyState]:
         return self.state()
@@ -217,7 +290,9 @@ class PymunkBackend:
         for j in self.scene.joints:
             u = float(j.command(self.t, states))
             body = self.bodies[j.body]
-            if j.kind == JointKind.REVOLUTE:
+            if j.parent is not None:
+                self._command_child_joint(j, j.parent, u)
+            elif j.kind == JointKind.REVOLUTE:
                 if j.control == Control.VELOCITY:
                     self.motors[j.name].rate = -u  # Chipmunk drives w_a - w_b = rate
                 else:
@@ -255,3 +330,23 @@ class PymunkBackend:
 
     def set_friction(self, pair: str, mu: float) -> None:
         self._mu[pair] = float(mu)
+
+    # -- control switching (a whole task: segments with other control partitions) ----------
+    def set_control(self, joint: str, control: Control) -> None:
+        """Switch revolute joint ``joint`` to ``control`` from the next step on: velocity
+        control adds a ``SimpleMotor`` of unbounded force (to the base or the parent link),
+        effort control removes it (the joint's command is then a torque). The joint's
+        ``command`` callback stays; it must return the quantity of the new control."""
+        j = switch_joint(self.scene, joint, control)
+        if j is None:
+            return
+        if control == Control.VELOCITY:
+            parent = self.space.static_body if j.parent is None else self.bodies[j.parent]
+            motor = pymunk.SimpleMotor(parent, self.bodies[j.body], 0.0)
+            motor.max_force = float("inf")
+            self.space.add(motor)
+            self.motors[j.name] = motor
+        else:
+            self.space.remove(self.motors.pop(j.name))
+        self.scene = replace_joint(self.scene, j, control)
+

@@ -16,7 +16,11 @@ pairs collide, ``Scene.only_pairs``):
 * one body per finger (name ``finger:<name>``), body frame at the pivot with ``x`` along the
   link, on a revolute joint to the base (``joint:<name>``): a capsule of the link's width
   (``side`` contacts) and, for a ``tip`` contact, a circle of radius ``width/2`` at the tip.
-* ``workpiece``: the polygon (``tip`` contacts touch it) plus, per ``palm`` / ``side`` contact,
+* ``workpiece``: the polygon plus, per ``tip`` contact, a capsule of radius ``vertex_radius``
+  along the contact's declared edge, its surface on the edge line (the tip touches that edge
+  only: a pair with the whole polygon found the neighbouring edge at an acute vertex in
+  MuJoCo, whose polygon is one thin box per edge, and such a box reaches past the polygon
+  there: measured in docs/planning.md, the Figure 9 task), and, per ``palm`` / ``side`` contact,
   a small circle of radius ``vertex_radius`` at the touching vertex, placed so its surface
   touches the feature where the sharp vertex does (centre = vertex + r n, n the contact's
   inward normal at the initial configuration). A sharp vertex has no stable contact point in
@@ -35,6 +39,7 @@ import numpy as np
 
 from planner.errors import InputError
 from planner.model.hand import Hand
+from planner.model.kinematics import REVOLUTE
 from planner.model.validation import as_friction
 from sim.run import Recording
 from sim.scene import (
@@ -65,8 +70,19 @@ def pair_names(n_contacts: int) -> tuple[str, ...]:
     return tuple(f"c{i + 1}" for i in range(n_contacts))
 
 
-def finger_body(hand: Hand, k: int) -> str:
-    return f"finger:{hand.fingers[k].name}"
+def finger_body(hand: Hand, k: int, link: int = 0) -> str:
+    """Body name of ``link`` of finger ``k``: ``finger:<name>`` for a single-link finger (and
+    for a chain's first link), ``finger:<name>.<link name or index>`` for a chain's others."""
+    f = hand.fingers[k]
+    if link == 0:
+        return f"finger:{f.name}"
+    return f"finger:{f.name}.{f.chain_links[link].name or link}"
+
+
+def joint_bodies(hand: Hand) -> tuple[str, ...]:
+    """(n_theta,) body names in joint order (every finger's links from the pivot out)."""
+    return tuple(finger_body(hand, k, j) for k, f in enumerate(hand.fingers)
+                 for j in range(f.n_joints))
 
 
 def polygon_inertia(vertices: np.ndarray, mass: float, com: np.ndarray) -> float:
@@ -86,6 +102,17 @@ def _rot(phi: float) -> np.ndarray:
     return np.array([[c, -s], [s, c]])
 
 
+def _fixed_surface(name: str, ends: np.ndarray, n_sites: int) -> Body:
+    """A static straight surface (the palm, a table): one capsule per contact on it, each
+    along the whole edge with its surface on the edge line (so each contact is its own
+    pair / arbiter); the inward normal is ``rot90`` of first -> second point."""
+    a, b = np.asarray(ends, dtype=float)
+    d = (b - a) / np.linalg.norm(b - a)
+    down = -np.array([-d[1], d[0]]) * PALM_RADIUS
+    shape = Capsule(tuple(a + down), tuple(b + down), PALM_RADIUS)
+    return Body(name=name, shapes=(shape,) * max(n_sites, 1), kind=BodyKind.STATIC)
+
+
 def hand_scene(
     hand: Hand,
     q0: np.ndarray,
@@ -96,26 +123,38 @@ def hand_scene(
     mass_scale: float = 1.0,
     vertex_radius: float = VERTEX_RADIUS,
     overlap: float | None = None,
+    site_configs: Sequence[np.ndarray] | None = None,
+    open_sites: Sequence[int] = (),
 ) -> Scene:
-    """Scene of ``hand`` at its closed initial configuration ``q0`` (``(3 + F,)``: workpiece
-    pose, finger angles; both from :func:`planner.files.hand_file.hand_from_dict`).
+    """Scene of ``hand`` at its closed initial configuration ``q0`` (``(3 + n_theta,)``:
+    workpiece pose, joint coordinates; both from :func:`planner.files.hand_file.hand_from_dict`).
 
-    ``mu``: scalar or (n_c,) Coulomb coefficients per contact (file order); ``controls`` (F,)
-    ``"velocity"``/``"effort"`` per finger joint; ``commands`` (F,) ``command(t, states)``
-    returning the joint rate [rad/s] or torque [N m] (counter-clockwise positive).
-    ``mass_scale``: factor on the workpiece and finger masses (dynamics only).
+    ``mu``: scalar or (n_c,) Coulomb coefficients per contact (file order); ``controls``
+    (n_theta,) ``"velocity"``/``"effort"`` per joint (one per finger for single-link fingers);
+    ``commands`` (n_theta,) ``command(t, states)`` returning the joint rate [rad/s or m/s] or
+    effort [N m or N] (counter-clockwise / along the slide positive, relative to the previous
+    link). ``mass_scale``: factor on the workpiece and link masses (dynamics only).
     ``overlap`` [m]: every contact starts this far into its feature (default
     :func:`sim.scene.preload_depth`: half of pymunk's collision slop, SIM-NOTES: resting
     contacts that start exactly touching flicker, and a computed gap of +1e-17 m is no
     contact at all): vertex circles are placed that deep, fingertip circles are shifted that
     far along the contact normal into the workpiece edge.
+
+    ``site_configs`` (n_c,) configurations ``(3 + n_theta,)``, one per contact: where that
+    contact's sites are placed (default ``q0`` for all). A whole task's scene holds every
+    contact of every segment; a contact gained later is apart at ``q0`` and its sites are
+    placed at the planned configuration where it closes (its segment's start). ``open_sites``:
+    indices of such contacts; they get no pre-load (their sites exactly touch at their
+    configuration): a pre-loaded fingertip circle would stand ``overlap`` proud of the link's
+    side and lift a workpiece edge lying along that side before the tip reaches it.
     """
-    F, n_c = hand.n_fingers, hand.n_contacts
+    n_j, n_c = hand.n_joints, hand.n_contacts
     mu_arr = as_friction(mu, n_c)
     if not (np.isfinite(mass_scale) and mass_scale > 0):
         raise InputError(f"mass_scale: expected a finite number > 0, got {mass_scale}")
-    if len(controls) != F or len(commands) != F:
-        raise InputError(f"controls/commands: expected {F} each (one per finger), got "
+    if len(controls) != n_j or len(commands) != n_j:
+        per = "finger" if n_j == hand.n_fingers else "joint"
+        raise InputError(f"controls/commands: expected {n_j} each (one per {per}), got "
                          f"{len(controls)}/{len(commands)}")
     try:
         ctrl = [Control(c) for c in controls]
@@ -127,83 +166,147 @@ def hand_scene(
     scale = hand.length_scale
     if overlap is None:
         overlap = preload_depth(scale)
-    pts, nrm, _ = hand.contact_geometry(q0)
+    q0 = hand.check_q(q0)
+    refs = [q0] * n_c if site_configs is None else [hand.check_q(q) for q in site_configs]
+    if len(refs) != n_c:
+        raise InputError(f"site_configs: expected {n_c} configurations (one per contact), got "
+                         f"{len(refs)}")
+    depth = [0.0 if i in set(open_sites) else overlap for i in range(n_c)]
+    frames = [hand.contact_frame(refs[i], i) for i in range(n_c)]
+    pts = np.array([f[0] for f in frames]).reshape(n_c, 2)
+    nrm = np.array([f[1] for f in frames]).reshape(n_c, 2)
     pose0 = (float(q0[0]), float(q0[1]), float(q0[2]))
-    to_body = _rot(-pose0[2])
 
-    # palm: one capsule per palm contact, surface on the palm line
-    a, b = np.asarray(hand.palm, dtype=float)
-    down = -hand.palm_normal * PALM_RADIUS
+    # fixed surfaces: the palm and every environment surface, one capsule per contact on it
     palm_ids = [i for i, c in enumerate(hand.contacts) if c.kind == "palm"]
-    palm_shapes = tuple(Capsule(tuple(a + down), tuple(b + down), PALM_RADIUS)
-                        for _ in palm_ids) or (Capsule(tuple(a + down), tuple(b + down),
-                                                       PALM_RADIUS),)
-    palm = Body(name="palm", shapes=palm_shapes, kind=BodyKind.STATIC)
+    fixed = [_fixed_surface("palm", hand.palm, len(palm_ids))]
+    site_on: dict[int, tuple[str, int]] = {i: ("palm", k) for k, i in enumerate(palm_ids)}
+    for e, (ename, ends) in enumerate(hand.environment):
+        ids = [i for i, c in enumerate(hand.contacts) if c.kind == "surface" and c.surface == e]
+        fixed.append(_fixed_surface(f"env:{ename}", ends, len(ids)))
+        site_on.update({i: (f"env:{ename}", k) for k, i in enumerate(ids)})
 
     # workpiece: polygon, then one circle per vertex contact
     V = np.asarray(hand.vertices, dtype=float)
     shapes: list[Shape] = [Polygon(tuple(map(tuple, V)))]
     site: dict[int, int] = {}
     for i, c in enumerate(hand.contacts):
-        if c.kind in ("palm", "side"):
-            centre = pts[i] + (vertex_radius - overlap) * nrm[i]
-            local = to_body @ (centre - np.asarray(pose0[:2]))
+        if c.kind in ("palm", "surface", "side"):
+            centre = pts[i] + (vertex_radius - depth[i]) * nrm[i]
+            local = _rot(-float(refs[i][2])) @ (centre - np.asarray(refs[i][:2], dtype=float))
             site[i] = len(shapes)
             shapes.append(Circle((float(local[0]), float(local[1])), vertex_radius))
+        elif c.kind == "tip":  # the declared edge only, its surface on the edge line
+            inward = vertex_radius * (_rot(-float(refs[i][2])) @ nrm[i])
+            a, b = V[c.edge] + inward, V[(c.edge + 1) % len(V)] + inward
+            site[i] = len(shapes)
+            shapes.append(Capsule((float(a[0]), float(a[1])), (float(b[0]), float(b[1])),
+                                  vertex_radius))
     com = np.asarray(hand.com, dtype=float)
     mass = hand.mass * mass_scale
     work = Body(name="workpiece", shapes=tuple(shapes), mass=mass,
                 com=(float(com[0]), float(com[1])),
                 inertia=polygon_inertia(V, mass, com), pose=pose0)
 
-    # fingers
-    bodies = [palm, work]
+    # fingers: one body per link, frame at the link's start with x along its axis
+    bodies = [*fixed, work]
     joints = []
     tip_site: dict[int, int] = {}
+    jnames = hand.joint_names()
     for k, f in enumerate(hand.fingers):
-        fshapes: list[Shape] = [Capsule((0.0, 0.0), (f.length, 0.0), f.radius)]
+        links = hand.links_at(q0, k)
         tips = [i for i, c in enumerate(hand.contacts) if c.kind == "tip" and c.finger == k]
-        if tips:
-            # pre-load: the tip circle shifted by `overlap` along the contact's inward normal
-            push = _rot(-float(q0[3 + k])) @ (overlap * nrm[tips[0]])
-            tip_site[k] = len(fshapes)
-            fshapes.append(Circle((f.length + float(push[0]), float(push[1])), f.radius))
-        name = finger_body(hand, k)
-        fm = f.mass * mass_scale
-        bodies.append(Body(name=name, shapes=tuple(fshapes), mass=fm,
-                           com=(0.5 * f.length, 0.0),
-                           inertia=fm * (f.length ** 2 + f.width ** 2) / 12.0,
-                           pose=(float(f.pivot[0]), float(f.pivot[1]), float(q0[3 + k]))))
-        joints.append(Joint(name=f"joint:{f.name}", body=name, kind=JointKind.REVOLUTE,
-                            anchor=(float(f.pivot[0]), float(f.pivot[1])), control=ctrl[k],
-                            command=commands[k]))
+        angle = 0.0
+        for j, link in enumerate(f.chain_links):
+            start, d = links[j]
+            # the link's direction angle as Hand.links_at accumulates it (no atan2 branch)
+            angle += link.offset + (float(q0[hand.joint_index(k, j)])
+                                    if link.kind == REVOLUTE else 0.0)
+            fshapes: list[Shape] = [Capsule((0.0, 0.0), (link.length, 0.0), link.radius)]
+            if tips and j == f.n_joints - 1:
+                # pre-load: the tip circle shifted by `overlap` along the contact's inward
+                # normal (in the link's frame where the contact's site is placed)
+                d_ref = hand.links_at(refs[tips[0]], k)[j][1]
+                push = _rot(-float(np.arctan2(d_ref[1], d_ref[0]))) @ (depth[tips[0]]
+                                                                       * nrm[tips[0]])
+                tip_site[k] = len(fshapes)
+                fshapes.append(Circle((link.length + float(push[0]), float(push[1])),
+                                      link.radius))
+            name = finger_body(hand, k, j)
+            lm = link.mass * mass_scale
+            bodies.append(Body(name=name, shapes=tuple(fshapes), mass=lm,
+                               com=(0.5 * link.length, 0.0),
+                               inertia=lm * (link.length ** 2 + link.width ** 2) / 12.0,
+                               pose=(float(start[0]), float(start[1]), angle)))
+            ji = hand.joint_index(k, j) - 3
+            kind = JointKind.REVOLUTE if link.kind == REVOLUTE else JointKind.PRISMATIC
+            joints.append(Joint(name=f"joint:{jnames[ji]}", body=name, kind=kind,
+                                anchor=(float(start[0]), float(start[1])), control=ctrl[ji],
+                                command=commands[ji], axis=(float(d[0]), float(d[1])),
+                                parent=None if j == 0 else finger_body(hand, k, j - 1)))
 
     pairs = []
     names = pair_names(n_c)
     for i, c in enumerate(hand.contacts):
-        if c.kind == "palm":
-            pairs.append(ContactPair(names[i], "palm", "workpiece", float(mu_arr[i]),
-                                     shape_a=palm_ids.index(i), shape_b=site[i]))
+        if c.kind in ("palm", "surface"):
+            body, k = site_on[i]
+            pairs.append(ContactPair(names[i], body, "workpiece", float(mu_arr[i]),
+                                     shape_a=k, shape_b=site[i]))
         elif c.kind == "side":
-            pairs.append(ContactPair(names[i], finger_body(hand, c.finger), "workpiece",
+            pairs.append(ContactPair(names[i], finger_body(hand, c.finger, c.link), "workpiece",
                                      float(mu_arr[i]), shape_a=0, shape_b=site[i]))
         else:
-            pairs.append(ContactPair(names[i], finger_body(hand, c.finger), "workpiece",
-                                     float(mu_arr[i]), shape_a=tip_site[c.finger], shape_b=0))
+            last = hand.fingers[c.finger].n_joints - 1
+            pairs.append(ContactPair(names[i], finger_body(hand, c.finger, last), "workpiece",
+                                     float(mu_arr[i]), shape_a=tip_site[c.finger],
+                                     shape_b=site[i]))
     force = np.asarray(hand.load_force, dtype=float)
     loads = (Load("workpiece", (float(force[0]), float(force[1])), 0.0),)
-    reach = max(float(np.max(np.abs(hand.palm))), *(np.hypot(*f.pivot) + f.length
-                                                   for f in hand.fingers))
+    reach = max(float(np.max(np.abs(hand.palm))),
+                *(float(np.max(np.abs(ends))) for _, ends in hand.environment),
+                *(np.hypot(*f.pivot) + sum(lk.length for lk in f.chain_links)
+                  + sum(abs(float(q0[hand.joint_index(k, j)]))
+                        for j, lk in enumerate(f.chain_links) if lk.kind != REVOLUTE)
+                  for k, f in enumerate(hand.fingers)))
     bound = 2.0 * reach + scale
     return Scene(
         bodies=tuple(bodies), pairs=tuple(pairs), joints=tuple(joints), loads=loads,
         bounds=(-bound, -bound, bound, bound), length_scale=scale, only_pairs=True,
-        meta={"task": "two-finger hand (Sec. 5.2)", "hand": hand, "q0": q0.tolist(),
+        meta={"task": "hand (Sec. 5.2)", "hand": hand, "q0": q0.tolist(),
               "vertex_radius": vertex_radius},
     )
 
 
+def joint_coordinates(poses: np.ndarray, names: Sequence[str], hand: Hand) -> np.ndarray:
+    """(T, n_theta) joint coordinates (the hand's ``q[3:]``: rad for revolute, m for
+    prismatic joints) from body poses ``(T, B, 3)`` of a :func:`hand_scene` run (body
+    ``names``); the inverse of :meth:`planner.model.hand.Hand.links_at`: a revolute
+    coordinate is the link's angle minus the previous link's angle minus the link's
+    ``offset``; a prismatic one the slide of the link's start from the previous link's end
+    along its axis."""
+    P = np.asarray(poses, dtype=float)
+    out = np.empty((P.shape[0], hand.n_joints))
+    for k, f in enumerate(hand.fingers):
+        prev_angle = np.zeros(P.shape[0])
+        prev_end = np.tile(np.asarray(f.pivot, dtype=float), (P.shape[0], 1))
+        for j, link in enumerate(f.chain_links):
+            b = P[:, list(names).index(finger_body(hand, k, j))]
+            ji = hand.joint_index(k, j) - 3
+            if link.kind == REVOLUTE:
+                # continuous relative angle, its start on the branch (-pi, pi]
+                rel = np.unwrap(b[:, 2] - prev_angle - link.offset)
+                out[:, ji] = rel - 2.0 * np.pi * np.round(rel[0] / (2.0 * np.pi))
+            else:
+                d = np.stack([np.cos(b[:, 2]), np.sin(b[:, 2])], axis=1)
+                out[:, ji] = np.sum((b[:, :2] - prev_end) * d, axis=1)
+            prev_angle = b[:, 2]
+            prev_end = b[:, :2] + link.length * np.stack([np.cos(b[:, 2]), np.sin(b[:, 2])],
+                                                         axis=1)
+    return out
+
+
 def finger_angles(rec: Recording, hand: Hand) -> np.ndarray:
-    """(T, F) finger joint angles [rad] from a recording of :func:`hand_scene`."""
+    """(T, F) finger joint angles [rad] (the first link's body angle per finger) from a
+    recording of :func:`hand_scene`; :func:`joint_coordinates` gives every joint."""
     cols = [rec.body_names.index(finger_body(hand, k)) for k in range(hand.n_fingers)]
     return rec.poses[:, cols, 2]

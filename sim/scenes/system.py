@@ -1,4 +1,5 @@
-"""A physical scene for ANY contact-velocity :class:`~planner.model.system.System` (issue 14).
+"""A physical scene for ANY :class:`~planner.model.system.System` given by contact velocities or
+by a chain (issue 14).
 
 What is built (all in the world frame of the system file, metres, no rescaling):
 
@@ -18,6 +19,9 @@ What is built (all in the world frame of the system file, metres, no rescaling):
 * **manipulator contacts**: small driven fingertip circles touching at ``r_i`` and moving with
   the commanded contact velocity ``J_i thetadot = v_in n_i + v_it t_i`` (eq. 5) times
   ``speed_scale`` (slow motion; positive scaling leaves the quasistatic mode set unchanged);
+  for a chain manipulator (``System.chain``) the chain's links instead, each a body on its
+  joint (:func:`chain_links`: capsules from the joint to its contacts and child joints, joints
+  velocity-controlled at ``speed_scale`` times their rate or effort-controlled);
 * **load**: ``g_obj`` (eq. 2, given about the world origin) applied as a force through the
   centre of mass ``c`` plus the moment ``m_z - (c_x f_y - c_y f_x)`` -- the same wrench;
 * **pre-load**: every contact starts overlapped by ``PRELOAD * size`` [m] (a known, scene-scaled
@@ -34,7 +38,21 @@ import numpy as np
 from planner.errors import InputError
 from planner.model.system import System
 from planner.model.workpiece import point_in_convex_polygon, polygon_area_centroid
-from sim.scene import Body, BodyKind, Capsule, Circle, ContactPair, Load, Polygon, Scene
+from sim.scene import (
+    Body,
+    BodyKind,
+    Capsule,
+    Circle,
+    Command,
+    ContactPair,
+    Control,
+    Joint,
+    JointKind,
+    Load,
+    Polygon,
+    Scene,
+    Shape,
+)
 from sim.scenes.paper import constant_twist, workpiece_polygon
 
 #: Initial overlap of every contact, as a fraction of the scene size [-].
@@ -81,18 +99,23 @@ def environment_surface(r: np.ndarray, n: np.ndarray, poly: np.ndarray, size: fl
 
 def system_scene(system: System, *, speed_scale: float = 1.0,
                  mu_kinetic: np.ndarray | None = None) -> Scene:
-    """Scene of ``system`` (a contact-velocity system, eq. 5) at the system's ``mu``.
+    """Scene of ``system`` (contact velocities, eq. 5, or a chain) at the system's ``mu``.
 
-    ``speed_scale`` [-] multiplies every commanded contact velocity; ``mu_kinetic`` (n_c,)
-    optional kinetic coefficients (static = ``system.mu``). Raises :class:`InputError` for a
-    joint-space manipulator (chains are not built yet) or a contact off the workpiece boundary.
+    ``speed_scale`` [-] multiplies every commanded contact velocity / velocity-joint rate;
+    ``mu_kinetic`` (n_c,) optional kinetic coefficients (static = ``system.mu``). Raises
+    :class:`InputError` for a manipulator given only as a Jacobian (no geometry), a contact off
+    the workpiece boundary or a chain link that would cut into the workpiece.
     """
-    if not system.virtual_joints:
+    if not system.virtual_joints and system.chain is None:
         raise InputError("simulate: expected a system given by contact velocities "
-                         "(manipulator.contact_velocities), got a joint-space manipulator; "
-                         "chain manipulators are not built as scenes yet")
+                         "(manipulator.contact_velocities) or by a chain (manipulator.chain), "
+                         "got a bare Jacobian: it has no link geometry to build")
     if not (np.isfinite(speed_scale) and speed_scale > 0):
         raise InputError(f"speed scale: expected a finite number > 0, got {speed_scale}")
+    if system.n_bodies > 1:
+        raise InputError(f"simulate: expected one workpiece, got {system.n_bodies}; several "
+                         "workpieces are built by sim.scenes.multibody.multibody_scene and "
+                         "judged by sim.multibody_run.simulate_multibody")
     pts = np.asarray(system.points, dtype=float)
     nrm = np.asarray(system.normals, dtype=float)
     tng = np.stack([-nrm[:, 1], nrm[:, 0]], axis=1)
@@ -126,12 +149,25 @@ def system_scene(system: System, *, speed_scale: float = 1.0,
     # the world origin, whose velocity is the planner's qdot (docs/conventions.md)
     work = Body("workpiece", (Polygon(tuple(map(tuple, poly.tolist()))),), mass=mass,
                 com=(float(com[0]), float(com[1])), inertia=inertia, pose=(0.0, 0.0, 0.0))
-    vel = np.asarray(system.joint_inputs, dtype=float).reshape(-1, 2) * speed_scale
     radius = FINGER_RADIUS * size
     bodies = [work]
     pairs = []
+    joints: tuple[Joint, ...] = ()
+    sites: dict[int, tuple[str, int]] = {}
+    if system.virtual_joints:
+        vel = np.asarray(system.joint_inputs, dtype=float).reshape(-1, 2) * speed_scale
+    else:
+        links, joints, sites = chain_links(system, poly, size, speed_scale)
+        bodies.extend(links)
+        vel = np.zeros((n_c, 2))
     for i in range(n_c):
         name = f"env{i + 1}" if env[i] else f"finger{i + 1}"
+        if i in sites:
+            name, shape = sites[i]
+            muk = None if mu_kinetic is None else float(mu_kinetic[i])
+            pairs.append(ContactPair(f"c{i + 1}", name, "workpiece", shape_a=shape,
+                                     mu_static=float(system.mu[i]), mu_kinetic=muk))
+            continue
         if env[i]:
             bodies.append(Body(name, (environment_surface(pts[i], nrm[i], poly, size),),
                                kind=BodyKind.STATIC))
@@ -149,10 +185,11 @@ def system_scene(system: System, *, speed_scale: float = 1.0,
     moment = float(g[2] - (com[0] * g[1] - com[1] * g[0]))
     span = 4.0 * size
     cx, cy = float(com[0]), float(com[1])
-    fastest = float(np.max(np.linalg.norm(vel, axis=1))) if n_c else 0.0
+    fastest = commanded_contact_speed(system) * speed_scale
     return Scene(
         bodies=tuple(bodies),
         pairs=tuple(pairs),
+        joints=joints,
         loads=(Load("workpiece", (float(g[0]), float(g[1])), moment),),
         bounds=(cx - span, cy - span, cx + span, cy + span),
         length_scale=size,
@@ -162,3 +199,148 @@ def system_scene(system: System, *, speed_scale: float = 1.0,
               "finger_radius": radius, "preload_m": PRELOAD * size,
               "environment": list(env), "drive_speed": fastest},
     )
+
+
+# ---- chain manipulators (issue 14: "chain manipulators are built as their links") ----------
+#: Mass of every chain link as a fraction of the workpiece mass [-] (the hands' ratio, 0.05 kg
+#: fingers on a 0.1 kg workpiece; masses change only the dynamics).
+LINK_MASS_OF_WORKPIECE = 0.5
+
+
+def commanded_contact_speed(system: System) -> float:
+    """Fastest commanded manipulator contact-point speed [m/s]: ``max_i |J_i thetadot|`` with
+    the velocity-controlled joints at their commands and the others at rest (eqs. 3, 5; for
+    contact velocities, the largest ``|(v_n, v_t)|``)."""
+    J = np.asarray(system.J, dtype=float).reshape(system.n_contacts, 2, -1)
+    rates = np.zeros(system.n_joints)
+    V = system.velocity_joints
+    rates[V] = np.asarray(system.joint_inputs, dtype=float)[V]
+    v = J @ rates
+    return float(np.max(np.linalg.norm(v, axis=1))) if len(v) else 0.0
+
+
+def scale_velocities(system: System, scale: float) -> System:
+    """``system`` with every velocity-controlled joint's command times ``scale`` (slow motion:
+    a positive scaling leaves the quasistatic modes unchanged); efforts unchanged."""
+    inputs = np.array(system.joint_inputs, dtype=float)
+    inputs[system.velocity_joints] *= scale
+    return system.with_joint_inputs(inputs)
+
+
+def _cross(u: np.ndarray, v: np.ndarray) -> float:
+    """z component of the planar cross product ``u x v``."""
+    return float(u[0] * v[1] - u[1] * v[0])
+
+
+def _segment_polygon_distance(a: np.ndarray, b: np.ndarray, poly: np.ndarray) -> float:
+    """Distance [m] of segment ``a``-``b`` from a convex polygon (0 when they meet)."""
+    def inside(p: np.ndarray) -> bool:
+        e = np.roll(poly, -1, axis=0) - poly
+        return bool(np.all(e[:, 0] * (p[1] - poly[:, 1]) - e[:, 1] * (p[0] - poly[:, 0]) >= 0))
+
+    if inside(a) or inside(b):
+        return 0.0
+    best = np.inf
+    for k in range(len(poly)):
+        c, d = poly[k], poly[(k + 1) % len(poly)]
+        # the segments cross: opposite orientations both ways
+        o = [_cross(b - a, c - a), _cross(b - a, d - a), _cross(d - c, a - c),
+             _cross(d - c, b - c)]
+        if o[0] * o[1] < 0 and o[2] * o[3] < 0:
+            return 0.0
+        for p, (u, w) in ((a, (c, d)), (b, (c, d)), (c, (a, b)), (d, (a, b))):
+            uw = w - u
+            t = float(np.clip((p - u) @ uw / max(float(uw @ uw), 1e-300), 0.0, 1.0))
+            best = min(best, float(np.linalg.norm(p - (u + t * uw))))
+    return best
+
+
+def chain_links(system: System, poly: np.ndarray, size: float, speed_scale: float
+                ) -> tuple[list[Body], tuple[Joint, ...], dict[int, tuple[str, int]]]:
+    """Bodies and joints of a chain manipulator (``system.chain``) and, per contact it
+    touches, ``(body name, shape index)`` of its contact site.
+
+    Link ``j`` (body ``link<j+1>``, frame at its joint, :meth:`planner.model.kinematics.Chain.
+    frames` at the file's ``q``) is a set of capsules of radius ``link_radius`` (the file's
+    ``manipulator.link_radius``; default ``FINGER_RADIUS * size``, the fingertips') from
+    its joint origin: to the cap centre ``r_i - (radius - PRELOAD * size) n_i`` of every
+    contact ``i`` on it (the capsule's end cap touches the workpiece at ``r_i`` with normal
+    ``n_i``, pre-loaded like the fingertips; one shape per contact, so one arbiter each), to
+    every child joint's origin, or -- a link with neither -- a stub ``2 radius`` along its
+    ``x`` axis. A contact capsule that would cut into the workpiece elsewhere (its joint on the
+    workpiece's side of the contact) is refused. Joints: revolute / prismatic as in the chain,
+    on the base or on the parent link; velocity-controlled at ``speed_scale`` times their
+    command, effort-controlled at ``tau_j - g_man_j`` (eq. 3: ``J^T c = tau - g_man``; the
+    scene has no loads on the links). Link mass ``LINK_MASS_OF_WORKPIECE`` times the
+    workpiece's, inertia of a uniform rod."""
+    geom = system.chain
+    if geom is None:
+        raise InputError("chain_links: expected a system with chain geometry, got none")
+    radius = FINGER_RADIUS * size if geom.link_radius is None else float(geom.link_radius)
+    pre = PRELOAD * size
+    poses = geom.body_poses()
+    frames = geom.joint_frames()
+    pts = np.asarray(system.points, dtype=float)
+    nrm = np.asarray(system.normals, dtype=float)
+    work_mass = system.workpiece.mass if system.workpiece is not None else DEFAULT_MASS
+    mass = LINK_MASS_OF_WORKPIECE * work_mass
+    bodies: list[Body] = []
+    joints: list[Joint] = []
+    sites: dict[int, tuple[str, int]] = {}
+    for j, spec in enumerate(geom.chain.joints):
+        x, y, phi = poses[j]
+        c, s = np.cos(phi), np.sin(phi)
+        origin = np.array([x, y])
+
+        def local(p: np.ndarray, c: float = c, s: float = s, o: np.ndarray = origin
+                  ) -> tuple[float, float]:
+            d = p - o
+            return (float(c * d[0] + s * d[1]), float(-s * d[0] + c * d[1]))
+
+        name = f"link{j + 1}"
+        shapes: list[Shape] = []
+        for i, link in enumerate(geom.contact_links):
+            if link != j:
+                continue
+            cap = pts[i] - (radius - pre) * nrm[i]
+            if _segment_polygon_distance(origin, cap, poly) < radius - pre - 1e-6 * size:
+                raise InputError(f"contact {i + 1}: the link from joint {j + 1} at "
+                                 f"{origin.tolist()} to the contact cuts into the workpiece; "
+                                 "expected the joint outside the workpiece's side of the contact")
+            sites[i] = (name, len(shapes))
+            if np.linalg.norm(cap - origin) <= 1e-9 * size:
+                shapes.append(Circle((0.0, 0.0), radius))
+            else:
+                shapes.append(Capsule((0.0, 0.0), local(cap), radius))
+        ends = [frames[k][:2, 2] for k in geom.children(j)]
+        shapes.extend(Capsule((0.0, 0.0), local(e), radius) for e in ends
+                      if np.linalg.norm(e - origin) > 1e-9 * size)
+        if not shapes:
+            shapes.append(Capsule((0.0, 0.0), (2.0 * radius, 0.0), radius))
+        tips = [np.asarray(sh.b if isinstance(sh, Capsule) else (0.0, 0.0)) for sh in shapes]
+        length = max(float(np.linalg.norm(t)) for t in tips) or 2.0 * radius
+        far = tips[int(np.argmax([np.linalg.norm(t) for t in tips]))]
+        com = 0.5 * far if np.linalg.norm(far) > 0 else np.zeros(2)
+        bodies.append(Body(name, tuple(shapes), mass=mass,
+                           com=(float(com[0]), float(com[1])),
+                           inertia=mass * (length ** 2 + (2 * radius) ** 2) / 12.0,
+                           pose=(float(x), float(y), float(phi))))
+        jf = frames[j]
+        if system.control[j].value == "velocity":
+            value = float(system.joint_inputs[j]) * speed_scale
+            control = Control.VELOCITY
+        else:
+            value = float(system.joint_inputs[j] - system.g_man[j])
+            control = Control.EFFORT
+        joints.append(Joint(
+            f"joint{j + 1}", name,
+            JointKind.REVOLUTE if spec.kind == "revolute" else JointKind.PRISMATIC,
+            (float(jf[0, 2]), float(jf[1, 2])), control, _constant(value),
+            axis=(float(jf[0, 0]), float(jf[1, 0])),
+            parent=None if spec.parent < 0 else f"link{spec.parent + 1}"))
+    return bodies, tuple(joints), sites
+
+
+def _constant(value: float) -> Command:
+    """A joint command holding ``value``."""
+    return lambda t, states: value
