@@ -5,18 +5,22 @@ Cases (each simulated with :func:`sim.system_run.simulate_system`, the machinery
 
 * ``ex41`` / ``ex43``: Examples 4.1 / 4.3 (eqs. 37, 42) scaled to 0.2 m / 2 m scenes
   (:func:`sim.scenes.paper.scaled_system`) at friction drawn uniformly from [0.05, 1] per contact;
-* ``box``: random boxes on a table pushed by one frictionless finger (width, height in
-  [0.05, 0.15] m, push height in [0.1, 0.9] of the height, table friction in [0.1, 1]) -- a
-  system with ``workpiece`` geometry and ``environment`` contacts.
+* ``system``: random boxes and trapezoids on a table pushed by one frictionless finger from the
+  left or (mirrored) the right, at a random height and direction (:func:`random_system`) --
+  systems with ``workpiece`` geometry and ``environment`` contacts.
 
 Every run is also judged against the prediction at a second random friction point whose
-predicted mode set shares no mode with the first's (a negative control: agreement there is a
-false agreement). A point is
-*near a boundary* when the predicted mode set changes with any one coefficient moved by
-``+-NEAR`` (0.03); those are counted apart.
+predicted mode set shares no mode with the first's (a negative control: agreement there while
+the run agreed with its own prediction is a false agreement). A point is *near a boundary*
+when the predicted mode set changes with any one coefficient moved by ``+-NEAR`` (0.03) or a
+predicted sliding contact is too slow for the classifier (:func:`near_velocity`), and *wedge
+possible* when two contacts can wedge the workpiece (:func:`wedge_pairs`); both are counted
+apart from the points *away* (docs/simulation.md, "Validation campaign").
 
     python benchmarks/validation_campaign.py --points 8 --seed 1
-    python benchmarks/validation_campaign.py --points 200 --json out.json   # the full campaign
+    python benchmarks/validation_campaign.py --points ex41=200,ex43=200,system=50 \\
+        --jsonl out.jsonl --workers 2          # the full campaign (resumable)
+    python benchmarks/validation_campaign.py --jsonl out.jsonl --table-only
 
 Rates are printed per case, engine and near/away; the full campaign (>= 200 points per example,
 >= 50 systems, ~3-5 s per run) takes hours on two cores.
@@ -33,6 +37,7 @@ from typing import Any
 import numpy as np
 
 from planner.files.system_file import load_system
+from planner.model.modes import SLIDE
 from planner.model.system import System
 from planner.model.workpiece import WorkpieceGeometry
 from planner.predict.feasibility import feasible_modes
@@ -41,6 +46,8 @@ from sim.scenes.paper import scaled_system
 from sim.system_run import judge_recording, simulate_system
 
 NEAR = 0.03
+#: The classifier's slip threshold as a fraction of the drive speed (``sim.classify``).
+SLIP = 0.05
 SCALES = {"ex41": ("example_4_1", 0.01), "ex43": ("example_4_3", 0.1)}
 
 
@@ -60,19 +67,88 @@ def near_boundary(system: System, mu: np.ndarray) -> bool:
     return False
 
 
-def random_box(rng: np.random.Generator) -> tuple[System, np.ndarray]:
+def near_velocity(system: System, mu: np.ndarray) -> bool:
+    """A contact predicted to slide does so slower than ``2 x SLIP`` of the fastest commanded
+    contact speed: twice the classifier's slip threshold (``sim.classify.Thresholds``: 0.05 of
+    the drive speed, left again below half of it), where the engine cannot tell S from R."""
+    fastest = float(np.max(np.linalg.norm(
+        np.asarray(system.joint_inputs, dtype=float).reshape(-1, 2), axis=1)))
+    for m in feasible_modes(system.with_mu(mu)).all_modes:
+        vt = np.abs(np.asarray(m.contact_velocities, dtype=float)[:, 1])
+        sliding = np.array([c == SLIDE for c in m.mode.codes])
+        if np.any(sliding & (vt < 2 * SLIP * fastest)):
+            return True
+    return False
+
+
+def wedge_pairs(system: System, mu: np.ndarray, turn: float = 0.0,
+                slide: np.ndarray | None = None) -> list[tuple[int, int]]:
+    """Contact pairs ``(i, j)`` (1-based) that can wedge the workpiece: the line between the
+    two contact points lies inside both friction cones (``u . n_i >= 1 / sqrt(1 + mu_i^2)``
+    and ``-u . n_j >= 1 / sqrt(1 + mu_j^2)``, ``u`` the unit vector from ``r_i`` to ``r_j``:
+    equal and opposite forces along it need no other contact -- a two-finger force-closure
+    grasp) while the commanded contact velocities bring the points together along it
+    (``(v_i - v_j) . u > 0``; an environment contact does not move). Squeezed like this, the
+    fingers can hold the workpiece with a force that grows with their approach: a jam that the
+    rigid quasistatic model (feasible modes with finite forces) does not list. ``turn`` [rad]
+    and ``slide`` (n_c,) [m] widen each cone's half-angle by how far the line can turn during
+    the run: the workpiece turns by up to ``turn`` and the contacts slide along its edges by
+    up to ``slide`` (the line turns by ``(slide_i + slide_j) / |r_j - r_i|``). A pair that
+    enters the wedge during the run wedges it then; measured: Example 4.1 at
+    mu = .98 .82 .54, 1.55 deg short of a wedge at contact 2 at the start (the workpiece turns
+    1.45 deg, contact 2 slides 6.4 mm at 0.31 m), forces grow from 34 N to 130 N in pymunk."""
+    pts = np.asarray(system.points, dtype=float)
+    nrm = np.asarray(system.normals, dtype=float)
+    tng = np.stack([-nrm[:, 1], nrm[:, 0]], axis=1)
+    vel = np.asarray(system.joint_inputs, dtype=float).reshape(-1, 2)
+    v = vel[:, :1] * nrm + vel[:, 1:] * tng
+    out = []
+    for i in range(len(pts)):
+        for j in range(i + 1, len(pts)):
+            d = pts[j] - pts[i]
+            u = d / np.linalg.norm(d)
+            widen = turn + (0.0 if slide is None else float(slide[i] + slide[j])
+                            / float(np.linalg.norm(d)))
+            if (u @ nrm[i] >= np.cos(min(np.arctan(mu[i]) + widen, np.pi / 2))
+                    and -u @ nrm[j] >= np.cos(min(np.arctan(mu[j]) + widen, np.pi / 2))
+                    and (v[i] - v[j]) @ u > 0):
+                out.append((i + 1, j + 1))
+    return out
+
+
+def random_system(rng: np.random.Generator) -> tuple[System, np.ndarray]:
+    """A random workpiece on a table pushed by one frictionless finger: a box or a trapezoid
+    (top corners moved in by up to 0.3 of the width on each side) of width and height in
+    [0.05, 0.15] m, standing on its bottom edge (two ``environment`` contacts at its bottom
+    corners, table friction in [0.1, 1]), pushed on its left or, mirrored, right side edge at
+    [0.1, 0.9] of the height along the edge's inward normal with a tangential component in
+    [-0.5, 0.5] of the normal one; weight 0.981 N through the polygon's centroid."""
     w, h = rng.uniform(0.05, 0.15, size=2)
-    y = rng.uniform(0.1, 0.9) * h
+    trapezoid = bool(rng.integers(2))
+    sl, sr = (rng.uniform(0.0, 0.3, size=2) * w) if trapezoid else (0.0, 0.0)
+    poly = np.array([[0.0, 0.0], [w, 0.0], [w - sr, h], [sl, h]])
+    frac = rng.uniform(0.1, 0.9)
+    if rng.integers(2):  # mirrored: push the right edge towards -x
+        a, b = poly[1], poly[2]
+        n = np.array([-(b - a)[1], (b - a)[0]])
+    else:
+        a, b = poly[0], poly[3]
+        n = np.array([(b - a)[1], -(b - a)[0]])
+    n /= np.linalg.norm(n)
+    r = a + frac * (b - a)
+    v_t = rng.uniform(-0.5, 0.5)
     mu_t = rng.uniform(0.1, 1.0)
     mass = 0.1
     weight = 9.81 * mass
+    geom = WorkpieceGeometry(poly, mass)
+    cx = float(np.asarray(geom.com)[0])
     system = System.from_contacts(
-        points=[[0.0, 0.0], [w, 0.0], [0.0, y]],
-        normals=[[0.0, 1.0], [0.0, 1.0], [1.0, 0.0]],
+        points=[[0.0, 0.0], [w, 0.0], r.tolist()],
+        normals=[[0.0, 1.0], [0.0, 1.0], n.tolist()],
         mu=[mu_t, mu_t, 0.0],
-        external_wrench=(0.0, -weight, -weight * w / 2),
-        contact_velocities=[[0.0, 0.0], [0.0, 0.0], [0.001, 0.0]],
-        workpiece=WorkpieceGeometry(np.array([[0.0, 0.0], [w, 0.0], [w, h], [0.0, h]]), mass),
+        external_wrench=(0.0, -weight, -weight * cx),
+        contact_velocities=[[0.0, 0.0], [0.0, 0.0], [0.001, 0.001 * v_t]],
+        workpiece=geom,
         environment=[True, True, False],
     )
     return system, np.array([mu_t, mu_t, 0.0])
@@ -81,8 +157,8 @@ def random_box(rng: np.random.Generator) -> tuple[System, np.ndarray]:
 def draw(case: str, rng: np.random.Generator) -> tuple[System, np.ndarray, np.ndarray]:
     """``(system, mu, control mu)``; the control's predicted mode set shares no mode with
     ``mu``'s (``mu`` itself when none is found in 50 draws: no control for that point)."""
-    if case == "box":
-        system, mu = random_box(rng)
+    if case == "system":
+        system, mu = random_system(rng)
         for _ in range(50):
             c = rng.uniform(0.1, 1.0)
             ctrl = np.array([c, c, 0.0])
@@ -99,6 +175,20 @@ def draw(case: str, rng: np.random.Generator) -> tuple[System, np.ndarray, np.nd
     return system, mu, mu
 
 
+def reach(system: System, mu: np.ndarray, p: dict[str, Any]) -> tuple[float, np.ndarray]:
+    """How far the predicted modes move things over the run of ``qsplan simulate``'s
+    ``parameters`` ``p``: the largest turn of the workpiece [rad] and each contact's largest
+    slide along the workpiece [m] (predicted ``|omega|`` and ``|v_t|`` x speed scale x
+    duration)."""
+    modes = feasible_modes(system.with_mu(mu)).all_modes
+    k = float(p["speed_scale"]) * float(p["duration_s"])
+    omega = max((abs(float(np.asarray(m.qdot)[2])) for m in modes), default=0.0)
+    slide = np.zeros(system.n_contacts)
+    for m in modes:
+        slide = np.maximum(slide, np.abs(np.asarray(m.contact_velocities, dtype=float)[:, 1]))
+    return omega * k, slide * k
+
+
 def run_point(case: str, engine: str, system: System, mu: np.ndarray, ctrl: np.ndarray
               ) -> dict[str, Any]:
     t0 = time.perf_counter()
@@ -108,62 +198,148 @@ def run_point(case: str, engine: str, system: System, mu: np.ndarray, ctrl: np.n
         "case": case, "engine": engine, "mu": mu.tolist(), "status": res.verdict.outcome.value,
         "predicted": res.summary["predicted"]["labels"],
         "observed": res.summary["observed"]["counts"], "reason": res.verdict.reason,
-        "near_boundary": near_boundary(system, mu), "control_mu": ctrl.tolist(),
+        "near_boundary": near_boundary(system, mu),
+        "near_velocity": near_velocity(system, mu),
+        "wedge": wedge_pairs(system, mu, *reach(system, mu, p)), "control_mu": ctrl.tolist(),
     }
     if not np.array_equal(ctrl, mu) and res.verdict.outcome.value != "fault":
         scale = p["speed_scale"]
         judged = feasible_modes(system.with_mu(ctrl).with_joint_inputs(
             np.asarray(system.joint_inputs) * scale))
-        load = float(np.linalg.norm(np.asarray(system.g_obj)[:2]))
-        v, _, _ = judge_recording(res.recording, judged, engine, p["drive_speed_m_per_s"],
-                                  load, p["length"])
-        row["control_status"] = v.outcome.value
+        row["control_predicted"] = list(judged.labels)
+        # drawn disjoint at the file's speeds; near a boundary the scene's speeds can differ
+        if not set(judged.labels or ["JAM"]) & set(row["predicted"]):  # a jam is "JAM"
+            load = float(np.linalg.norm(np.asarray(system.g_obj)[:2]))
+            v, _, _ = judge_recording(res.recording, judged, engine, p["drive_speed_m_per_s"],
+                                      load, p["length"], p["jam_force_N"])
+            row["control_status"] = v.outcome.value
     row["wall_s"] = time.perf_counter() - t0
     return row
+
+
+def where(row: dict[str, Any]) -> str:
+    """``near boundary`` (friction or slip speed), ``wedge possible`` or ``away``."""
+    if row["near_boundary"] or row.get("near_velocity"):
+        return "near boundary"
+    return "wedge possible" if row.get("wedge") else "away"
+
+
+def false_agreement(row: dict[str, Any]) -> bool:
+    """The control agreed although the run agreed with its own prediction, whose modes the
+    control's share none of. (A control that agrees with a run that missed its own prediction
+    -- e.g. a run that jammed, judged at a friction where a jam is predicted -- is the judge
+    being right.)"""
+    return row.get("control_status") == "agreed" and row["status"] == "agreed"
 
 
 def table(rows: list[dict[str, Any]]) -> str:
     out = ["| case | engine | where | n | agreed | disagreed | inconclusive | fault | "
            "false agreement on control |", "|---|---|---|---|---|---|---|---|---|"]
-    keys = sorted({(r["case"], r["engine"], r["near_boundary"]) for r in rows})
-    for case, engine, near in keys:
-        sel = [r for r in rows if (r["case"], r["engine"], r["near_boundary"]) == (case, engine,
-                                                                                   near)]
+    keys = sorted({(r["case"], r["engine"], where(r)) for r in rows})
+    for case, engine, at in keys:
+        sel = [r for r in rows if (r["case"], r["engine"], where(r)) == (case, engine, at)]
         c = Counter(r["status"] for r in sel)
         ctrl = [r for r in sel if "control_status" in r]
-        false = sum(r["control_status"] == "agreed" for r in ctrl)
+        false = sum(false_agreement(r) for r in ctrl)
         n = len(sel)
-        out.append(f"| {case} | {engine} | {'near boundary' if near else 'away'} | {n} | "
+        out.append(f"| {case} | {engine} | {at} | {n} | "
                    + " | ".join(f"{c[s]} ({c[s] / n:.0%})" for s in
                                 ("agreed", "disagreed", "inconclusive", "fault"))
                    + f" | {false} of {len(ctrl)} |")
     return "\n".join(out)
 
 
+def tasks(cases: list[str], engines: list[str], points: dict[str, int]
+          ) -> list[tuple[str, int, str]]:
+    """Every ``(case, index, engine)`` of the campaign, interleaved by index (a partial run
+    covers every case)."""
+    return [(c, i, e) for i in range(max(points.values(), default=0)) for c in cases
+            for e in engines if i < points[c]]
+
+
+def point(case: str, index: int, seed: int) -> tuple[System, np.ndarray, np.ndarray]:
+    """The ``index``-th draw of ``case`` (the same draw whatever else runs: the generator is
+    seeded by ``(seed, case)`` and the draws before ``index`` are replayed, no simulation)."""
+    rng = np.random.default_rng([seed, sum(map(ord, case))])
+    for _ in range(index):
+        draw(case, rng)
+    return draw(case, rng)
+
+
+def run_task(task: tuple[str, int, str, int]) -> dict[str, Any]:
+    case, index, engine, seed = task
+    system, mu, ctrl = point(case, index, seed)
+    row = run_point(case, engine, system, mu, ctrl)
+    row.update(index=index, seed=seed)
+    return row
+
+
+def read_rows(path: str) -> list[dict[str, Any]]:
+    """Rows of a JSONL file (a torn last line from an interrupted run is skipped)."""
+    rows = []
+    try:
+        with open(path) as fh:
+            for line in fh:
+                try:
+                    rows.append(json.loads(line))
+                except json.JSONDecodeError:
+                    pass
+    except FileNotFoundError:
+        pass
+    return rows
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--points", type=int, default=8, help="points per case and engine")
+    ap.add_argument("--points", default="8",
+                    help="points per case: N, or CASE=N,... (e.g. ex41=200,ex43=200,system=50)")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--engines", default="pymunk,mujoco")
-    ap.add_argument("--cases", default="ex41,ex43,box")
-    ap.add_argument("--json", help="write every row to this file")
+    ap.add_argument("--cases", default="ex41,ex43,system")
+    ap.add_argument("--jsonl", help="append every row to this file and skip the (case, index, "
+                    "engine, seed) rows it already holds (resumable)")
+    ap.add_argument("--workers", type=int, default=1, help="processes")
+    ap.add_argument("--chunk", default="0/1", help="K/N: run only tasks with number %% N == K")
+    ap.add_argument("--table-only", action="store_true", help="print the table of --jsonl")
     args = ap.parse_args()
-    rows = []
-    for case in args.cases.split(","):
-        rng = np.random.default_rng([args.seed, sum(map(ord, case))])
-        points = [draw(case, rng) for _ in range(args.points)]
-        for engine in args.engines.split(","):
-            for system, mu, ctrl in points:
-                r = run_point(case, engine, system, mu, ctrl)
-                rows.append(r)
-                print(f"{case} {engine} mu={np.round(mu, 3).tolist()} {r['status']:12s} "
-                      f"control {r.get('control_status', '-'):10s} "
-                      f"{'near' if r['near_boundary'] else 'away'} pred {r['predicted']} "
-                      f"obs {r['observed']} [{r['wall_s']:.1f} s]", flush=True)
+    done = read_rows(args.jsonl) if args.jsonl else []
+    if args.table_only:
+        print(table(done))
+        return
+    have = {(r["case"], r["index"], r["engine"], r["seed"]) for r in done if "index" in r}
+    k, n = (int(v) for v in args.chunk.split("/"))
+    cases = args.cases.split(",")
+    if "=" in args.points:
+        points = {c: int(v) for c, v in (kv.split("=") for kv in args.points.split(","))}
+        cases = [c for c in cases if c in points]
+    else:
+        points = dict.fromkeys(cases, int(args.points))
+    todo = [(c, i, e, args.seed) for j, (c, i, e) in enumerate(
+        tasks(cases, args.engines.split(","), points))
+        if j % n == k and (c, i, e, args.seed) not in have]
+    rows = [r for r in done if r.get("seed") == args.seed]
+    print(f"{len(todo)} runs to do, {len(rows)} rows already in {args.jsonl}", flush=True)
+
+    def record(r: dict[str, Any]) -> None:
+        rows.append(r)
+        if args.jsonl:
+            with open(args.jsonl, "a") as fh:
+                fh.write(json.dumps(r) + "\n")
+        print(f"{r['case']} #{r['index']} {r['engine']} mu={np.round(r['mu'], 3).tolist()} "
+              f"{r['status']:12s} control {r.get('control_status', '-'):10s} "
+              f"{where(r)} pred {r['predicted']} "
+              f"obs {r['observed']} [{r['wall_s']:.1f} s]", flush=True)
+
+    if args.workers > 1:
+        import multiprocessing
+
+        with multiprocessing.Pool(args.workers) as pool:
+            for r in pool.imap_unordered(run_task, todo):
+                record(r)
+    else:
+        for t in todo:
+            record(run_task(t))
     print(table(rows))
-    if args.json:
-        with open(args.json, "w") as fh:
-            json.dump(rows, fh, indent=1)
 
 
 if __name__ == "__main__":

@@ -60,7 +60,12 @@ class Thresholds:
     ``settle`` [s] (steps before it are never judged); ``jam_force`` [N] total normal force
     (None: no force rule); ``jam_depth_rate`` [m/s] and ``jam_rate_window`` [s] (penetration
     growth rule); ``jam_twist_error``: relative twist error above which the workpiece no longer
-    follows a predicted twist; ``length_scale`` [m] weights rotation in twist errors; ``load``
+    follows a predicted twist; ``jam_depth_force`` [N]: the depth-growth rule counts only
+    where the window-mean total normal force also rose by more than this over the trailing
+    ``jam_rate_window`` (0: always; :func:`sim.system_run.judge_recording` sets the run's force
+    scale: a soft contact's depth creeping under steady forces is no jam -- MuJoCo's Example 4.3
+    at mu = .80 .72 .83 moved as ``R1 B2 S-3`` on every step and was read as a jam);
+    ``length_scale`` [m] weights rotation in twist errors; ``load``
     [N] the load's size (scales force errors); ``early`` [s] the stretch at the start of the
     judged steps over which twist and forces are compared with the certificate."""
 
@@ -72,6 +77,7 @@ class Thresholds:
     jam_depth_rate: float = np.inf
     jam_rate_window: float = 1.0
     jam_twist_error: float = 0.5
+    jam_depth_force: float = 0.0
     length_scale: float = 1.0
     load: float = 1.0
     early: float = 0.2
@@ -198,6 +204,12 @@ def jam_steps(rec: Recording, th: Thresholds,
             after_start = rec.times[:-w] >= max(0.0, th.settle - th.jam_rate_window) - 1e-12
             grows[w:] |= (after_start & touching.any(axis=1)
                           & (grown / (w * step) > th.jam_depth_rate))
+            if th.jam_depth_force > 0:  # depth creeping under steady forces is no jam
+                total = window_mean(np.sum(np.where(rec.present, rec.normal_force, 0.0),
+                                           axis=1), np.ones(T), rec.times, th.window)
+                rising = np.zeros(T, dtype=bool)
+                rising[w:] = total[w:] - total[:-w] > th.jam_depth_force
+                grows &= rising | (total > (th.jam_force or np.inf))
     if not predicted_twists or not grows.any():
         return grows
     q = workpiece_twist(rec, th.window)

@@ -109,7 +109,8 @@ def compare_motion(
                       / load)
         p0 = pose[0] if initial_pose is None else np.asarray(initial_pose, dtype=float)
         drift = float(np.linalg.norm(_weighted(pose[k1] - p0, length_scale))) / length_scale
-        reasons.append(f"contact forces off the certificate by up to {f_err:.1%} of the load "
+        reasons.append(f"contact forces off the certificate by up to {f_err:.1%} of the force "
+                       "scale "
                        f"(allowed {force_tolerance:.0%})")
         if drift > FORCE_DRIFT_LIMIT:
             reasons.append(f"forces not judged: the workpiece had moved {drift:.1%} of its "

@@ -178,7 +178,9 @@ class RunSettings:
     """Loop settings: ``duration``, ``dt`` [s]; ``slip_speed`` [m/s] threshold for switching a
     pair from static to kinetic friction; ``penetration_tol`` [m]; ``jam_force`` [N] (total
     normal force) and ``jam_window`` [s]; ``jam_after`` [s]: the loop never stops on a jam
-    before this time (set it past the settling time, so a jammed run still has judged steps).
+    before this time (set it past the settling time, so a jammed run still has judged steps);
+    ``start_ramp`` [s]: driven bodies' twist commands rise from rest over this time
+    (:func:`ramped`; 0: a velocity step at ``t = 0``).
 
     ``open_at_start``: names of pairs allowed to be apart at the first step (contacts a later
     part of the run gains; no ``CONTACT_LOST_AT_START`` for them). ``control_switches``:
@@ -194,12 +196,43 @@ class RunSettings:
     jam_window: float = 0.05
     jam_after: float = 0.0
     record_every: int = 1
+    start_ramp: float = 0.0
     open_at_start: tuple[str, ...] = ()
     control_switches: tuple[tuple[float, str, str], ...] = ()
 
 
+def ramped(command: Any, ramp: float) -> Any:
+    """``command(t, states)`` times the smoothstep ``3 a^2 - 2 a^3`` of ``a = t / ramp`` for
+    ``t < ramp`` [s]: a driven body starts from rest with continuous acceleration instead of a
+    velocity jump (the jump's first-step impulses are many times the load and can wedge a
+    workpiece between two fingers, docs/simulation.md "Validation campaign"). The wrapper's
+    ``unramped`` attribute is ``command`` (its direction decides MuJoCo's contact roles,
+    :mod:`sim.backends.roles`)."""
+    def command_ramped(t: float, states: Any) -> tuple[float, float, float]:
+        v = command(t, states)
+        if t >= ramp:
+            return v
+        a = max(0.0, t / ramp)
+        f = a * a * (3.0 - 2.0 * a)
+        return (v[0] * f, v[1] * f, v[2] * f)
+    command_ramped.unramped = command  # type: ignore[attr-defined]
+    return command_ramped
+
+
+def with_start_ramp(scene: Scene, ramp: float) -> Scene:
+    """``scene`` with every driven body's twist command :func:`ramped` over ``ramp`` [s]
+    (``ramp <= 0``: unchanged)."""
+    if not ramp > 0:
+        return scene
+    bodies = tuple(replace(b, twist=ramped(b.twist, ramp))
+                   if b.kind == BodyKind.DRIVEN and b.twist is not None else b
+                   for b in scene.bodies)
+    return replace(scene, bodies=bodies)
+
+
 def run_scene(scene: Scene, backend: Backend, settings: RunSettings) -> Recording:
     """Build ``scene`` in ``backend`` and run it, recording every ``record_every`` steps."""
+    scene = with_start_ramp(scene, settings.start_ramp)
     backend.build(scene)
     watch = EngineWatch(backend)
     pairs = scene.pairs

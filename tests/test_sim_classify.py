@@ -200,3 +200,23 @@ def test_sliding_finger_sees_through_creep_and_dates_the_hand_over():
     assert sl[0] == 0 and pos[0] == pytest.approx(abs(poses[99, 1, 0]), abs=2 * v * dt)
     assert when[0] == pytest.approx(1.0, abs=2 * dt)
     assert creep(rec, slider, 0.1) == pytest.approx(0.2 * v, rel=1e-6)
+
+
+def test_depth_creep_under_steady_forces_is_no_jam():
+    """``jam_depth_force``: the depth rule needs the total normal force to rise by that much
+    over the rate window (a soft contact creeping deeper under steady forces is no jam; a
+    predicted jam makes the twist test vacuous, so this alone separates them)."""
+    depth = np.tile(1e-5 + 2e-5 * 0.01 * np.arange(100)[:, None], (1, 2))
+    steady = np.full((100, 2), 1.5)
+    th = Thresholds(slip_speed=1e-4, force_floor=1e-3, settle=0.0, jam_depth_rate=1e-5,
+                    jam_rate_window=0.1, jam_depth_force=3.0, jam_force=60.0)
+    assert not jam_steps(_rec(np.zeros((100, 2)), steady, depth=depth), th).any()
+    assert not jam_steps(_rec(np.zeros((100, 2)), steady, depth=depth), th, []).any()
+    # the same depth growth with the forces rising 20 N/s each (4 N per 0.1 s in total): a jam
+    rising = 1.5 + 20.0 * 0.01 * np.arange(100)[:, None] * np.ones((1, 2))
+    jam = jam_steps(_rec(np.zeros((100, 2)), rising, depth=depth), th)
+    assert jam[20:95].all() and not jam[:10].any()  # (the centred mean is short at the end)
+    # without the force condition (jam_depth_force = 0) depth alone decides, as before
+    th0 = Thresholds(slip_speed=1e-4, force_floor=1e-3, settle=0.0, jam_depth_rate=1e-5,
+                     jam_rate_window=0.1)
+    assert jam_steps(_rec(np.zeros((100, 2)), steady, depth=depth), th0)[20:].all()

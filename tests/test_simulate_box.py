@@ -101,7 +101,7 @@ def test_box_agrees_and_negative_control_disagrees(case: str, engine: str) -> No
     judged = feasible_modes(box(case).with_mu([other_mu, other_mu, 0.0]))
     p = res.summary["parameters"]
     verdict, _, _ = judge_recording(res.recording, judged, engine, p["drive_speed_m_per_s"],
-                                    WEIGHT, p["length"])
+                                    WEIGHT, p["length"], p["jam_force_N"])
     assert verdict.outcome is Outcome.DISAGREED, verdict.reason
 
 

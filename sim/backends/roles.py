@@ -59,7 +59,10 @@ def contact_roles(scene: Scene, readings: Mapping[str, ContactReading],
         if (a.kind != BodyKind.DRIVEN or a.twist is None or a.name in jointed
                 or reading is None or not reading.present):
             continue
-        vx, vy, w = (float(c) for c in a.twist(0.0, states))
+        # the command's direction, not its value at t = 0: a drive ramped from rest
+        # (sim.run.ramped) is still zero there
+        command = getattr(a.twist, "unramped", a.twist)
+        vx, vy, w = (float(c) for c in command(0.0, states))
         x0, y0, _ = states[a.name].pose
         px, py = reading.point
         v = np.array([vx - w * (py - y0), vy + w * (px - x0)])
