@@ -9,7 +9,11 @@ velocity-controlled joints, planted loads), so ``2 n_R + n_S = 3 n_b = 9`` and e
   through both stages;
 * ``search``: ``search_modes(system)`` (the pruned search, same determinate modes);
 * ``complete``: ``feasible_modes(system, indeterminate=True)``: the eq. (49) candidates and the
-  relaxed-utility (force-indeterminate) modes, ``C(24, 9) = 1,307,504`` row subsets scanned.
+  relaxed-utility (force-indeterminate) modes: the ``k``-row subsets of ``C(24, 9) =
+  1,307,504`` that pass the structural pre-filter (:mod:`planner.predict.row_subsets`) scanned.
+
+To compare with an older checkout, run this script with that checkout on ``PYTHONPATH``
+right before or after (same load).
 
 Target (issue 17): all modes <= 1 s. The load average is printed before and after (the machine
 is shared; absolute times move with it).

@@ -54,12 +54,13 @@ def test_stacked_blocks_pushed_at_the_lower_block(engine) -> None:
 
 
 def test_single_body_simulate_refuses_several_workpieces() -> None:
-    """``qsplan simulate`` builds one-workpiece scenes; a multi-body file is bad input (exit 2)
-    naming the multi-body route, never a silently wrong scene."""
-    import subprocess
-    import sys
+    """:func:`sim.system_run.simulate_system` builds one-workpiece scenes; a multi-body system is
+    bad input naming the multi-body route, never a silently wrong scene (``qsplan simulate``
+    dispatches such files to :func:`sim.multibody_run.simulate_multibody`:
+    tests/test_simulate_multibody_cli.py)."""
+    from planner.errors import InputError
+    from planner.files.system_file import load_system
+    from sim.system_run import simulate_system
 
-    out = subprocess.run([sys.executable, "-m", "qsplan.cli", "simulate", str(STACK)],
-                         capture_output=True, text=True, timeout=120)
-    assert out.returncode == 2
-    assert "expected one workpiece, got 2" in out.stderr
+    with pytest.raises(InputError, match="expected one workpiece, got 2"):
+        simulate_system(load_system(STACK), "pymunk")

@@ -38,6 +38,13 @@ from planner.predict.relaxed_modes import (
     force_lp,
     indeterminate_kinematics_of,
 )
+from planner.predict.row_subsets import (
+    SUBSET_CHUNK,
+    admissible_subsets,
+    all_subsets,
+    row_classes,
+    unique_rows,
+)
 from planner.predict.stages import (
     DEFAULT_SINGULAR_TOL,
     DEFAULT_TOL,
@@ -59,8 +66,6 @@ __all__ = [
 #: so.  (Deciding whether any ``k + 1`` rows of ``[K | b]`` are dependent is NP-hard in general:
 #: Khachiyan 1995, so no budget-free exact test is fast for large ``k``.)
 DEFAULT_MAX_ROW_SUBSETS = 250_000
-#: Row subsets solved per batch (bounds the pass's memory at any ``n_c``).
-SUBSET_CHUNK = 4096
 #: Generation tolerance, relative to the largest equilibrated right side: a row with
 #: ``|v| <= GEN_TOL max|bn|`` at a subset's solution may vanish in the mode (it covers the
 #: difference between the subset's exact solution and the mode's generalised-inverse one,
@@ -121,34 +126,33 @@ def scan_indeterminate(
     ``C(2 n_c, k) > max_subsets`` nothing is scanned and ``limit`` says so.
     """
     n_c, k = system.n_contacts, system.dof
-    count = row_subset_count(system)
     if 2 * n_c <= k:  # no mode can have more than k rows
         return IndeterminateScan((), 0, 0)
+    eq = equilibrated_kinematics(system)
+    classes = row_classes(eq.Kn, system.n_bodies, k) if system.n_bodies > 1 else None
+    count = row_subset_count(system) if classes is None else classes.total
     if count > max_subsets:
         return IndeterminateScan((), 0, 0, (
             f"force-indeterminate (relaxed-utility) modes not searched: C(2 n_c, 3 n_b + |tau_I|) "
             f"= C({2 * n_c}, {k}) = {count} row subsets exceed max_subsets = {max_subsets}"
         ))
-    eq = equilibrated_kinematics(system)
     Kn, bn = eq.Kn, eq.bn
+    subsets = all_subsets(2 * n_c, k) if classes is None else admissible_subsets(
+        classes, SUBSET_CHUNK)
     strict, gen = generation_thresholds(system, tol)
     aug = np.ascontiguousarray(np.concatenate([Kn, bn[:, None]], axis=1).T)  # (k+1, 2 n_c)
     found: set[bytes] = set()
     codes_out: list[np.ndarray] = []
     limit = ""
-    combos = itertools.combinations(range(2 * n_c), k)
-    while True:
-        flat = np.fromiter(itertools.chain.from_iterable(itertools.islice(combos, SUBSET_CHUNK)),
-                           dtype=np.int64)
-        if flat.size == 0:
-            break
-        S = flat.reshape(-1, k)
+    for S in subsets:
         det, z = lu_det_solve(np.take(aug, S.T, axis=1))
         good = np.abs(det) > singular_tol * 1e-3  # loose: the exact test decides the rank
         if not np.any(good):
             continue
-        z = z[:, good]
-        v = Kn @ z - bn[:, None]  # (2 n_c, C) equilibrated velocities, eq. (5)
+        z = np.ascontiguousarray(z[:, good])
+        # (2 n_c, C) equilibrated velocities, eq. (5).  einsum, not BLAS: a (2 n_c x k) times
+        # (k x 4096) product is too small for threads, which spin for 10-50 ms on a busy machine.
+        v = np.einsum("rk,kc->rc", Kn, z) - bn[:, None]
         limit = codes_from_velocities(v.T, k, strict, gen, found, codes_out) or limit
     kins = indeterminate_kinematics_of(system, codes_out, tol=tol, singular_tol=singular_tol)
     return IndeterminateScan(tuple(kins), count, len(codes_out), limit)
@@ -182,7 +186,7 @@ def codes_from_velocities(
         vm[:, 0::2] > strict[0::2], zm[:, 0::2], zm[:, 1::2], np.abs(vm[:, 1::2]) > strict[1::2],
     ], axis=1)
     limit = ""
-    for row in np.unique(pattern, axis=0):
+    for row in unique_rows(pattern):
         for code in modes_of_pattern(row.reshape(4, n_c)):
             if code is None:
                 limit = (f"a velocity near {MAX_MODES_PER_VELOCITY}+ mode boundaries: "

@@ -1,0 +1,46 @@
+"""Issue 17: ``qsplan simulate`` on a file with several workpieces (sim.multibody_run)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from qsplan.cli import main
+from scenarios.registry import DATA_DIR
+
+TOGETHER = "0.15,0.15,0.9,0.9,0"  # both blocks slide together (scenarios/multibody_sims.py)
+
+
+def _summary(out: Path) -> dict:
+    return json.loads((out / "summary.json").read_text())
+
+
+@pytest.mark.parametrize("engine", ["pymunk", "mujoco"])
+@pytest.mark.parametrize("data, mode", [("stacked_blocks", "R1 R2 S-3 S-4 R5"),
+                                        ("stacked_blocks_lower", "S-1 S-2 R3 R4 R5")])
+def test_stacked_blocks_agree(tmp_path: Path, engine: str, data: str, mode: str) -> None:
+    out = tmp_path / "run"
+    code = main(["simulate", str(DATA_DIR / f"{data}.json"), "--engine", engine,
+                 "--out", str(out)])
+    s = _summary(out)
+    assert (code, s["status"], s["passed"], s["expect"]) == (0, "agreed", True, "agree")
+    assert s["predicted"]["labels"] == [mode]
+    assert s["observed"]["counts"].get(mode, 0) >= 0.95 * s["judged_steps"] > 0
+    assert len(s["observed"]["body_twists_over_drive"]) == s["parameters"]["n_bodies"] == 2
+
+
+def test_judge_mu_is_a_negative_control(tmp_path: Path) -> None:
+    out = tmp_path / "neg"
+    code = main(["simulate", str(DATA_DIR / "stacked_blocks.json"), "--judge-mu", TOGETHER,
+                 "--out", str(out)])
+    s = _summary(out)
+    assert (code, s["status"], s["expect"], s["passed"]) == (1, "disagreed", "disagree", True)
+    assert "R1 R2 S-3 S-4 R5" not in s["predicted"]["labels"]
+
+
+@pytest.mark.parametrize("flag", [["--speed", "0.1"], ["--mu-kinetic", "0.2"]])
+def test_options_without_a_multibody_meaning_are_refused(flag: list[str], capsys) -> None:
+    assert main(["simulate", str(DATA_DIR / "stacked_blocks.json"), *flag]) == 2
+    assert "several workpieces" in capsys.readouterr().err
