@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from planner.errors import QsplanError
+from planner.errors import FileFormatError, QsplanError
 from planner.files.atomic import atomic_write_json
 from planner.files.hand_file import hand_file_from_dict
 from planner.plan.bounds import box_points
@@ -44,6 +44,7 @@ ROOT = Path(__file__).resolve().parents[1]
 TEMPLATES = ("three_finger_hand", "prismatic_finger_hand", "two_link_finger_hand",
              "table_push_hand", "two_finger_hand")
 FACTORS = (1.02, 1.1, 1.5, 2.0, 4.0)
+REDRAWS = 5
 
 
 def template(name: str) -> dict[str, Any]:
@@ -149,12 +150,20 @@ def run(seed: int, hands: int, *, n_tau: int = 4, n_mu: int = 40,
     for h in range(hands):
         name = TEMPLATES[h % len(TEMPLATES)]
         mu_range = (0.3, 0.9) if h % 2 else (0.0, 0.4)
-        d = random_hand(template(name), rng, mu_range=mu_range)
-        entry: dict[str, Any] = {"hand": h, "template": name, "mu": d["mu"]["interval"]}
-        try:
-            hand, rp, lo, hi = plan_hand(d)
-        except QsplanError as exc:
-            entry["plan"] = f"{type(exc).__name__}: {str(exc)[:160]}"
+        entry: dict[str, Any] = {"hand": h, "template": name, "redrawn": 0}
+        for _ in range(REDRAWS):  # a jittered workpiece may be non-convex: draw again
+            d = random_hand(template(name), rng, mu_range=mu_range)
+            entry["mu"] = d["mu"]["interval"]
+            try:
+                hand, rp, lo, hi = plan_hand(d)
+                break
+            except FileFormatError:
+                entry["redrawn"] += 1
+            except QsplanError as exc:
+                entry["plan"] = f"{type(exc).__name__}: {str(exc)[:160]}"
+                break
+        if "plan" in entry or entry["redrawn"] == REDRAWS:
+            entry.setdefault("plan", "no valid draw")
             rows.append(entry)
             continue
         entry["plan"] = "partial" if rp.shortfall else "full"
@@ -168,6 +177,7 @@ def run(seed: int, hands: int, *, n_tau: int = 4, n_mu: int = 40,
         "torque_points": sum(r["torques"] for r in planned),
         "friction_samples": sum(r["samples"] for r in planned),
         "violations": sum(len(r["violations"]) for r in planned),
+        "redrawn": sum(r["redrawn"] for r in rows),
         "outside_checked": len(found),
         "outside_caught": sum(f is not None for f in found),
         "outside_factor_max": max((f for f in found if f is not None), default=None),
