@@ -87,3 +87,23 @@ def test_friction_rows_and_errors():
         feasible_modes_batch([systems[0], box_on_supports(3)])
     with pytest.raises(InputError, match=r"systems\[0\]: expected a planner System"):
         feasible_modes_batch(["not a system"])
+
+
+def test_systems_with_different_numbers_of_bodies_are_refused():
+    """Same contacts and joints, one body against two: a project error naming both counts,
+    not numpy's broadcasting error."""
+    import json
+
+    from planner.files.system_file import system_from_dict
+    from scenarios.registry import DATA_DIR
+
+    data = json.loads((DATA_DIR / "stacked_blocks.json").read_text())
+    two = system_from_dict(data)
+    one_body = {k: v for k, v in data.items() if k != "workpieces"}
+    one_body["external_wrench"] = [0.0, -3.0, 0.0]
+    one_body["contacts"] = [{k: v for k, v in c.items() if k not in ("body", "other")}
+                            for c in data["contacts"]]
+    one = system_from_dict(one_body)
+    assert (one.n_contacts, one.n_joints, one.n_bodies) == (two.n_contacts, two.n_joints, 1)
+    with pytest.raises(InputError, match=r"systems\[1\]: expected .*1 bodies.*got .*2 bodies"):
+        feasible_modes_batch([one, two])

@@ -65,7 +65,7 @@ def feasible_modes_batch(
     Parameters
     ----------
     systems : sequence of N System
-        Same number of contacts and joints and the same control partition (which joints are
+        Same number of contacts, joints and bodies and the same control partition (which joints are
         effort- and which velocity-controlled); everything else may differ.
     mu : None, float, (n_c,) or (N, n_c)
         Friction: each system's own (None), one for all, or one row per system.
@@ -87,11 +87,14 @@ def feasible_modes_batch(
     n_c, k, n_j = first.n_contacts, first.dof, first.n_joints
     E, V = first.effort_joints, first.velocity_joints
     for i, s in enumerate(systems):
-        if (s.n_contacts, s.n_joints) != (n_c, n_j) or s.control != first.control:
+        if ((s.n_contacts, s.n_joints, s.n_bodies) != (n_c, n_j, first.n_bodies)
+                or s.control != first.control):
             raise InputError(
                 f"systems[{i}]: expected the structure of systems[0] ({n_c} contacts, {n_j} "
-                f"joints, control {[c.value for c in first.control]}), got {s.n_contacts} "
-                f"contacts, {s.n_joints} joints, control {[c.value for c in s.control]}"
+                f"joints, {first.n_bodies} bodies, control "
+                f"{[c.value for c in first.control]}), got {s.n_contacts} contacts, "
+                f"{s.n_joints} joints, {s.n_bodies} bodies, control "
+                f"{[c.value for c in s.control]}"
             )
     if not (np.isfinite(tol) and tol >= 0):
         raise InputError(f"tol: expected a finite number >= 0, got {tol}")
