@@ -12,8 +12,10 @@ the region's rows: the claimed mode must be the only feasible one.  A *violation
 sample where it is not.
 
 Tightness (and a proof that the check can fail): from the centre, a torque just past the
-nearest face (``d * f``, ``d`` the distance to the face, ``f`` = 1.02, 1.1, 1.5, 2, 4) is checked
-the same way; the smallest ``f`` at which some sample admits a rival or loses the mode is
+nearest face that is a mode boundary (``d * f``, ``d`` the distance to the face, ``f`` = 1.02,
+1.1, 1.5, 2, 4; the region's ``open_rows`` -- the box of commands, a one-sided band's replaced
+infinite end -- are skipped, and a region with no other face is counted as ``outside_open``) is
+checked the same way; the smallest ``f`` at which some sample admits a rival or loses the mode is
 reported per waypoint (None: not found up to 4; the region is an inner approximation, one
 failing row per rival).  Nothing is asserted here; tests/test_region_check.py holds a short
 version and the mutation test.
@@ -119,6 +121,10 @@ def check_plan(hand: Any, rp: RegionPlan, lo: np.ndarray, hi: np.ndarray,
         if outside and len(E):
             norms = np.linalg.norm(reg.A, axis=1)
             dist = (reg.b - reg.A @ reg.centre) / norms
+            dist[list(reg.open_rows)] = np.inf  # no mode boundary there: nothing to catch
+            if not np.isfinite(dist).any():
+                row["outside_open"] = row.get("outside_open", 0) + 1
+                continue
             k = int(np.argmin(dist))
             found = None
             for f in FACTORS:
@@ -179,6 +185,7 @@ def run(seed: int, hands: int, *, n_tau: int = 4, n_mu: int = 40,
         "violations": sum(len(r["violations"]) for r in planned),
         "redrawn": sum(r["redrawn"] for r in rows),
         "outside_checked": len(found),
+        "outside_open": sum(r.get("outside_open", 0) for r in planned),
         "outside_caught": sum(f is not None for f in found),
         "outside_factor_max": max((f for f in found if f is not None), default=None),
         "seconds": round(time.perf_counter() - t0, 1),

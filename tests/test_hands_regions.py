@@ -250,3 +250,35 @@ def test_slice_of_a_square():
     poly = slice_polygon(A, np.ones(6), np.zeros(3), (0, 2))
     np.testing.assert_allclose(sorted(map(tuple, np.round(poly, 12))),
                                [(-1, -1), (-1, 1), (1, -1), (1, 1)])
+
+
+def test_open_rows_mark_the_sides_where_no_mode_boundary_is():
+    """``TorqueRegion.open_rows``: the prismatic finger at a shared friction in [0.5, 0.6] has a
+    one-sided band (pulling harder never lets a rival in); its infinite end is replaced by the
+    command's ball and marked open, while the finite end is a real boundary -- a torque just
+    past it admits a rival or loses the mode.  The three-finger hand's open rows are its box of
+    commands (``+-e_k``)."""
+    hf = load_hand_file(DATA / "prismatic_finger_hand.json")
+    s = hf.segment
+    rp = plan_regions(hf.hand, hf.q0, drive=s.drives, speed=s.speeds, mode=s.mode,
+                      mu=[0.5, 0.6], max_time=s.max_time, steps=s.steps, waypoints=2)
+    w = rp.waypoints[0]
+    reg = w.region
+    assert len(reg.open_rows) == 1
+    real = 1 - reg.open_rows[0]
+    end = reg.b[real] / reg.A[real, 0]
+    past = end + 0.02 * reg.margin * reg.A[real, 0]
+    base = hf.hand.system(w.q, 0.0, joint_inputs(hf.hand, rp.velocity_joints,
+                                                 w.velocity_commands))
+    inputs = np.array(base.joint_inputs)
+    inputs[list(rp.effort_joints)] = past
+    system = base.with_joint_inputs(inputs)
+    seen = [feasible_modes(system, m).labels for m in np.linspace(0.5, 0.6, 21)]
+    assert any(labels != [rp.claim] for labels in seen)
+
+    _, rp3, _, _ = _plan("three_finger_hand")
+    reg3 = rp3.waypoints[0].region
+    p = len(rp3.effort_joints)
+    box = reg3.A[list(reg3.open_rows)]
+    assert len(reg3.open_rows) == 2 * p
+    assert np.allclose(np.abs(box).sum(axis=1), 1.0) and np.allclose(np.abs(box).max(axis=1), 1.0)

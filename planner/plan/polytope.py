@@ -89,7 +89,9 @@ class TorqueRegion:
     ``centre (p,)`` the commanded point (Chebyshev centre), ``margin`` its radius (``-inf``:
     empty); ``effort_joints`` the joints of ``tau_I``; ``exact`` (see module docstring);
     ``rivals`` labels of the rivals excluded; ``diagnosis`` when empty: the covering rival, the
-    friction corner at which it is feasible and the torque examined.
+    friction corner at which it is feasible and the torque examined; ``open_rows`` the rows of
+    ``A`` that bound the region only because it is open on that side (the box of commands, or
+    a one-sided band's infinite end replaced by the command's ball): no mode boundary there.
     """
 
     claim: str
@@ -101,6 +103,7 @@ class TorqueRegion:
     exact: bool
     rivals: tuple[str, ...] = ()
     diagnosis: dict[str, Any] = field(default_factory=dict)
+    open_rows: tuple[int, ...] = ()
 
     @property
     def empty(self) -> bool:
@@ -224,8 +227,10 @@ def torque_region(system: System, claim: str, mu: Any, *, model: str = "common",
             bounds = np.abs(b) / np.linalg.norm(A, axis=1) if len(b) else np.zeros(0)
         fin = bounds[np.isfinite(bounds)]
         cap = 2.0 * float(np.max(fin)) if fin.size and np.max(fin) > 0 else 1.0
+    open_rows: tuple[int, ...] = ()
     if p:
         A, b = _with_cap(A, b, cap)
+        open_rows = tuple(range(len(b) - 2 * p, len(b)))  # later rows are appended after these
     centre, radius = chebyshev_centre(A, b)
     if not radius > 0:
         return _empty(label, p, E, {"reason": f"{label} is not guaranteed over the friction box "
@@ -269,7 +274,8 @@ def torque_region(system: System, claim: str, mu: Any, *, model: str = "common",
                                                   "is possible at every command"}, exact=False)
         A, b, centre, radius = found
         excluded.append(kin.mode.label)
-    return TorqueRegion(label, A, b, centre, radius, E, exact, tuple(excluded))
+    return TorqueRegion(label, A, b, centre, radius, E, exact, tuple(excluded),
+                        open_rows=open_rows)
 
 
 def _best_option(A: np.ndarray, b: np.ndarray, options: list[tuple[np.ndarray, np.ndarray]]
@@ -308,6 +314,23 @@ def _empty(label: str, p: int, E: tuple[int, ...], diagnosis: dict[str, Any],
                         exact, (), diagnosis)
 
 
+def torque_scale(system: System, E: tuple[int, ...]) -> float:
+    """The size of the effort-controlled joints' commands at which the contacts carry forces of
+    the load's size: ``|f| * l`` (``|f|`` the largest external force on a workpiece, ``l`` the
+    largest ``|J_i e_j|`` over contacts ``i`` and joints ``j`` in ``E`` -- the lever arm of a
+    revolute joint [m], 1 for a prismatic one) plus the largest ``|g_man_j|`` (eq. 3); units of
+    the joints (N m or N).  1 when both are zero: with no load the modes are homogeneous in
+    ``tau_I`` (eqs. 26, 28) and any positive command is as good as another."""
+    if not E:
+        return 1.0
+    f = np.linalg.norm(np.asarray(system.g_obj, dtype=float).reshape(-1, 3)[:, :2], axis=1)
+    J = np.asarray(system.J, dtype=float)[:, list(E)].reshape(-1, 2, len(E))
+    lever = float(np.max(np.linalg.norm(J, axis=1))) if J.size else 0.0
+    man = float(np.max(np.abs(np.asarray(system.g_man, dtype=float)[list(E)])))
+    s = float(np.max(f)) * lever + man
+    return s if s > 0 and np.isfinite(s) else 1.0
+
+
 def _from_band(system: System, claim: str, mu: Any, model: str, tol: float,
                E: tuple[int, ...]) -> TorqueRegion:
     """``p = 1``: the widest piece of today's band (:func:`planner.plan.guarantee.guarantee`)."""
@@ -319,9 +342,10 @@ def _from_band(system: System, claim: str, mu: Any, model: str, tol: float,
     lo, hi = piece.lower, piece.upper
     if np.isfinite(lo) and np.isfinite(hi):
         centre, radius = 0.5 * (lo + hi), 0.5 * (hi - lo)
-    elif np.isfinite(lo) or np.isfinite(hi):  # one-sided: step in by the bound's size
-        end = lo if np.isfinite(lo) else hi
-        step = max(abs(end), 1e-3)
+    elif np.isfinite(lo) or np.isfinite(hi):  # one-sided: step in by the bound's size, or by
+        end = lo if np.isfinite(lo) else hi    # the load's torque scale when the bound is 0
+        scale = torque_scale(system, E)
+        step = abs(end) if abs(end) > tol * scale else scale
         centre, radius = (end + step if np.isfinite(lo) else end - step), step
     else:
         centre, radius = 0.0, 1.0
@@ -329,5 +353,6 @@ def _from_band(system: System, claim: str, mu: Any, model: str, tol: float,
     A = np.array([[1.0], [-1.0]])
     b = np.array([hi if np.isfinite(hi) else centre + radius,
                   -lo if np.isfinite(lo) else -(centre - radius)])
+    open_rows = tuple(k for k, end in enumerate((hi, -lo)) if not np.isfinite(end))
     return TorqueRegion(g.claim, A, b, np.array([centre]), float(radius), E, g.exact,
-                        tuple(g.rivals))
+                        tuple(g.rivals), open_rows=open_rows)
