@@ -12,10 +12,12 @@ What is built (all in the world frame of the system file, metres, no rescaling):
   ``ENV_THICKNESS / 2`` times the scene size) whose flat top is the contact's tangent line. It
   reaches ``ENV_REACH`` times the size past the contact on any side where the workpiece does
   not lie, and only ``ENV_INSET`` times the size under the workpiece, so a workpiece vertex at
-  the contact (a box corner on a table) can lift off or pivot there. Rounded ends rather than a
-  box: MuJoCo's box-box contact of a flat workpiece edge on a box slab stuck and slipped (the
-  box on a table, pushed, moved in jumps of up to 20x the drive speed); on the capsule it slides
-  at the drive speed, as in pymunk;
+  the contact (a box corner on a table) can lift off or pivot there. It touches the workpiece's
+  own feature at the contact (:func:`contact_feature`: a small circle at a vertex, a capsule on
+  an edge), not the whole polygon (MuJoCo's per-edge boxes reach past an acute vertex).
+  Rounded ends rather than a box: MuJoCo's box-box contact of a flat workpiece edge on a box
+  slab stuck and slipped (the box on a table, pushed, moved in jumps of up to 20x the drive
+  speed); on the capsule it slides at the drive speed, as in pymunk;
 * **manipulator contacts**: small driven fingertip circles touching at ``r_i`` and moving with
   the commanded contact velocity ``J_i thetadot = v_in n_i + v_it t_i`` (eq. 5) times
   ``speed_scale`` (slow motion; positive scaling leaves the quasistatic mode set unchanged);
@@ -66,6 +68,45 @@ ENV_INSET = 0.05
 ENV_THICKNESS = 0.1
 #: Mass [kg] of a derived workpiece (no ``workpiece`` key in the file).
 DEFAULT_MASS = 0.1
+#: Radius of a contact's workpiece feature (vertex circle, edge capsule), fraction of size.
+FEATURE_RADIUS = 0.005
+
+
+def contact_feature(r: np.ndarray, n: np.ndarray, poly: np.ndarray, size: float) -> Shape:
+    """The workpiece's side of a contact at ``r`` (2,) with inward normal ``n`` (workpiece
+    frame = world frame at the start), instead of the whole polygon: a circle of radius
+    ``FEATURE_RADIUS * size`` whose surface touches the vertex where the contact sits at a
+    polygon vertex (centre ``v + rho n``), else a capsule of that radius along the polygon
+    edge through ``r`` whose inward normal is ``n``, its surface on the edge line.
+
+    Why not the polygon: MuJoCo builds a polygon as one thin box per edge, and at a vertex of
+    interior angle ``theta < 90 deg`` an edge's box reaches past the neighbouring edge by
+    ``h cos theta`` (``h`` the box's thickness): a triangle on a table rested on a box corner
+    1.5 mm below its vertex and turned (docs/simulation.md, "A contact's workpiece feature").
+    The hand scenes pair their tips and vertices the same way (:mod:`sim.scenes.hand`)."""
+    rho = FEATURE_RADIUS * size
+    tol = 1e-6 * size
+    n = np.asarray(n, dtype=float) / float(np.linalg.norm(n))
+    d = np.linalg.norm(poly - r, axis=1)
+    k = int(np.argmin(d))
+    nxt = np.roll(poly, -1, axis=0)
+    edges = nxt - poly
+    length = np.linalg.norm(edges, axis=1)
+    inward = np.stack([-edges[:, 1], edges[:, 0]], axis=1) / length[:, None]
+    along = np.einsum("ij,ij->i", r - poly, edges) / length
+    off = np.abs(np.einsum("ij,ij->i", r - poly, inward))
+    on_edge = (off <= tol) & (along >= -tol) & (along <= length + tol)
+    same = np.linalg.norm(inward - n, axis=1) <= 1e-6
+    cand = np.flatnonzero(on_edge & same)
+    if d[k] > tol and len(cand):
+        e = int(cand[0])
+        a, b = poly[e] + rho * n, nxt[e] + rho * n
+        return Capsule((float(a[0]), float(a[1])), (float(b[0]), float(b[1])), rho)
+    if d[k] <= tol:
+        c = poly[k] + rho * n
+        return Circle((float(c[0]), float(c[1])), rho)
+    raise InputError(f"contact at {r.tolist()}: expected a polygon vertex or a point on an edge "
+                     f"with inward normal {n.tolist()}, got neither")
 
 
 def _polygon_inertia(poly: np.ndarray, com: np.ndarray, mass: float) -> float:
@@ -147,8 +188,14 @@ def system_scene(system: System, *, speed_scale: float = 1.0,
     inertia = _polygon_inertia(poly, com, mass)
     # body frame = world frame at the start: the recorded pose is then the workpiece point at
     # the world origin, whose velocity is the planner's qdot (docs/conventions.md)
-    work = Body("workpiece", (Polygon(tuple(map(tuple, poly.tolist()))),), mass=mass,
-                com=(float(com[0]), float(com[1])), inertia=inertia, pose=(0.0, 0.0, 0.0))
+    # environment contacts touch their own feature (contact_feature); fingers and links the
+    # polygon (index 0), exact in pymunk and, away from an acute vertex, in MuJoCo
+    env_ids = [i for i in range(n_c) if env[i]]
+    features = [contact_feature(pts[i], nrm[i], poly, size) for i in env_ids]
+    feature_of = {i: 1 + k for k, i in enumerate(env_ids)}
+    work = Body("workpiece", (Polygon(tuple(map(tuple, poly.tolist()))), *features),
+                mass=mass, com=(float(com[0]), float(com[1])), inertia=inertia,
+                pose=(0.0, 0.0, 0.0))
     radius = FINGER_RADIUS * size
     bodies = [work]
     pairs = []
@@ -179,7 +226,7 @@ def system_scene(system: System, *, speed_scale: float = 1.0,
                                kind=BodyKind.DRIVEN,
                                twist=constant_twist((float(v_world[0]), float(v_world[1]), 0.0))))
         muk = None if mu_kinetic is None else float(mu_kinetic[i])
-        pairs.append(ContactPair(f"c{i + 1}", name, "workpiece",
+        pairs.append(ContactPair(f"c{i + 1}", name, "workpiece", shape_b=feature_of.get(i, 0),
                                  mu_static=float(system.mu[i]), mu_kinetic=muk))
     g = np.asarray(system.g_obj, dtype=float)
     moment = float(g[2] - (com[0] * g[1] - com[1] * g[0]))
