@@ -30,7 +30,12 @@ from planner.files.system_file import system_from_dict
 from planner.predict.feasibility import feasible_modes
 from sim.compare import Outcome
 from sim.scene import Capsule, Circle
-from sim.scenes.system import FEATURE_RADIUS, contact_feature, system_scene
+from sim.scenes.system import (
+    FEATURE_RADIUS,
+    contact_feature,
+    near_acute_vertex,
+    system_scene,
+)
 from sim.system_run import simulate_system
 
 WEIGHT = 0.981
@@ -73,6 +78,15 @@ def test_features_touch_where_the_contact_is() -> None:
     assert np.allclose([e.a, e.b], [[0.0, rho], [0.1, rho]])  # surface on the edge line
     with pytest.raises(InputError, match="expected a polygon vertex or a point on an edge"):
         contact_feature(np.array([0.05, 0.0]), np.array([1.0, 0.0]), poly, size)
+
+
+def test_only_contacts_at_acute_vertices_need_a_feature() -> None:
+    box = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    tri = np.array(POLY)
+    assert not near_acute_vertex(np.array([0.0, 0.0]), box, 1.0)  # 90 deg: no stick-out
+    assert not near_acute_vertex(np.array([0.5, 0.0]), box, 1.0)
+    assert near_acute_vertex(np.array([0.1, 0.0]), tri, 0.07)  # the 41 deg vertex
+    assert near_acute_vertex(np.array([0.05, 0.0]), tri, 0.07)  # an edge ending at one
 
 
 def test_environment_contacts_pair_with_their_feature_fingers_with_the_polygon() -> None:

@@ -72,6 +72,24 @@ DEFAULT_MASS = 0.1
 FEATURE_RADIUS = 0.005
 
 
+def near_acute_vertex(r: np.ndarray, poly: np.ndarray, size: float) -> bool:
+    """True when the contact at ``r`` sits at, or on an edge ending at, a vertex of interior
+    angle below 90 deg -- where MuJoCo's per-edge boxes reach past the polygon
+    (:func:`contact_feature`); elsewhere the polygon is exact in both engines."""
+    tol = 1e-6 * size
+    prv, nxt = np.roll(poly, 1, axis=0), np.roll(poly, -1, axis=0)
+    u, w = prv - poly, nxt - poly
+    acute = np.einsum("ij,ij->i", u, w) > 1e-9 * np.linalg.norm(u, axis=1) * np.linalg.norm(
+        w, axis=1)  # cos(theta) > 0
+    edges = nxt - poly
+    length = np.linalg.norm(edges, axis=1)
+    along = np.einsum("ij,ij->i", r - poly, edges) / length
+    d = r - poly
+    off = np.abs(edges[:, 0] * d[:, 1] - edges[:, 1] * d[:, 0]) / length
+    on = (off <= tol) & (along >= -tol) & (along <= length + tol)  # r on edge k -> k+1
+    return bool(np.any(on & (acute | np.roll(acute, -1))))
+
+
 def contact_feature(r: np.ndarray, n: np.ndarray, poly: np.ndarray, size: float) -> Shape:
     """The workpiece's side of a contact at ``r`` (2,) with inward normal ``n`` (workpiece
     frame = world frame at the start), instead of the whole polygon: a circle of radius
@@ -190,7 +208,7 @@ def system_scene(system: System, *, speed_scale: float = 1.0,
     # the world origin, whose velocity is the planner's qdot (docs/conventions.md)
     # environment contacts touch their own feature (contact_feature); fingers and links the
     # polygon (index 0), exact in pymunk and, away from an acute vertex, in MuJoCo
-    env_ids = [i for i in range(n_c) if env[i]]
+    env_ids = [i for i in range(n_c) if env[i] and near_acute_vertex(pts[i], poly, size)]
     features = [contact_feature(pts[i], nrm[i], poly, size) for i in env_ids]
     feature_of = {i: 1 + k for k, i in enumerate(env_ids)}
     work = Body("workpiece", (Polygon(tuple(map(tuple, poly.tolist()))), *features),
