@@ -97,6 +97,17 @@ class Schedule:
             return Mode.parse(label, n_contacts)
 
         claim = parse(plan.claim)
+        controls = tuple(plan.control)
+        commands: tuple[tuple[float, ...], ...] = ()
+        if plan.waypoints and getattr(plan.waypoints[0], "velocity_commands", ()):
+            # a task plan's segment: one command per joint, in joint order (several velocity-
+            # or effort-controlled joints; the single fields hold only the first of each)
+            rows = []
+            for w in plan.waypoints:
+                vel, tau = iter(w.velocity_commands), iter(w.torque_commands)
+                rows.append(tuple(float(next(vel) if c == "velocity" else next(tau))
+                                  for c in controls))
+            commands = tuple(rows)
         return cls(
             times=tuple(float(w.t) for w in plan.waypoints),
             velocity=tuple(float(w.velocity_command) for w in plan.waypoints),
@@ -104,9 +115,10 @@ class Schedule:
             poses=tuple((float(w.pose[0]), float(w.pose[1]), float(w.pose[2]))
                         for w in plan.waypoints),
             claim=claim,
-            controls=tuple(plan.control),
+            controls=controls,
             predicted=tuple(frozenset(parse(lab) for lab in w.predicted) or frozenset({claim})
                             for w in plan.waypoints),
+            commands=commands,
         )
 
     @classmethod

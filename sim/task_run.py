@@ -26,6 +26,7 @@ larger than 2 % of the segment's travel).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -51,14 +52,15 @@ class TaskRun:
     recording: Recording | None = None
 
 
-def run_task(plan: TaskPlanFile, engine: str, mu: float, *,
+def run_task(plan: TaskPlanFile, engine: str, mu: float | Sequence[float], *,
              settings: EngineSettings | None = None) -> TaskRun:
-    """Run ``plan`` in ``engine`` at friction ``mu`` (every contact) as one continuous
-    simulation, and judge every segment and the whole (module docstring)."""
+    """Run ``plan`` in ``engine`` at friction ``mu`` (every contact, or one per contact of the
+    hand) as one continuous simulation, and judge every segment and the whole (module
+    docstring)."""
     import time
 
     from sim.backends import make_backend
-    from sim.hand_run import contact_drive_speed, hand_engine_settings
+    from sim.hand_run import contact_drive_speed, effort_force, hand_engine_settings
     from sim.run import RunSettings, run_scene
     from sim.scenes.hand import hand_scene
     from sim.task_scene import task_layout
@@ -66,7 +68,11 @@ def run_task(plan: TaskPlanFile, engine: str, mu: float, *,
     check_engine(engine)
     lay = task_layout(plan)
     hand = lay.hand
-    es = settings or hand_engine_settings(hand, engine)
+    # MuJoCo's masses follow the largest squeeze of any segment's effort joints (as in
+    # run_schedule), with each segment's own commands
+    squeeze = max(effort_force(h, q, s.controls, s.joint_commands())
+                  for h, q, s in zip(lay.hands, lay.q_starts, lay.schedules))
+    es = settings or hand_engine_settings(hand, engine, squeeze)
     controls = lay.schedules[0].controls
     scene = hand_scene(hand, lay.q0, mu, controls, lay.commands(es.ramp),
                        mass_scale=es.mass_scale, site_configs=lay.site_configs,
@@ -120,7 +126,8 @@ def run_task(plan: TaskPlanFile, engine: str, mu: float, *,
     whole = _whole(plan, verdicts, final_pose)
     summary: dict[str, Any] = {
         "task": "whole-task plan validation (one continuous simulation)",
-        "engine": engine, "mu": mu, **whole.to_dict(), "segments": rows,
+        "engine": engine, "mu": mu if isinstance(mu, (int, float)) else [float(x) for x in mu],
+        **whole.to_dict(), "segments": rows,
         "settings": {"dt": es.dt, "mass_scale": es.mass_scale, "ramp": es.ramp,
                      "steps": len(rec.times), "wall_time_s": wall,
                      "pairs": {f"c{i + 1}": c for i, c in enumerate(_union_dicts(plan))},

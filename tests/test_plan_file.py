@@ -183,8 +183,12 @@ def test_cli_plan_per_contact_intervals(tmp_path, capsys):
     plan = load_plan(out)
     assert plan.mu_model == "independent"
     assert plan.mu_intervals == ((0.0, 0.2), (0.0, 0.1), (0.0, 0.3), (0.0, 0.2))
+    # without --model: per-contact intervals are what was asked for (the default there)
     rc = main(["plan", "two_finger_hand", "--mu", "0:0.2,0:0.1,0:0.3,0:0.2", "--waypoints", "3",
                "--out", str(tmp_path / "q.json")])
+    assert rc == 0 and load_plan(tmp_path / "q.json").mu_model == "independent"
+    rc = main(["plan", "two_finger_hand", "--mu", "0:0.2,0:0.1,0:0.3,0:0.2", "--model", "common",
+               "--waypoints", "3", "--out", str(tmp_path / "r.json")])
     assert rc == 2 and "independent" in capsys.readouterr().err
 
 

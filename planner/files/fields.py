@@ -113,3 +113,27 @@ def boolean(value: Any, where: str) -> bool:
     if not isinstance(value, bool):
         raise FileFormatError(f"{where}: expected true or false, got {type_name(value)}")
     return value
+
+
+def friction_values(value: Any, where: str, n_c: int) -> tuple[float | tuple[float, ...], ...]:
+    """A list of friction values, each a coefficient ``>= 0`` (every contact) or a list of
+    ``n_c`` of them (one per contact), e.g. a plan's ``mu.validate``."""
+    if not isinstance(value, list):
+        raise FileFormatError(f"{where}: expected a list of numbers or of lists of {n_c} "
+                              f"numbers, got {type_name(value)}")
+    def coefficient(x: Any, at: str) -> float:
+        c = number(x, at)
+        if c < 0:
+            raise FileFormatError(f"{at}: expected coefficients >= 0, got {short(x)}")
+        return c
+
+    out: list[float | tuple[float, ...]] = []
+    for i, m in enumerate(value):
+        if isinstance(m, list):
+            if len(m) != n_c:
+                raise FileFormatError(f"{where}[{i}]: expected {n_c} coefficients (one per "
+                                      f"contact), got {len(m)}")
+            out.append(tuple(coefficient(x, f"{where}[{i}][{k}]") for k, x in enumerate(m)))
+        else:
+            out.append(coefficient(m, f"{where}[{i}]"))
+    return tuple(out)

@@ -127,3 +127,35 @@ def unit_normal(value: Any, name: str) -> np.ndarray:
     if abs(norm - 1.0) > NORMAL_TOL:
         raise InputError(f"{name}: expected a unit normal (|n| = 1), got |n| = {norm:.6g}")
     return n / norm
+
+
+#: One simulation's friction: one coefficient for every contact, or one per contact.
+FrictionValue = float | tuple[float, ...]
+
+
+def validation_frictions(listed: Sequence[FrictionValue], lo: Any, hi: Any
+                         ) -> tuple[FrictionValue, ...]:
+    """Friction values to simulate a plan at, each a number (every contact) or a per-contact
+    tuple.
+
+    ``listed``: the hand file's ``mu.validate`` values; ``lo``, ``hi``: the planned interval per
+    contact (arrays ``(n_c,)``). The listed values that lie in every contact's interval; when
+    none does (none listed, or the plan was made for another interval with ``--mu``): with one
+    interval for all contacts its ends and middle, else the friction box's lower corner, centre
+    and upper corner (per-contact tuples): every one is covered by the plan's guarantee.
+    """
+    lo_a, hi_a = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
+
+    def inside(m: FrictionValue) -> bool:
+        v = np.broadcast_to(np.asarray(m, dtype=float), lo_a.shape)
+        return bool(np.all(v >= lo_a - 1e-12) and np.all(v <= hi_a + 1e-12))
+
+    kept = tuple(m if isinstance(m, (int, float)) else tuple(float(x) for x in m)
+                 for m in listed if inside(m))
+    if kept:
+        return tuple(float(m) if isinstance(m, (int, float)) else m for m in kept)
+    if np.all(lo_a == lo_a[0]) and np.all(hi_a == hi_a[0]):
+        a, b = float(lo_a[0]), float(hi_a[0])
+        return tuple(sorted({a, 0.5 * (a + b), b}))
+    mid = 0.5 * (lo_a + hi_a)
+    return tuple(tuple(float(x) for x in v) for v in (lo_a, mid, hi_a))

@@ -30,9 +30,10 @@ import numpy as np
 
 from planner.errors import FileFormatError, InputError
 from planner.files.atomic import atomic_write_text
-from planner.files.fields import check_keys
+from planner.files.fields import check_keys, friction_values
 from planner.files.hand_file import HandSetup, hand_from_plan
 from planner.files.reader import parse_json, read_json
+from planner.model.validation import FrictionValue
 
 PLAN_FORMAT = "qsplan-plan"
 PLAN_VERSION = 1
@@ -100,9 +101,9 @@ class Plan:
     guarantees (e.g. ``"S+1 S+2 S-3 S-4"``); ``control``: per joint ``"velocity"`` or
     ``"effort"`` (Section 3.2 partition); ``mu_model`` (``common``/``independent``) and
     ``mu_intervals`` (per contact ``(lo, hi)``); ``validate_mu``: friction values the plan is
-    meant to be validated at; ``policy``: how torques were chosen; ``event``: why the segment
-    ends (``kind``, ``detail``, ``t``); ``exact``: bounds from the exact mu-dependence;
-    ``notes``: free text.
+    meant to be validated at (a coefficient for every contact, or a per-contact tuple);
+    ``policy``: how torques were chosen; ``event``: why the segment ends (``kind``,
+    ``detail``, ``t``); ``exact``: bounds from the exact mu-dependence; ``notes``: free text.
     """
 
     hand: Mapping[str, Any]
@@ -110,7 +111,7 @@ class Plan:
     control: tuple[str, ...]
     mu_model: str
     mu_intervals: tuple[tuple[float, float], ...]
-    validate_mu: tuple[float, ...]
+    validate_mu: tuple[FrictionValue, ...]
     policy: str
     event: Mapping[str, Any]
     waypoints: tuple[Waypoint, ...]
@@ -163,7 +164,8 @@ class Plan:
             "control": list(self.control),
             "mu": {"model": self.mu_model,
                    "intervals": [list(iv) for iv in self.mu_intervals],
-                   "validate": list(self.validate_mu)},
+                   "validate": [m if isinstance(m, float) else list(m)
+                                for m in self.validate_mu]},
             "policy": self.policy,
             "event": dict(self.event),
             "exact": self.exact,
@@ -344,9 +346,7 @@ def plan_from_body(data: dict[str, Any], *, any_control: bool = False) -> Plan:
     ivs = tuple(_nums(iv, f"mu.intervals[{i}]", 2) for i, iv in enumerate(ivs_raw))
     if any(lo < 0 or lo > hi for lo, hi in ivs):
         raise FileFormatError(f"mu.intervals: expected 0 <= lo <= hi, got {_short(ivs_raw)}")
-    val = _nums(_get(mu, "validate", "mu"), "mu.validate")
-    if any(m < 0 for m in val):
-        raise FileFormatError(f"mu.validate: expected coefficients >= 0, got {list(val)}")
+    val = friction_values(_get(mu, "validate", "mu"), "mu.validate", len(ivs))
     hand = _get(data, "hand", "plan")
     if not isinstance(hand, dict):
         raise FileFormatError(f"hand: expected an object, got {_short(hand)}")

@@ -32,7 +32,7 @@ import numpy as np
 from planner.errors import DegenerateError, InputError
 from planner.files.hand_file import load_hand
 from planner.model.hand import Hand
-from planner.model.validation import friction_interval
+from planner.model.validation import friction_interval, validation_frictions
 from planner.plan.bounds import mode_bands
 from planner.plan.guarantee import Guarantee, guarantee
 from planner.plan.intervals import EMPTY, Interval, subtract
@@ -147,8 +147,11 @@ def plan_hand(
     mu_spec = data.get("mu", {})
     if mu is None:
         mu = tuple(mu_spec.get("interval", (0.0, 0.0)))
-    if validate_mu is None:
-        validate_mu = mu_spec.get("validate", [])
+    listed_validate = mu_spec.get("validate", []) if validate_mu is None else validate_mu
+    seg_spec = dict(seg_spec)
+    for key in ("drive", "speed"):  # one driven joint may be written as a one-element list
+        if isinstance(seg_spec.get(key), list) and len(seg_spec[key]) == 1:
+            seg_spec[key] = seg_spec[key][0]
     if hand.n_joints != 2 or isinstance(seg_spec.get("drive"), list):
         raise InputError(
             f"{path.name}: plan files (qsplan-plan version 1) hold one velocity- and one "
@@ -223,7 +226,7 @@ def plan_hand(
         control=control_t,
         mu_model=model,
         mu_intervals=tuple((float(a), float(b)) for a, b in zip(mu_lo, mu_hi)),
-        validate_mu=tuple(float(x) for x in validate_mu),
+        validate_mu=validation_frictions(listed_validate, mu_lo, mu_hi),
         policy=policy,
         event={"kind": seg.event.kind, "detail": seg.event.detail, "t": seg.event.t},
         waypoints=tuple(wps),

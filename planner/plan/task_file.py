@@ -36,7 +36,7 @@ from planner.files.hand_goal import Goal
 from planner.files.reader import read_json
 from planner.model.hand import Hand
 from planner.model.modes import Mode
-from planner.model.validation import friction_interval
+from planner.model.validation import FrictionValue, friction_interval, validation_frictions
 from planner.plan.plan_file import (
     PLAN_FORMAT,
     PLAN_VERSION,
@@ -94,7 +94,7 @@ class TaskPlanFile:
     diagnosis: Mapping[str, Any] | None
     mu_model: str
     mu_intervals: tuple[tuple[float, float], ...]
-    validate_mu: tuple[float, ...]
+    validate_mu: tuple[FrictionValue, ...]
     policy: str = "chebyshev"
     exact: bool = True
     notes: str = ""
@@ -116,7 +116,8 @@ class TaskPlanFile:
                          "waypoints": [w.to_dict() for w in p.waypoints]})
         return {"format": PLAN_FORMAT, "version": TASK_PLAN_VERSION,
                 "mu": {"model": self.mu_model, "intervals": [list(iv) for iv in self.mu_intervals],
-                       "validate": list(self.validate_mu)},
+                       "validate": [m if isinstance(m, float) else list(m)
+                                    for m in self.validate_mu]},
                 "policy": self.policy, "exact": self.exact, "notes": self.notes,
                 "extra": dict(self.extra), "hand": self.hand, "reached": self.reached,
                 "diagnosis": None if self.diagnosis is None else dict(self.diagnosis),
@@ -129,7 +130,7 @@ class TaskPlanFile:
 
 
 def _segment_plan(step: TaskStep, root: Hand, hand: Mapping[str, Any], mu_model: str,
-                  mu_iv: tuple[tuple[float, float], ...], validate: tuple[float, ...]
+                  mu_iv: tuple[tuple[float, float], ...], validate: tuple[FrictionValue, ...]
                   ) -> tuple[Plan, tuple[dict[str, Any], ...], tuple[dict[str, Any], ...]]:
     rp = step.plan
     n = root.n_joints
@@ -158,7 +159,8 @@ def _segment_plan(step: TaskStep, root: Hand, hand: Mapping[str, Any], mu_model:
 
 
 def task_plan_file(tp: TaskPlan, hand: Hand, data: Mapping[str, Any], mu_lo: Any, mu_hi: Any,
-                   validate_mu: tuple[float, ...] = (), notes: str = "") -> TaskPlanFile:
+                   validate_mu: tuple[FrictionValue, ...] = (), notes: str = ""
+                   ) -> TaskPlanFile:
     """The file content of a :class:`TaskPlan` for the hand file ``data`` (its ``hand``)
     planned over the friction interval ``[mu_lo, mu_hi]`` (one value, as the task planner's
     contact sets change; per-contact intervals are not carried across sets)."""
@@ -336,5 +338,6 @@ def plan_hand_task(path: str | os.PathLike[str], *, mu: Any = None, model: str =
     else:
         raise InputError(f"{Path(path).name}: expected a 'goal' or a 'segment' section to "
                          "plan, got neither")
-    return task_plan_file(tp, hf.hand, hf.data, lo, hi, hf.validate_mu,
+    return task_plan_file(tp, hf.hand, hf.data, lo, hi,
+                          validation_frictions(hf.validate_mu, lo, hi),
                           notes=f"source {Path(path).name}; " + "; ".join(tp.notes))

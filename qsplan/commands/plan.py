@@ -36,8 +36,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("scenario", help="hand file or scenario name (e.g. two_finger_hand)")
     p.add_argument("--mu", help="friction interval LO:HI (e.g. 0:0.2), or one LO:HI per contact "
                    "separated by commas; default from the hand file")
-    p.add_argument("--model", default="common", choices=("common", "independent"),
-                   help="one coefficient for all contacts (paper) or one per contact")
+    p.add_argument("--model", default=None, choices=("common", "independent"),
+                   help="one coefficient for all contacts (paper) or one per contact; default "
+                        "common, or independent when the intervals differ per contact")
     p.add_argument("--policy", default="midband",
                    help="torque choice: midband, constant, or rival:MODE (negative control)")
     p.add_argument("--control", default="auto",
@@ -78,6 +79,8 @@ def run(args: argparse.Namespace) -> int:
     if args.waypoints is not None:
         check_int(args.waypoints, "--waypoints", 2, MAX_WAYPOINTS)
     t0 = time.perf_counter()
+    if args.model is None:
+        args.model = _default_model(mu, shipped_file(args.scenario))
     if _is_task(shipped_file(args.scenario)):
         return _run_task(args, mu, t0)
     with contextlib.ExitStack() as stack:
@@ -123,6 +126,20 @@ def _int(text: str, name: str) -> int:
         return int(text)
     except ValueError:
         raise InputError(f"{name}: expected an integer or 'auto', got {text!r}") from None
+
+
+def _default_model(mu: object, path: Path) -> str:
+    """``common`` unless the friction intervals (``--mu``, else the hand file's) differ per
+    contact: then one coefficient per contact (``independent``) is what the file describes."""
+    from planner.files.hand_file import load_hand_file
+
+    if mu is None:
+        intervals = [tuple(p) for p in load_hand_file(path).mu_interval or ()]
+    elif isinstance(mu, list):
+        intervals = [tuple(p) for p in mu]
+    else:
+        intervals = [tuple(mu)]  # type: ignore[arg-type]
+    return "independent" if len(set(intervals)) > 1 else "common"
 
 
 def _is_task(path: Path) -> bool:

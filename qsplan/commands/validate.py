@@ -13,6 +13,7 @@ import argparse
 from pathlib import Path
 
 from planner.errors import InputError
+from planner.model.validation import FrictionValue
 from qsplan.options import MU_MAX, fmt, parse_numbers
 from sim.backends import ENGINES
 
@@ -36,8 +37,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("plan", help="plan file (JSON; see docs/plan-format.md)")
     p.add_argument("--engine", default="pymunk", help="pymunk or mujoco")
     p.add_argument("--mu", default=None,
-                   help="friction coefficient(s) to simulate: one number, or comma-separated "
-                        "values (each its own run); default: the plan's mu.validate list")
+                   help="friction to simulate: one number, or comma-separated values (each "
+                        "its own run); a run with one coefficient per contact is written "
+                        "a/b/c/...; default: the plan's mu.validate list")
     p.add_argument("--out", help="output folder: summary.json, timeline.png and animation.gif "
                                  "per run (subfolders mu_<value> when several); written "
                                  "into place only when every run has finished")
@@ -48,12 +50,30 @@ def register(sub: argparse._SubParsersAction) -> None:
 MAX_RUNS = 100
 
 
-def parse_mu_list(text: str) -> list[float]:
-    """``"0.1"`` or ``"0,0.1,0.2"`` -> coefficients (finite, >= 0)."""
-    out = parse_numbers(text, "--mu", lo=0.0, hi=MU_MAX)
+def parse_mu_list(text: str) -> list[FrictionValue]:
+    """``"0.1"`` or ``"0,0.1,0.2"`` -> coefficients (finite, >= 0), one run each; a run written
+    ``"0.1/0.2/0.3"`` has one coefficient per contact (checked against the plan's contacts)."""
+    out: list[FrictionValue] = []
+    for run in str(text).split(","):
+        vals = parse_numbers(run.replace("/", ","), "--mu", lo=0.0, hi=MU_MAX) if run.strip() \
+            else parse_numbers(text, "--mu")  # an empty run: the comma-list error
+        out.append(vals[0] if "/" not in run else tuple(vals))
     if len(out) > MAX_RUNS:
         raise InputError(f"--mu: expected at most {MAX_RUNS} values, got {len(out)}")
     return out
+
+
+def mu_text(mu: FrictionValue) -> str:
+    """``0.1`` or ``0.1/0.2/0.3`` (per contact): as printed, and in folder names."""
+    return fmt(mu) if isinstance(mu, (int, float)) else "/".join(fmt(x) for x in mu)
+
+
+def check_contacts(mus: list[FrictionValue], n_c: int) -> None:
+    """Per-contact values must have one coefficient per contact of the plan's hand."""
+    for m in mus:
+        if not isinstance(m, (int, float)) and len(m) != n_c:
+            raise InputError(f"--mu: expected {n_c} coefficients (one per contact) in "
+                             f"{mu_text(m)!r}, got {len(m)}")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -71,7 +91,7 @@ def run(args: argparse.Namespace) -> int:
     return _run(args, path, mus, None)
 
 
-def _run(args: argparse.Namespace, path: Path, mus: list[float] | None,
+def _run(args: argparse.Namespace, path: Path, mus: list[FrictionValue] | None,
          work: Path | None) -> int:
     """Validate the plan at ``path``; outputs go to ``work`` (the staging folder of --out)."""
     from planner.files.reader import read_json
@@ -83,6 +103,7 @@ def _run(args: argparse.Namespace, path: Path, mus: list[float] | None,
         return _run_task(args, path, mus, work)
     plan = load_plan(path)  # FileFormatError (a ValueError) -> exit 2 in cli.main
     mus = _mu_values(mus, plan.validate_mu)
+    check_contacts(mus, len(plan.mu_intervals))
     from sim.compare import Outcome
     from sim.hand_run import run_plan
 
@@ -90,31 +111,34 @@ def _run(args: argparse.Namespace, path: Path, mus: list[float] | None,
     for mu in mus:
         out = None
         if work is not None:
-            out = work if len(mus) == 1 else work / f"mu_{fmt(mu)}"
+            out = work if len(mus) == 1 else work / f"mu_{mu_text(mu).replace('/', '-')}"
         res = run_plan(plan, args.engine, mu, out, render=not args.no_render)
         v = res.verdict
         statuses.append(v.outcome)
         wall = f"[{res.summary['settings']['wall_time_s']:.1f} s]"
         if v.plan is not None:
             pm = v.plan
-            print(f"{args.engine} mu={fmt(mu)}: {v.outcome.value.upper()}  "
+            print(f"{args.engine} mu={mu_text(mu)}: {v.outcome.value.upper()}  "
                   f"claim {pm.claim.label!r} observed {pm.claim_fraction:.1%} (predicted modes "
                   f"{pm.predicted_fraction:.1%}), final position "
                   f"{pm.final_error_of_travel:.2%} of travel {wall}")
         else:
-            print(f"{args.engine} mu={fmt(mu)}: {v.outcome.value.upper()} {wall}")
+            print(f"{args.engine} mu={mu_text(mu)}: {v.outcome.value.upper()} {wall}")
         if v.outcome is not Outcome.AGREED:
             for r in v.reasons:
                 print(f"    {r}")
     return _exit_code(statuses)
 
 
-def _mu_values(mus: list[float] | None, validate_mu: tuple[float, ...]) -> list[float]:
+def _mu_values(mus: list[FrictionValue] | None, validate_mu: tuple[FrictionValue, ...]
+               ) -> list[FrictionValue]:
     """``--mu`` values, else the plan's ``mu.validate`` list (an error when it is empty)."""
     if mus is None:
         mus = list(validate_mu)
         if not mus:
-            raise InputError("--mu: the plan lists no mu.validate values; expected --mu VALUE")
+            raise InputError("--mu: the plan lists no mu.validate values (its per-contact "
+                             "friction intervals share no single coefficient, and a run uses "
+                             "one for every contact); expected --mu VALUE")
     return mus
 
 
@@ -127,7 +151,7 @@ def _exit_code(statuses: list) -> int:
     return 0 if all(s is Outcome.AGREED for s in statuses) else 1
 
 
-def _run_task(args: argparse.Namespace, path: Path, mus: list[float] | None,
+def _run_task(args: argparse.Namespace, path: Path, mus: list[FrictionValue] | None,
               work: Path | None) -> int:
     """A version-2 plan: one continuous simulation of the whole task (:mod:`sim.task_run`),
     a verdict per segment and for the whole."""
@@ -136,6 +160,7 @@ def _run_task(args: argparse.Namespace, path: Path, mus: list[float] | None,
 
     plan = load_task_plan(path)
     mus = _mu_values(mus, plan.validate_mu)
+    check_contacts(mus, len(plan.segments[0].mu_intervals))
     from sim.compare import Outcome
     from sim.task_run import run_task
 
@@ -143,7 +168,7 @@ def _run_task(args: argparse.Namespace, path: Path, mus: list[float] | None,
     for mu in mus:
         res = run_task(plan, args.engine, mu)
         statuses.append(res.whole.outcome)
-        print(f"{args.engine} mu={fmt(mu)}: {res.whole.outcome.value.upper()} (whole task, "
+        print(f"{args.engine} mu={mu_text(mu)}: {res.whole.outcome.value.upper()} (whole task, "
               f"{len(res.verdicts)} of {len(plan.segments)} segments run)")
         for row, v in zip(res.summary["segments"], res.verdicts):
             pm = v.plan
@@ -155,7 +180,7 @@ def _run_task(args: argparse.Namespace, path: Path, mus: list[float] | None,
             for r in res.whole.reasons:
                 print(f"    {r}")
         if work is not None:
-            out = work if len(mus) == 1 else work / f"mu_{fmt(mu)}"
+            out = work if len(mus) == 1 else work / f"mu_{mu_text(mu).replace('/', '-')}"
             out.mkdir(parents=True, exist_ok=True)
             atomic_write_json(out / "summary.json", res.summary)
     return _exit_code(statuses)
