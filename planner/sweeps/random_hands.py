@@ -72,7 +72,18 @@ def mirror_hand(d: dict[str, Any]) -> dict[str, Any]:
     speeds = seg["speed"] if isinstance(seg["speed"], list) else [seg["speed"]]
     seg["drive"] = drives
     seg["speed"] = [-s if revolute[j] else s for j, s in zip(drives, speeds)]
-    d.pop("goal", None)
+    goal = d.get("goal")
+    if goal is not None:  # the goal pose and grasp, mirrored the same way
+        if "pose" in goal:
+            x, y, th = goal["pose"]
+            goal["pose"] = [-x, y, -th]
+        for c in goal.get("contacts", []):
+            if "vertex" in c:
+                c["vertex"] = n - 1 - c["vertex"]
+            if "edge" in c:
+                c["edge"] = (n - 2 - c["edge"]) % n
+            if c.get("kind") == "side":
+                c["side"] = -c.get("side", 1)
     return d
 
 
