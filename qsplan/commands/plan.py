@@ -104,8 +104,9 @@ def run(args: argparse.Namespace) -> int:
     if not quiet:
         m = plan.margins()
         print(f"plan: {path}  ({len(plan.waypoints)} waypoints, {time.perf_counter() - t0:.2f} s)")
-        ivs = sorted({tuple(iv) for iv in plan.mu_intervals})
-        mu_text = " ".join(f"[{fmt(a)}, {fmt(b)}]" for a, b in ivs)
+        ivs = [tuple(iv) for iv in plan.mu_intervals]  # per contact, in contact order
+        mu_text = " ".join(f"[{fmt(a)}, {fmt(b)}]" for a, b in (ivs if len(set(ivs)) > 1
+                                                              else ivs[:1]))
         print(f"  claim {plan.claim}; control {', '.join(plan.control)}; mu {plan.mu_model} "
               f"{mu_text}; policy {plan.policy}")
         print(f"  segment ends at t = {fmt(plan.event['t'], '.3g')} s: {plan.event['kind']} "
