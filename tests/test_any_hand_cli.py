@@ -72,6 +72,9 @@ def test_per_contact_intervals_plan_and_validate_per_contact(tmp_path, capsys) -
     assert "mu=0.05/0.1/0.15/0.1: AGREED" in capsys.readouterr().out
     assert main(["validate", str(plan_path), "--engine", "pymunk", "--mu", "0.05/0.1"]) == 2
     assert "expected 4 coefficients (one per contact)" in capsys.readouterr().err
+    for bad, msg in [("0.1/", "joined by '/'"), ("0.1/x/0.1/0.1", "got 'x' in")]:
+        assert main(["validate", str(plan_path), "--mu", bad]) == 2
+        assert msg in capsys.readouterr().err
 
 
 def test_one_driven_joint_may_be_written_as_a_list(tmp_path) -> None:

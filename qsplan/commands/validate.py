@@ -14,7 +14,7 @@ from pathlib import Path
 
 from planner.errors import InputError
 from planner.model.validation import FrictionValue
-from qsplan.options import MU_MAX, fmt, parse_numbers
+from qsplan.options import MU_MAX, fmt, parse_number
 from sim.backends import ENGINES
 
 
@@ -53,10 +53,22 @@ MAX_RUNS = 100
 def parse_mu_list(text: str) -> list[FrictionValue]:
     """``"0.1"`` or ``"0,0.1,0.2"`` -> coefficients (finite, >= 0), one run each; a run written
     ``"0.1/0.2/0.3"`` has one coefficient per contact (checked against the plan's contacts)."""
+    want = ("comma-separated runs, each a coefficient or per-contact coefficients joined by "
+            "'/' (e.g. 0.1,0.2 or 0.1/0.2/0.1/0.1)")
+    runs = str(text).split(",")
+    if any(not r.strip() or any(not p.strip() for p in r.split("/")) for r in runs):
+        raise InputError(f"--mu: expected {want}, got {text!r}")
+    for tok in (p.strip() for r in runs for p in r.split("/")):
+        try:
+            float(tok)
+        except ValueError:
+            raise InputError(f"--mu: expected comma-separated numbers, got {tok!r}"
+                             + (f" in {text!r}" if tok != str(text).strip() else "")
+                             + " (a run with one coefficient per contact joins them with "
+                               "'/')") from None
     out: list[FrictionValue] = []
-    for run in str(text).split(","):
-        vals = parse_numbers(run.replace("/", ","), "--mu", lo=0.0, hi=MU_MAX) if run.strip() \
-            else parse_numbers(text, "--mu")  # an empty run: the comma-list error
+    for run in runs:
+        vals = [parse_number(p, "--mu", lo=0.0, hi=MU_MAX) for p in run.split("/")]
         out.append(vals[0] if "/" not in run else tuple(vals))
     if len(out) > MAX_RUNS:
         raise InputError(f"--mu: expected at most {MAX_RUNS} values, got {len(out)}")
