@@ -30,26 +30,33 @@ def assert_same(pred_a, pred_b):
 
 
 RELAXATIONS = ["forces", "coupled"]
+#: Both engines of the search (planner.predict.native_search: the compiled core; HiGHS).
+ENGINES = ["native", "python"]
 
 
+@pytest.mark.parametrize("engine", ENGINES)
 @pytest.mark.parametrize("relaxation", RELAXATIONS)
 @pytest.mark.parametrize("n_c", [4, 6, 8, 10])
 @pytest.mark.parametrize("seed", range(6))
-def test_search_equals_exhaustive_planted(seed, n_c, relaxation):
+def test_search_equals_exhaustive_planted(seed, n_c, relaxation, engine):
     system = random_system(seed, n_c)
-    res = search_modes(system, indeterminate=False, batch_size=64, relaxation=relaxation)
+    res = search_modes(system, indeterminate=False, batch_size=64, relaxation=relaxation,
+                       engine=engine)
     assert_same(res.prediction, feasible_modes(system, indeterminate=False))
     assert res.stats.candidates == res.prediction.candidates
+    assert res.stats.engine == engine
 
 
+@pytest.mark.parametrize("engine", ENGINES)
 @pytest.mark.parametrize("relaxation", RELAXATIONS)
 @pytest.mark.parametrize("seed", range(40))
-def test_search_equals_exhaustive_mixed_systems(seed, relaxation):
+def test_search_equals_exhaustive_mixed_systems(seed, relaxation, engine):
     """Virtual-joint and few-effort-joint systems (dof != n_c), small batches to force LPs."""
     rng = np.random.default_rng(1000 + seed)
     n_c = int(rng.integers(3, 7))
     system = random_system_mixed(rng, n_c, n_effort=int(rng.integers(0, 3)))
-    res = search_modes(system, batch_size=1, lp_min_size=0, relaxation=relaxation)
+    res = search_modes(system, batch_size=1, lp_min_size=0, relaxation=relaxation,
+                       engine=engine)
     assert_same(res.prediction, feasible_modes(system))
 
 
@@ -60,10 +67,12 @@ def test_search_reports_fewer_tests_than_candidates_when_jammed_at_root():
     assert res.stats.tested < res.stats.candidates
 
 
+@pytest.mark.parametrize("engine", ENGINES)
 @pytest.mark.parametrize("relaxation", RELAXATIONS)
-def test_paper_examples(example_41, example_43, relaxation):
+def test_paper_examples(example_41, example_43, relaxation, engine):
     for system, mu in ((example_41, [0.2, 0.2, 0.2]), (example_43, [0.5, 0.5, 0.5])):
-        res = search_modes(system, mu, batch_size=1, lp_min_size=0, relaxation=relaxation)
+        res = search_modes(system, mu, batch_size=1, lp_min_size=0, relaxation=relaxation,
+                           engine=engine)
         assert_same(res.prediction, feasible_modes(system, mu))
 
 
@@ -92,12 +101,13 @@ def test_bad_inputs():
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("engine", ENGINES)
 @pytest.mark.parametrize("relaxation", RELAXATIONS)
 @pytest.mark.parametrize("n_c", [12, 13, 14])
-def test_search_equals_exhaustive_large(n_c, relaxation):
+def test_search_equals_exhaustive_large(n_c, relaxation, engine):
     for seed in range(2):
         system = random_system(seed, n_c)
-        res = search_modes(system, indeterminate=False, relaxation=relaxation)
+        res = search_modes(system, indeterminate=False, relaxation=relaxation, engine=engine)
         assert_same(res.prediction, feasible_modes(system, indeterminate=False))
 
 
@@ -108,7 +118,8 @@ def test_linprog_fallback_gives_the_same_modes(monkeypatch):
     for seed, relaxation in zip(range(4), RELAXATIONS * 2):
         system = random_system(seed, 7)
         res = search_modes(
-            system, indeterminate=False, batch_size=8, lp_min_size=0, relaxation=relaxation
+            system, indeterminate=False, batch_size=8, lp_min_size=0, relaxation=relaxation,
+            engine="python",
         )
         assert res.stats.lp_solves > 1
         assert_same(res.prediction, feasible_modes(system, indeterminate=False))

@@ -120,7 +120,11 @@ class Pruner:
         upper[self.o_eq:o] = h / gn
         lower[-2] = upper[-2] = 0.0
         upper[-1] = 0.0 if coupled else inf
-        self.lp = make_lp(A, lower, upper)
+        #: the constraint matrix and the row bounds of the root (every contact FREE is set by
+        #: :meth:`contact_bounds`); the native search (:mod:`planner.predict.native_search`)
+        #: solves the same LP
+        self.A, self.row_lower, self.row_upper = A, lower, upper
+        self._lp: Any = None
         self.cn, self.ct = cn, ct
         self._bounds_cache: dict[tuple[int, int, int], tuple[tuple, tuple[float, float]]] = {}
         self._row_bounds = [(float(lo), float(hi)) for lo, hi in zip(lower, upper)]
@@ -128,7 +132,14 @@ class Pruner:
         self.state = np.full(n_c, -99)  # state key last set per contact (none yet)
         self.solves = 0
 
-    def _contact_bounds(self, i: int, state: int, xi: int) -> tuple[tuple, tuple[float, float]]:
+    @property
+    def lp(self) -> Any:
+        """The HiGHS model (built on first use: the native search does not need it)."""
+        if self._lp is None:
+            self._lp = make_lp(self.A, self.row_lower, self.row_upper)
+        return self._lp
+
+    def contact_bounds(self, i: int, state: int, xi: int) -> tuple[tuple, tuple[float, float]]:
         """Row bounds ``((row, lower, upper), ...)`` and the column bounds of ``c_i`` that contact
         ``i`` sets in ``state`` (FREE, CONTACT, BREAK, ROLL, SLIDE with ``xi``); cached."""
         key = (i, state, xi)
@@ -161,7 +172,7 @@ class Pruner:
 
     def _set(self, i: int, state: int, xi: int) -> None:
         """Give contact ``i`` the bounds of ``state``, passing HiGHS only those that change."""
-        rows, cols = self._contact_bounds(i, state, xi)
+        rows, cols = self.contact_bounds(i, state, xi)
         cur, change = self._row_bounds, self.lp.changeRowBounds
         for r, lo, hi in rows:
             if cur[r] != (lo, hi):

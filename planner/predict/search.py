@@ -98,10 +98,15 @@ __all__ = [
     "canonical_order", "search_modes",
 ]
 
-#: Default largest subtree (in candidates) that is tested in one batch instead of branched.
+#: Default largest subtree (in candidates) that is tested in one batch instead of branched
+#: (Python engine; its LPs cost ~0.2 ms each, 30-50 leaf candidates' tests).
 DEFAULT_BATCH_SIZE = 128
 #: Subtrees with fewer candidates than this are tested without a pruning LP first.
 DEFAULT_LP_MIN_SIZE = 64
+#: The same two for the native engine, whose LPs are ~10x cheaper: smaller leaves pay
+#: (measured on n_c = 20 and 22, seeds 10-19 -- not the benchmark's 0-9 --, docs/scaling.md).
+NATIVE_BATCH_SIZE = 8
+NATIVE_LP_MIN_SIZE = 4
 #: Relative slack of the pruning LP's Coulomb rows (well above ``DEFAULT_TOL``).
 DEFAULT_PRUNE_EPS = 1e-7
 #: ``relaxation="auto"`` prunes with the coupled velocity-force LP from this many contacts
@@ -125,19 +130,24 @@ class SearchStats:
         Candidates that passed it and went through the force stage (eqs. 26-28).
     lp_solves : int
         Pruning LPs solved (force relaxations).
+    engine : str
+        ``"native"`` (the compiled core, :mod:`planner.predict.native_search`) or
+        ``"python"`` (HiGHS through SciPy); with an executor, the engine of the subtrees.
     """
 
     candidates: int
     tested: int
     force_tested: int
     lp_solves: int
+    engine: str = "python"
 
-    def to_dict(self) -> dict[str, int]:
+    def to_dict(self) -> dict[str, int | str]:
         return {
             "candidates": self.candidates,
             "tested": self.tested,
             "force_tested": self.force_tested,
             "lp_solves": self.lp_solves,
+            "engine": self.engine,
         }
 
 
@@ -156,13 +166,14 @@ def search_modes(
     tol: float = DEFAULT_TOL,
     singular_tol: float = DEFAULT_SINGULAR_TOL,
     indeterminate: bool | None = None,
-    batch_size: int = DEFAULT_BATCH_SIZE,
+    batch_size: int | None = None,
     prune_eps: float = DEFAULT_PRUNE_EPS,
-    lp_min_size: int = DEFAULT_LP_MIN_SIZE,
+    lp_min_size: int | None = None,
     executor: Any = None,
     subtrees: int = DEFAULT_SUBTREES,
     relaxation: str = "auto",
     progress: bool = False,
+    engine: str = "auto",
 ) -> SearchResult:
     """Every feasible mode of ``system`` (same set as exhaustive eq. 49 enumeration), pruned.
 
@@ -173,13 +184,16 @@ def search_modes(
         Friction coefficients; defaults to ``system.mu``.
     tol, singular_tol, indeterminate
         As in :func:`planner.predict.feasibility.feasible_modes`.
-    batch_size : int
-        Subtrees with at most this many candidates are tested in one batch, not branched.
+    batch_size : int, optional
+        Subtrees with at most this many candidates are tested in one batch, not branched
+        (default :data:`NATIVE_BATCH_SIZE` with the native engine, else
+        :data:`DEFAULT_BATCH_SIZE`).
     prune_eps : float
         Relative slack of the force relaxation: its Coulomb rows are relaxed by
         ``eps_f N`` with ``eps_f = 10 prune_eps max(1, mu_max)`` (must exceed ``tol``).
-    lp_min_size : int
-        Subtrees with at most this many candidates are not pruned by an LP first.
+    lp_min_size : int, optional
+        Subtrees with at most this many candidates are not pruned by an LP first (default
+        :data:`NATIVE_LP_MIN_SIZE` / :data:`DEFAULT_LP_MIN_SIZE`).
     executor : planner.sweeps.executor.Executor, optional
         Search independent subtrees in parallel (Sec. 6's "test modes in parallel"): the tree
         is expanded breadth-first here until ``subtrees`` nodes are open, and each open node's
@@ -193,6 +207,13 @@ def search_modes(
         on.  The modes are the same; only the work differs.
     progress : bool
         With an executor: a progress bar (tqdm, on stderr) over the subtrees.
+    engine : {"auto", "native", "python"}
+        Who walks the tree and solves the pruning LPs: the compiled core
+        (:mod:`planner.predict.native_search`, built with the system's C compiler on first use),
+        or Python with HiGHS.  ``"auto"`` (default) takes the native core when it is available
+        and ``batch_size <= native_search.MAX_BATCH``; ``stats.engine`` says which ran.  The
+        leaves are decided by the same batched stages either way, so the modes are the same;
+        only the tree (the LP points steer the branching) and the time differ.
 
     Returns
     -------
@@ -207,6 +228,8 @@ def search_modes(
         raise InputError(f"tol: expected a finite number >= 0, got {tol}")
     for name, value, low in (("batch_size", batch_size, 1), ("lp_min_size", lp_min_size, 0),
                              ("subtrees", subtrees, 1)):
+        if value is None and name != "subtrees":
+            continue
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
             raise InputError(f"{name}: expected an integer >= {low}, got {value!r}")
     if not (np.isfinite(prune_eps) and prune_eps > tol):
@@ -220,13 +243,21 @@ def search_modes(
     coupled = relaxation == "coupled" or (
         relaxation == "auto" and n_c >= COUPLED_MIN_CONTACTS
     )
-    params = _Params(k, tol, singular_tol, batch_size, prune_eps, lp_min_size, coupled)
+    engine = _resolve_engine(engine, batch_size)
+    native = engine == "native"
+    if batch_size is None:
+        batch_size = NATIVE_BATCH_SIZE if native else DEFAULT_BATCH_SIZE
+    if lp_min_size is None:
+        lp_min_size = NATIVE_LP_MIN_SIZE if native else DEFAULT_LP_MIN_SIZE
+    params = _Params(k, tol, singular_tol, batch_size, prune_eps, lp_min_size, coupled, engine)
     pruner = Pruner(system, prune_eps, mu_arr, coupled=params.coupled)
     leaves = LeafBatches(system, k, tol=tol, singular_tol=singular_tol)
     root: _Node = (np.full(n_c, FREE, dtype=np.int8), np.zeros(n_c, dtype=np.int8), None, True)
     open_nodes: deque[_Node] = deque([root])
     lp_solves = 0
-    if executor is None:
+    if executor is None and engine == "native":
+        lp_solves += _native_tree(pruner, params).search(root[0], root[1], leaves).lp_solves
+    elif executor is None:
         _expand(open_nodes, pruner, leaves, mu_arr, params)
     else:
         _expand(open_nodes, pruner, leaves, mu_arr, params, breadth_until=subtrees)
@@ -249,8 +280,34 @@ def search_modes(
         tested=leaves.tested,
         force_tested=force_tested,
         lp_solves=lp_solves,
+        engine=engine,
     )
     return SearchResult(prediction, stats)
+
+
+def _resolve_engine(engine: str, batch_size: int | None) -> str:
+    """``"native"`` or ``"python"`` for the ``engine`` argument of :func:`search_modes`."""
+    from planner.predict import native_search
+
+    if engine not in ("auto", "native", "python"):
+        raise InputError(f"engine: expected 'auto', 'native' or 'python', got {engine!r}")
+    if engine == "python":
+        return engine
+    status = native_search.native_status()
+    fits = batch_size is None or batch_size <= native_search.MAX_BATCH
+    if engine == "native" and not status.available:
+        raise InputError(f"engine: 'native' needs the compiled search core, which is not "
+                         f"available here ({status.reason}); got engine='native'")
+    if engine == "native" and not fits:
+        raise InputError(f"batch_size: expected <= {native_search.MAX_BATCH} with "
+                         f"engine='native', got {batch_size}")
+    return "native" if status.available and fits else "python"
+
+
+def _native_tree(pruner: Pruner, params: _Params) -> Any:
+    from planner.predict.native_search import NativeTree
+
+    return NativeTree(pruner, params.n_rows, params.batch_size, params.lp_min_size)
 
 
 #: A search node: state per contact, xi per contact, the parent's LP point (or None) and
@@ -267,6 +324,7 @@ class _Params:
     prune_eps: float
     lp_min_size: int
     coupled: bool
+    engine: str = "python"
 
 
 def _expand(
@@ -337,9 +395,17 @@ def _search_subtree(job: tuple[System, np.ndarray, _Node, _Params]) -> tuple[np.
             system, params.prune_eps, mu_arr, coupled=params.coupled
         )
     pruner = cached
+    leaves = LeafBatches(system, params.n_rows, tol=params.tol, singular_tol=params.singular_tol)
+    if params.engine == "native":
+        # one native tree per worker and system; every subtree starts from a cold LP
+        tkey = (key, "native", params.n_rows, params.batch_size, params.lp_min_size)
+        tree = cache.get(tkey)
+        if tree is None:
+            tree = cache[tkey] = _native_tree(pruner, params)
+        solves = tree.search(node[0], node[1], leaves).lp_solves
+        return leaves.kept_codes(), leaves.tested, solves
     pruner.lp.reset()  # each subtree starts cold: the traversal does not depend on task order
     before = pruner.solves
-    leaves = LeafBatches(system, params.n_rows, tol=params.tol, singular_tol=params.singular_tol)
     _expand(deque([node]), pruner, leaves, mu_arr, params)
     return leaves.kept_codes(), leaves.tested, pruner.solves - before
 

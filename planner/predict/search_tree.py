@@ -135,7 +135,9 @@ class LeafBatches:
         self.tested = 0
 
     def add(self, block: np.ndarray, states: np.ndarray, xi: np.ndarray) -> None:
-        """Queue a leaf's candidate codes ``block (m, n_c)`` with its node ``states``/``xi``."""
+        """Queue candidate codes ``block (m, n_c)`` with their leaf's node ``states``/``xi``:
+        ``(n_c,)`` for one leaf's block, or ``(m, n_c)``, one row per candidate (the native
+        search hands back candidates of many leaves at once)."""
         if len(block) == 0:
             return
         self.pending.append((block, states, xi))
@@ -148,9 +150,9 @@ class LeafBatches:
         if not self.pending:
             return
         codes = np.concatenate([b for b, _, _ in self.pending])
-        reps = [len(b) for b, _, _ in self.pending]
-        leaf_states = np.repeat(np.stack([st for _, st, _ in self.pending]), reps, axis=0)
-        leaf_xi = np.repeat(np.stack([x for _, _, x in self.pending]), reps, axis=0)
+        # a leaf's states/xi (n_c,) broadcast over its block; expanded ones are (m, n_c) already
+        leaf_states = np.concatenate([np.broadcast_to(st, b.shape) for b, st, _ in self.pending])
+        leaf_xi = np.concatenate([np.broadcast_to(x, b.shape) for b, _, x in self.pending])
         self.pending, self.n_pending = [], 0
         self.tested += len(codes)
         kin = kinematic_stage(

@@ -116,8 +116,18 @@ def run(args: argparse.Namespace) -> int:
     print(format_prediction(pred))
     if stats is not None:
         print(f"\nsearch: tested {stats.tested} of {stats.candidates} candidates "
-              f"(eq. 49), {stats.lp_solves} pruning LPs")
+              f"(eq. 49), {stats.lp_solves} pruning LPs, {_engine_note(stats.engine)}")
     return 0
+
+
+def _engine_note(engine: str) -> str:
+    """Which engine ran the search, and why Python when the native core could not be built."""
+    if engine == "native":
+        return "native core"
+    from planner.predict.native_search import native_status
+
+    status = native_status()
+    return "Python engine" + ("" if status.available else f" (native core: {status.reason})")
 
 
 def _rounding_noise_to_zero(values: Any, tol: float) -> np.ndarray:
