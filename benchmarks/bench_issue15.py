@@ -16,9 +16,10 @@ absolute times; the ratios are measured in the same run):
   never jammed);
 * ``search`` (with ``--search``): ``search_modes`` at ``n_c = 20`` (``--search-nc 20,24``) on
   ten seeded systems, serial, one process per system with a timeout (issue 15's targets: worst
-  of ten at ``n_c = 20`` <= 10 s, median at 24 <= 60 s); ``--search-baseline DIR`` times
-  another checkout (e.g. ``git worktree add /tmp/old <commit>``) on the same system right
-  before, in the same run.
+  of ten at ``n_c = 20`` <= 10 s, median at 24 <= 60 s), with the native core and with the
+  Python engine on the same system one after the other (``--search-engines``,
+  ``--engine-seeds``); ``--search-baseline DIR`` times another checkout (e.g. ``git worktree
+  add /tmp/old <commit>``) on the same system right before, in the same run.
 
     PYTHONPATH=. python benchmarks/bench_issue15.py [--search] [--out FILE]
     PYTHONPATH=. python benchmarks/bench_issue15.py --only-search --search-nc 20 \\
@@ -167,33 +168,41 @@ try:
 except ImportError:
     from planner.search import search_modes
     from planner.random_systems import random_system
-search_modes(random_system(0, 6))  # warm-up: imports and HiGHS initialisation
+kw = {"engine": sys.argv[3]} if sys.argv[3] != "default" else {}
+search_modes(random_system(0, 6), **kw)  # warm-up: imports, HiGHS, the native core's build
 system = random_system(int(sys.argv[2]), int(sys.argv[1]))
 t0, c0 = time.perf_counter(), time.process_time()
-res = search_modes(system, indeterminate=False)
+res = search_modes(system, indeterminate=False, **kw)
 print(json.dumps({"seconds": time.perf_counter() - t0, "cpu_s": time.process_time() - c0,
                   "modes": res.prediction.labels, **res.stats.to_dict()}))
 """
 
 
-def search(n_cs: list[int], seeds: int, timeout: float, baseline: str | None) -> list[dict]:
+def search(n_cs: list[int], seeds: int, timeout: float, baseline: str | None,
+           engines: list[str], engine_seeds: int | None = None) -> list[dict]:
     """``search_modes`` on ``seeds`` random systems per ``n_c``, serial, one process per system
-    (BLAS on one thread), killed after ``timeout`` s; with ``baseline`` (the root of another
-    checkout) the same system is searched by that version right before, in the same run."""
+    (BLAS on one thread), killed after ``timeout`` s, once per engine in ``engines`` (the
+    native core, the Python engine: the same system right after each other, in the same run;
+    engines after the first only on the first ``engine_seeds`` seeds); with ``baseline`` (the
+    root of another checkout) the same system is searched by that version right before."""
     import subprocess
 
     here = str(Path(__file__).resolve().parents[1])
-    versions = ([("baseline", baseline)] if baseline else []) + [("this", here)]
+    versions = ([("baseline", baseline, "default")] if baseline else []) + [
+        (e if len(engines) > 1 else "this", here, e) for e in engines]
     env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1",
            "MKL_NUM_THREADS": "1"}
     out = []
     for n_c in n_cs:
         for seed in range(seeds):
             row: dict = {"n_c": n_c, "seed": seed}
-            for name, root in versions:
+            for j, (name, root, engine) in enumerate(versions):
+                if engine_seeds is not None and seed >= engine_seeds and j > 0:
+                    continue
                 try:
                     proc = subprocess.run(
-                        [sys.executable, "-c", _SEARCH_CHILD, str(n_c), str(seed)], cwd=root,
+                        [sys.executable, "-c", _SEARCH_CHILD, str(n_c), str(seed), engine],
+                        cwd=root,
                         env={**env, "PYTHONPATH": root}, capture_output=True, text=True,
                         timeout=timeout, check=True)
                     res = json.loads(proc.stdout.strip().splitlines()[-1])
@@ -205,12 +214,14 @@ def search(n_cs: list[int], seeds: int, timeout: float, baseline: str | None) ->
                 row[name] = res
                 print(f"search n_c={n_c} seed={seed} {name}: "
                       + (f"{res['seconds']:.2f} s (CPU {res['cpu_s']:.2f} s), "
-                         f"{res['lp_solves']} LPs" if "seconds" in res
+                         f"{res['lp_solves']} LPs, engine {res.get('engine', '-')}"
+                         if "seconds" in res
                          else f"failed: {res['error']}" if "error" in res
                          else f"over {timeout:.0f} s") + f", load {res['load_1min']:.1f}",
                       flush=True)
-            if baseline and "modes" in row["baseline"] and "modes" in row["this"]:
-                row["same_modes"] = row["baseline"]["modes"] == row["this"]["modes"]
+            runs = [row[name] for name, _, _ in versions if "modes" in row.get(name, {})]
+            if len(runs) > 1:
+                row["same_modes"] = all(r["modes"] == runs[0]["modes"] for r in runs)
             out.append(row)
     return out
 
@@ -227,6 +238,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--search-timeout", type=float, default=300.0, help="per system [s]")
     ap.add_argument("--search-baseline", default=None,
                     help="root of another checkout, timed alternately in the same run")
+    ap.add_argument("--search-engines", default="native,python",
+                    help="engines of search_modes to time on the same systems (first: all "
+                    "seeds; the others: --engine-seeds)")
+    ap.add_argument("--engine-seeds", type=int, default=None,
+                    help="seeds on which the engines after the first are timed too")
     ap.add_argument("--only-search", action="store_true", help="skip the other parts")
     ap.add_argument("--out", default="benchmarks/results/bench_issue15.json")
     args = ap.parse_args(argv)
@@ -244,7 +260,8 @@ def main(argv: list[str] | None = None) -> int:
         out["boxes"] = boxes()
     if args.search or args.only_search:
         out["search"] = search([int(x) for x in args.search_nc.split(",")], args.search_seeds,
-                               args.search_timeout, args.search_baseline)
+                               args.search_timeout, args.search_baseline,
+                               args.search_engines.split(","), args.engine_seeds)
     out["load_average_1_5_15"] = {"start": list(load_start), "end": list(os.getloadavg())}
     print(f"load average at start {load_start}, at end {os.getloadavg()}")
     atomic_write_json(args.out, out)

@@ -130,3 +130,54 @@ def test_search_subtrees_in_parallel_same_modes_locally_and_through_dask(dask_cl
     assert procs.stats.tested == dask.stats.tested > 0
     with pytest.raises(InputError, match="subtrees: expected an integer >= 1, got 0"):
         search_modes(system, executor=local, subtrees=0)
+
+
+@pytest.mark.parametrize("engine", ["native", "python"])
+def test_search_subtrees_with_each_engine_same_modes(engine):
+    """Both engines search the executor's subtrees (local processes): the exhaustive modes, and
+    the statistics name the engine the workers used."""
+    from planner.predict import native_search
+    from planner.predict.search import search_modes
+
+    if engine == "native" and not native_search.native_status().available:
+        pytest.skip("native core unavailable")
+    system = random_system(3, 11)
+    local = LocalExecutor(2)
+    try:
+        res = search_modes(system, indeterminate=False, executor=local, subtrees=16,
+                           engine=engine)
+    finally:
+        local.close()
+    assert res.prediction.labels == feasible_modes(system, indeterminate=False).labels
+    assert res.stats.engine == engine
+
+
+def test_a_worker_without_the_native_core_searches_in_python(monkeypatch):
+    """A Dask worker on a machine without a C compiler: its subtree runs in Python, same
+    kept candidates as a native worker's."""
+    import numpy as np
+
+    import planner.predict.search as search
+    from planner.predict import native_search
+
+    if not native_search.native_status().available:
+        pytest.skip("native core unavailable")
+    system = random_system(2, 9)
+    params = search._Params(system.dof, 1e-9, 1e-10, 8, 1e-7, 4, False, "native")
+    root = (np.full(9, search.FREE, dtype=np.int8), np.zeros(9, dtype=np.int8), None, True)
+    job = (system, system.mu, root, params)
+    kept_native, _, _, used = search._search_subtree(job)
+    assert used == "native"
+    monkeypatch.setattr(search, "_native_available", lambda: False)
+    kept_python, _, _, used = search._search_subtree(job)
+    assert used == "python"
+    same = search.canonical_order(np.unique(kept_native, axis=0))
+    other = search.canonical_order(np.unique(kept_python, axis=0))
+    ok_native = feasible_modes(system, indeterminate=False).labels
+    assert ok_native  # the system moves
+    # both keep every candidate that can be feasible (their trees differ, so the sets may too)
+    for kept in (same, other):
+        pred, _ = search.predict_candidates(
+            system, search.candidates_from_codes(kept, 9), system.mu, tol=1e-9,
+            singular_tol=1e-10, indeterminate=False)
+        assert pred.labels == ok_native

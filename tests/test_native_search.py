@@ -134,3 +134,36 @@ def test_native_search_reports_its_work():
     assert res.stats.engine == "native" and res.stats.lp_solves > 0
     assert 0 < res.stats.tested < res.stats.candidates
     assert res.stats.to_dict()["engine"] == "native"
+
+
+@pytest.mark.parametrize(("n_c", "batch"), [(9, 1), (12, 8), (14, 40)])
+def test_native_leaves_hand_back_exactly_their_candidates(n_c, batch):
+    """The C completion generator gives every leaf exactly its eq. (49) candidates: what Python
+    tests equals the leaves' sizes summed, and no candidate comes twice from leaves with the
+    same sliding directions (the S+ and S- children of a contact share their codes -- a
+    candidate's xi is computed, eq. 16 -- and each keeps the candidates whose xi is its own)."""
+    from planner.predict.search_tree import LeafBatches
+
+    if not native_search.native_status().available:
+        pytest.skip("native core unavailable")
+    system = random_system(n_c, n_c)
+    pruner = Pruner(system, 1e-7, system.mu, coupled=n_c >= 12)
+    tree = native_search.NativeTree(pruner, system.dof, batch, batch // 2)
+    seen = []
+
+    class Recorder(LeafBatches):
+        def add(self, block, states, xi):
+            signs = np.where(states == SLIDE, xi, 0)
+            seen.append(np.concatenate([block, signs], axis=1))
+            super().add(block, states, xi)
+
+    leaves = Recorder(system, system.dof, tol=1e-9, singular_tol=1e-10)
+    root = np.full(n_c, FREE, dtype=np.int8)
+    stats = tree.search(root, np.zeros(n_c, dtype=np.int8), leaves)
+    leaves.kept_codes()
+    tagged = np.concatenate(seen)
+    assert leaves.tested == stats.leaf_candidates == len(tagged) > 0
+    assert len(np.unique(tagged, axis=0)) == len(tagged)
+    codes = tagged[:, :n_c]
+    rows = 2 * (codes == ROLL).sum(axis=1) + (codes == SLIDE).sum(axis=1)
+    assert np.all(rows == system.dof)

@@ -69,7 +69,8 @@ class NativeStatus:
 class NativeStats:
     """What one native search did: LPs solved (``lp_solves``), dual simplex pivots, children
     that took their parent's point without an LP (``inherited``), LPs ended without a verdict
-    (``unknown``: the node was kept), refactorisations, cold starts, nodes, leaves."""
+    (``unknown``: the node was kept), refactorisations, cold starts, nodes, leaves, and the
+    leaves' eq. (49) sizes summed (``leaf_candidates``: the candidates handed to Python)."""
 
     lp_solves: int = 0
     pivots: int = 0
@@ -79,6 +80,7 @@ class NativeStats:
     cold_starts: int = 0
     nodes: int = 0
     leaves: int = 0
+    leaf_candidates: int = 0
 
 
 _LOCK = threading.Lock()
@@ -307,7 +309,7 @@ class NativeTree:
         out = (ctypes.c_longlong * 8)()
         cands = ctypes.c_double()
         self.lib.qs_stats(self.ctx, out, ctypes.byref(cands))
-        return NativeStats(*[int(v) for v in out])
+        return NativeStats(*[int(v) for v in out], leaf_candidates=int(cands.value))
 
     def solve_node(self, states: np.ndarray, xi: np.ndarray) -> tuple[str, np.ndarray]:
         """One LP from a cold start (for tests): ``("feasible", x)``, ``("infeasible", x)`` or

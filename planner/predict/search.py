@@ -132,7 +132,8 @@ class SearchStats:
         Pruning LPs solved (force relaxations).
     engine : str
         ``"native"`` (the compiled core, :mod:`planner.predict.native_search`) or
-        ``"python"`` (HiGHS through SciPy); with an executor, the engine of the subtrees.
+        ``"python"`` (HiGHS through SciPy); with an executor, the engine of the subtrees
+        (``"mixed"`` when some workers lacked the native core).
     """
 
     candidates: int
@@ -262,12 +263,16 @@ def search_modes(
     else:
         _expand(open_nodes, pruner, leaves, mu_arr, params, breadth_until=subtrees)
         jobs = [(system, mu_arr, node, params) for node in open_nodes]
-        for kept, tested, solves in executor.map(
+        used = set()
+        for kept, tested, solves, worker_engine in executor.map(
             _search_subtree, jobs, progress=progress, desc="subtrees"
         ):
+            used.add(worker_engine)
             leaves.kept.append(kept)
             leaves.tested += tested
             lp_solves += solves
+        if used:  # the workers' engine(s): the breadth-first top is always Python's
+            engine = used.pop() if len(used) == 1 else "mixed"
     lp_solves += pruner.solves
     codes = canonical_order(np.unique(leaves.kept_codes(), axis=0))
     cand = candidates_from_codes(codes, k)
@@ -378,8 +383,12 @@ def _expand(
             open_nodes.append((child, child_xi, point, not inherit))
 
 
-def _search_subtree(job: tuple[System, np.ndarray, _Node, _Params]) -> tuple[np.ndarray, int, int]:
-    """Executor task: search one node's subtree; its kept codes, tested count and LP count.
+def _search_subtree(
+    job: tuple[System, np.ndarray, _Node, _Params]
+) -> tuple[np.ndarray, int, int, str]:
+    """Executor task: search one node's subtree; its kept codes, tested count, LP count and
+    engine (a worker without the native core -- a Dask worker on a machine without a C
+    compiler -- searches with the Python engine: same modes).
 
     A worker process keeps the last system's pruner (its HiGHS model) between tasks, so many
     small subtrees cost little more than one big one.  The basis is cleared before each
@@ -396,18 +405,24 @@ def _search_subtree(job: tuple[System, np.ndarray, _Node, _Params]) -> tuple[np.
         )
     pruner = cached
     leaves = LeafBatches(system, params.n_rows, tol=params.tol, singular_tol=params.singular_tol)
-    if params.engine == "native":
+    if params.engine == "native" and _native_available():
         # one native tree per worker and system; every subtree starts from a cold LP
         tkey = (key, "native", params.n_rows, params.batch_size, params.lp_min_size)
         tree = cache.get(tkey)
         if tree is None:
             tree = cache[tkey] = _native_tree(pruner, params)
         solves = tree.search(node[0], node[1], leaves).lp_solves
-        return leaves.kept_codes(), leaves.tested, solves
+        return leaves.kept_codes(), leaves.tested, solves, "native"
     pruner.lp.reset()  # each subtree starts cold: the traversal does not depend on task order
     before = pruner.solves
     _expand(deque([node]), pruner, leaves, mu_arr, params)
-    return leaves.kept_codes(), leaves.tested, pruner.solves - before
+    return leaves.kept_codes(), leaves.tested, pruner.solves - before, "python"
+
+
+def _native_available() -> bool:
+    from planner.predict.native_search import native_status
+
+    return native_status().available
 
 
 #: Per worker thread: the pruner of the last system it searched (see :func:`_search_subtree`).
