@@ -297,16 +297,17 @@ static void sanitize(Ctx *c) {
   if (moved) solve_x(c);
 }
 
-/* Largest bound violation among basic items (or the lowest-index violated one when bland). */
+/* Largest bound violation among basic items (or the lowest-index violated one when bland);
+   rows and columns in two branch-light loops (this scan runs once per pivot). */
 static int leaving_item(const Ctx *c, double tol, int bland, double *viol_out) {
-  int best = -1;
+  int best = -1, m = c->m;
   double bv = 0.0;
-  for (int it = 0; it < c->m + c->n; it++) {
-    if (c->pos[it] >= 0) continue;
-    double v = item_value(c, it), lo = c->lo[it], hi = c->hi[it], e = 0.0;
-    if (v < lo - tol) e = lo - v;
-    else if (v > hi + tol) e = v - hi;
-    if (e > bv) {
+  const double *lo = c->lo, *hi = c->hi, *r = c->w.r, *x = c->w.x;
+  const int *pos = c->pos;
+  for (int it = 0; it < m + c->n; it++) {
+    double v = it < m ? r[it] : x[it - m];
+    double e = MAX2(lo[it] - v, v - hi[it]);
+    if (e > tol && e > bv && pos[it] < 0) {
       bv = e; best = it;
       if (bland) break;
     }
