@@ -309,7 +309,10 @@ class NativeTree:
         out = (ctypes.c_longlong * 8)()
         cands = ctypes.c_double()
         self.lib.qs_stats(self.ctx, out, ctypes.byref(cands))
-        return NativeStats(*[int(v) for v in out], leaf_candidates=int(cands.value))
+        v = [int(x) for x in out]
+        return NativeStats(lp_solves=v[0], pivots=v[1], inherited=v[2], unknown=v[3],
+                           refactors=v[4], cold_starts=v[5], nodes=v[6], leaves=v[7],
+                           leaf_candidates=int(cands.value))
 
     def solve_node(self, states: np.ndarray, xi: np.ndarray) -> tuple[str, np.ndarray]:
         """One LP from a cold start (for tests): ``("feasible", x)``, ``("infeasible", x)`` or

@@ -198,7 +198,10 @@ static int refactor(Ctx *c) {
       double v = fabs(M[(size_t)i * n + col]);
       if (v > best) { best = v; piv = i; }
     }
-    if (piv < 0 || best < 1e-13) return 0;
+    if (piv < 0 || best < 1e-13) {
+      c->w.valid = 0;   /* a singular basis: nobody warm-starts from it */
+      return 0;
+    }
     if (piv != col) {
       for (int j = 0; j < n; j++) {
         double tmp = M[(size_t)piv * n + j]; M[(size_t)piv * n + j] = M[(size_t)col * n + j];
