@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from search_nodes import mode_in_subtree
 
 from planner.errors import InputError
 from planner.model.modes import BREAK, ROLL, SLIDE
@@ -24,18 +25,6 @@ def test_the_native_core_builds_where_a_compiler_exists():
     status = native_search.native_status()
     assert status.available, status.reason
     assert search_modes(random_system(0, 6)).stats.engine == "native"
-
-
-def _consistent(states, xi, mode):
-    for st, x, code, mx in zip(states, xi, mode.codes, mode.xi):
-        if st == FREE:
-            continue
-        if st == CONTACT:
-            if code not in (ROLL, SLIDE):
-                return False
-        elif st != code or (st == SLIDE and x != mx):
-            return False
-    return True
 
 
 @pytest.mark.parametrize("coupled", [False, True])
@@ -60,7 +49,7 @@ def test_native_lp_verdicts_are_sound_and_match_highs(n_c, coupled):
             verdict, x = tree.solve_node(states, xi)
             h_inf = pruner.solve(states, xi) is None
             if verdict == "infeasible":
-                assert not any(_consistent(states, xi, m) for m in modes)
+                assert not any(mode_in_subtree(states, xi, m) for m in modes)
                 if pruner.lp.verdict:
                     assert h_inf
                 native_inf += 1

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from randsys import random_system as random_system_mixed
+from search_nodes import mode_in_subtree
 
 from planner.errors import InputError
 from planner.model.modes import enumerate_modes
@@ -207,22 +208,6 @@ def test_power_of_contact_forces_is_a_linear_function_and_never_positive():
     assert seen_sliding > 0  # the inequality is strict somewhere, not only 0 = 0
 
 
-def _consistent(states, xi, mode):
-    """Whether the feasible ``mode`` lies in the subtree of the node ``states``/``xi``."""
-    from planner.model.modes import ROLL, SLIDE
-    from planner.predict.search import CONTACT, FREE
-
-    for st, x, code, mx in zip(states, xi, mode.codes, mode.xi):
-        if st == FREE:
-            continue
-        if st == CONTACT:
-            if code not in (ROLL, SLIDE):
-                return False
-        elif st != code or (st == SLIDE and x != mx):
-            return False
-    return True
-
-
 @pytest.mark.parametrize("n_c", [5, 7])
 def test_coupled_relaxation_is_a_relaxation_and_prunes_more(n_c):
     """On random partial assignments: a node whose coupled LP is infeasible contains no
@@ -246,7 +231,7 @@ def test_coupled_relaxation_is_a_relaxation_and_prunes_more(n_c):
             c_inf = coupled.solve(states, xi) is None
             f_inf = forces.solve(states, xi) is None
             if c_inf:
-                assert not any(_consistent(states, xi, m) for m in modes)
+                assert not any(mode_in_subtree(states, xi, m) for m in modes)
             if f_inf and coupled.lp.verdict:  # HiGHS may end without a verdict (kept)
                 assert c_inf
             both += f_inf
