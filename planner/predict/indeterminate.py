@@ -254,12 +254,13 @@ def certified_by_determinants(det: np.ndarray, n_c: int, k: int) -> np.ndarray:
     B, M = det.shape
     if cover is None or not cover.shape[0]:
         return np.zeros(B, bool) if cover is None else np.ones(B, bool)
+    abs_det = np.abs(det)
+    if np.minimum.reduce(abs_det, axis=None) > DET_CERTIFICATE:  # all witnesses (common)
+        return np.full(B, every_structure_test_covered(n_c, k))
     # good[:, M] is False: the padding of cover's rows points there.  (Boolean gathers, not a
     # matrix product: no BLAS threads for this.)
     good = np.zeros((B, M + 1), bool)
-    np.greater(np.abs(det), DET_CERTIFICATE, out=good[:, :M])
-    if np.count_nonzero(good) == B * M:  # every candidate a witness (the common case)
-        return np.full(B, every_structure_test_covered(n_c, k))
+    np.greater(abs_det, DET_CERTIFICATE, out=good[:, :M])
     witnessed = np.logical_or.reduce(good.take(cover, axis=1), axis=2)  # (B, T)
     return np.logical_and.reduce(witnessed, axis=1)
 
