@@ -188,22 +188,19 @@ def kinematic_stage(
     z /= eq.col
     v = z @ eq.KT  # (M, 2 n_c), eq. (5): v = W^T qdot - J_E thetadot_E - J_V thetadot_V
     v -= eq.rhs
-    v_n, v_t = v[:, 0::2], v[:, 1::2]
-    is_break, is_slide, _ = cand.masks
-    strict = np.where(is_break, v_n, np.where(is_slide, np.abs(v_t), np.inf))
-    if strict.shape[1]:
-        margin = np.minimum.reduce(strict, axis=1)
-        if vel_scale > 0:
-            margin /= vel_scale
-    else:
-        margin = np.full(M, np.inf)
-    # xi = sgn(v_t) (eq. 16) at sliding contacts of nonsingular candidates; NaN counts as 0.
-    xi = (v_t > 0).view(np.int8) - (v_t < 0).view(np.int8)
-    if all_nonsingular:
-        xi *= is_slide.view(np.int8)
-    else:
+    # Strict slacks: v_n of breaking contacts (eq. 25), |v_t| of sliding ones (eq. 16).
+    slack = np.abs(v)
+    slack[:, 0::2] = v[:, 0::2]
+    margin = np.minimum.reduce(slack, axis=1, where=cand.strict_rows, initial=np.inf)
+    if vel_scale > 0:
+        margin /= vel_scale
+    # xi = sgn(v_t) (eq. 16) at sliding contacts; 0 where v_t is NaN (singular candidates).
+    v_t = v[:, 1::2]
+    xi = np.greater(v_t, 0.0).view(np.int8)
+    xi -= np.less(v_t, 0.0).view(np.int8)
+    xi *= cand.masks[1].view(np.int8)
+    if not all_nonsingular:
         margin[~nonsingular] = -np.inf
-        xi *= is_slide & nonsingular[:, None]
     ok = margin > tol  # singular candidates have margin -inf
     boundary = np.abs(margin) <= tol
     n_q = system.n_q  # 3 n_b
@@ -220,7 +217,8 @@ class ForceStage:
 
     Shapes use ``L`` friction vectors and ``m`` modes: ``c_A (L, m, k)``, ``contact_forces
     (L, m, n_c, 2)``, ``joint_efforts (L, m, n_theta)``, ``margin (L, m)``,
-    ``nonsingular (L, m)``.
+    ``nonsingular (L, m)``, ``force_scale (L, m)``: the largest ``|c_A|`` of each (the unit of
+    the margin; NaN where singular, at least the smallest normal double).
     """
 
     c_A: np.ndarray  # noqa: N815 (the paper's symbol)
@@ -228,6 +226,7 @@ class ForceStage:
     joint_efforts: np.ndarray
     margin: np.ndarray
     nonsingular: np.ndarray
+    force_scale: np.ndarray
 
 
 def force_matrices(
@@ -281,15 +280,15 @@ def force_stage(
     n_c, k = system.n_contacts, candidates.n_rows
     P = L * m  # (friction vector, candidate) pairs, friction-major
     setup = system_setup(system)[1]
-    _, slide_mask, roll_mask = candidates.masks
     rows = candidates.rows.take(index, axis=0)
+    _, slide_mask, roll_mask = candidates.masks
     is_s, is_r = slide_mask.take(index, axis=0), roll_mask.take(index, axis=0)
     if L == 1:
         mu_p = mu2  # broadcasts over the m pairs
-        muxi = mu2 * xi.astype(float)  # (P, n_c): mu_i xi_i (0 unless sliding)
+        muxi = mu2 * xi  # (P, n_c): mu_i xi_i (0 unless sliding)
     else:
         mu_p = np.repeat(mu2, m, axis=0)
-        muxi = mu_p * np.tile(xi, (L, 1)).astype(float)
+        muxi = mu_p * np.tile(xi, (L, 1))
         rows, is_s, is_r = np.tile(rows, (L, 1)), np.tile(is_s, (L, 1)), np.tile(is_r, (L, 1))
     # Q_AI^T (eqs. 17-20, 26): the rows of G, a sliding contact's normal row minus mu_i xi_i
     # times its tangent row.
@@ -315,7 +314,7 @@ def force_stage(
     c_A = y / cn
     # Scatter to full contact forces; sliding tangential force c_t = -mu xi c_n (eq. 17).
     c_full = np.zeros((P, 2 * n_c))
-    c_full.reshape(-1)[flat] = c_A
+    c_full.put(flat, c_A)
     fn, ft = c_full[:, 0::2], c_full[:, 1::2]
     ft -= muxi * fn
     # eq. (3): tau = J^T c + g_man (a stacked product, as before: same bits, no BLAS threads)
@@ -329,11 +328,11 @@ def force_stage(
     if k and n_c:
         # Largest applicable force; 0 -> _TINY (all forces 0: the slacks are 0 or inf).
         f_scale = np.maximum.reduce(np.abs(c_A), axis=1)
-        margin = np.minimum.reduce(slack, axis=1) / np.maximum(f_scale, _TINY, out=f_scale)
+        margin = np.minimum.reduce(slack, axis=1)
+        margin /= np.maximum(f_scale, _TINY, out=f_scale)
     else:
-        margin = np.full(P, np.inf)
+        margin, f_scale = np.full(P, np.inf), np.full(P, _TINY)
     if not all_nonsingular:
         margin[~nonsingular] = -np.inf
-    c_A, nonsingular, margin = c_A.reshape(L, m, k), nonsingular.reshape(L, m), margin.reshape(L, m)
-    forces = c_full.reshape(L, m, n_c, 2)
-    return ForceStage(c_A, forces, efforts, margin, nonsingular)
+    return ForceStage(c_A.reshape(L, m, k), c_full.reshape(L, m, n_c, 2), efforts,
+                      margin.reshape(L, m), nonsingular.reshape(L, m), f_scale.reshape(L, m))
