@@ -255,7 +255,7 @@ def certified_by_determinants(det: np.ndarray, n_c: int, k: int) -> np.ndarray:
     if cover is None or not cover.shape[0]:
         return np.zeros(B, bool) if cover is None else np.ones(B, bool)
     abs_det = np.abs(det)
-    if np.minimum.reduce(abs_det, axis=None) > DET_CERTIFICATE:  # all witnesses (common)
+    if np.minimum.reduce(abs_det, axis=None, initial=np.inf) > DET_CERTIFICATE:  # all witnesses
         return np.full(B, every_structure_test_covered(n_c, k))
     # good[:, M] is False: the padding of cover's rows points there.  (Boolean gathers, not a
     # matrix product: no BLAS threads for this.)
