@@ -263,10 +263,10 @@ class RelaxedCodes:
     def add_velocities(self, v: np.ndarray) -> None:
         """Read the modes off relative velocities ``v (m, 2 n_c)`` (eq. 5) of nonsingular
         candidates."""
+        if not v.shape[0]:
+            return
         ve = v / self.row
         # At generic velocities exactly k rows vanish: nothing to read off (the common case).
-        if not ve.shape[0]:
-            return
         if np.maximum.reduce(np.add.reduce(np.abs(ve) <= self.gen, axis=1)) <= self.k:
             return
         if self.strict is None:
@@ -304,7 +304,8 @@ def predict_candidates(
     """
     kin = kinematic_stage(system, cand, tol=tol, singular_tol=singular_tol)
     idx = kin.ok.nonzero()[0]
-    fs = force_stage(system, cand, idx, kin.xi[idx], mu_arr, singular_tol=singular_tol)
+    fs = force_stage(system, cand, idx, kin.xi.take(idx, axis=0), mu_arr,
+                     singular_tol=singular_tol)
     f_ok = fs.nonsingular[0]
     kin_margin = kin.margin.take(idx)
     margin = np.minimum(fs.margin[0], kin_margin)
@@ -422,7 +423,7 @@ def finish_prediction(
     else:
         status = Status.UNIQUE if n_feasible == 1 else Status.AMBIGUOUS
         reason = f"{n_feasible} feasible mode(s)"
-    if boundary or any(m.on_boundary for m in list(modes) + list(extra)):
+    if boundary or any(m.on_boundary for m in modes + extra):
         reason += "; some decisions are within tolerance of a boundary"
     if limits:
         reason += "; NOT COMPLETE: " + "; ".join(limits)
