@@ -122,3 +122,101 @@ def test_kinematic_stage_velocities_are_eq_5(seed):
     scale = np.abs(v).max(axis=1, keepdims=True)
     assert np.all(np.abs(kin.v[ok] - v) <= 1e-12 * scale)
     assert np.all(np.isnan(kin.v[~ok]))
+
+
+def _structured_systems():
+    """Random systems plus boxes (exact zeros, singular candidates), pinches and multi-body."""
+    from planner.sweeps.random_systems import random_multibody_system
+
+    boxes = []
+    for n_s in (2, 3, 4):
+        xs = np.linspace(-1.0, 1.0, n_s)
+        for push in ((0.01, 0.0), (0.0, 0.0), (-0.01, 0.0)):
+            boxes.append(System.from_contacts(
+                points=[[x, 0.0] for x in xs] + [[-1.0, 0.1]],
+                normals=[[0.0, 1.0]] * n_s + [[1.0, 0.0]], mu=0.5,
+                external_wrench=[0.0, -1.0, 0.0],
+                contact_velocities=[[0.0, 0.0]] * n_s + [list(push)]))
+    return (SYSTEMS + boxes + [random_system(s, n_c, n_effort=0) for s in range(3)
+                               for n_c in (4, 6)]
+            + [random_multibody_system(s, 2, 5) for s in range(4)])
+
+
+STRUCTURED = _structured_systems()
+
+
+@pytest.mark.parametrize("system", STRUCTURED)
+def test_setup_is_the_direct_formula_bit_for_bit(system):
+    """K, its equilibration, G's rows and eq. (26)'s right side as first written (with
+    J[:, E] indexing and one concatenation per matrix)."""
+    from planner.predict.setup import system_setup
+
+    eq, fs = system_setup(copy.copy(system))
+    E, V = system.effort_joints, system.velocity_joints
+    K = np.concatenate([system.W.T, -system.J[:, E]], axis=1)
+    rhs = system.J[:, V] @ system.joint_inputs[V]
+    col = np.abs(K).max(axis=0)
+    col[col == 0] = 1.0
+    Kc = K / col
+    row = np.linalg.norm(Kc, axis=1)
+    row[row == 0] = 1.0
+    G = np.concatenate([system.W.T, system.J[:, E]], axis=1)
+    f_rhs = np.concatenate([-system.g_obj, system.joint_inputs[E] - system.g_man[E]])
+    for got, want in ((eq.Kn, Kc / row[:, None]), (eq.bn, rhs / row), (eq.col, col),
+                      (eq.row, row), (eq.rhs, rhs), (eq.KT, K.T), (fs.G, G), (fs.rs, col),
+                      (fs.normal_rows, G[0::2]), (fs.tangent_rows, G[1::2]), (fs.rhs, f_rhs),
+                      (fs.rhs_scaled, f_rhs / col)):
+        assert got.tobytes() == np.ascontiguousarray(want).tobytes()
+    assert eq.velocity_scale == np.abs(rhs).max() and eq.b_scale == np.abs(rhs / row).max()
+
+
+@pytest.mark.parametrize("system", STRUCTURED)
+def test_kinematic_slacks_and_xi_are_the_direct_formula_bit_for_bit(system):
+    """The masked reduction over CandidateSet.strict_rows and the xi of compared signs against
+    the nested where's: v_n of breaking, |v_t| of sliding contacts, inf elsewhere."""
+    cand = enumerate_modes(system.n_contacts, system.dof)
+    kin = kinematic_stage(copy.copy(system), cand)
+    breaking, sliding, _ = cand.masks
+    v_n, v_t = kin.v[:, 0::2], kin.v[:, 1::2]
+    strict = np.where(breaking, v_n, np.where(sliding, np.abs(v_t), np.inf))
+    margin = strict.min(axis=1, initial=np.inf)
+    if kin.velocity_scale > 0:
+        margin = margin / kin.velocity_scale
+    margin[~kin.nonsingular] = -np.inf
+    assert np.array_equal(kin.margin, margin)
+    xi = ((v_t > 0).astype(np.int8) - (v_t < 0).astype(np.int8)) * (sliding & kin.nonsingular[:, None])
+    assert kin.xi.tobytes() == xi.astype(np.int8).tobytes()
+
+
+@pytest.mark.parametrize("scale", [1e300, 1e307, 1.7e308])
+@pytest.mark.parametrize("seed", range(4))
+def test_overflow_check_from_margins_matches_the_finite_test(seed, scale):
+    """DegenerateError exactly when an admissible, force-nonsingular candidate has a non-finite
+    qdot or c_A (the check reads the kinematic margins and the force scales instead)."""
+    import dataclasses
+
+    from planner.errors import DegenerateError
+    from planner.predict.feasibility import feasible_modes
+    from planner.predict.stages import force_stage
+
+    base = random_system(seed, 4)
+    with np.errstate(all="ignore"):
+        variants = [dataclasses.replace(base, joint_inputs=np.clip(
+                        base.joint_inputs * scale, -1.7e308, 1.7e308)),
+                    dataclasses.replace(base, g_obj=np.clip(base.g_obj * scale, -1.7e308, 1.7e308),
+                                        g_man=np.clip(base.g_man * scale, -1.7e308, 1.7e308))]
+    for system in variants:
+        cand = enumerate_modes(4, system.dof)
+        with np.errstate(all="ignore"):
+            kin = kinematic_stage(system, cand)
+            idx = np.flatnonzero(kin.ok)
+            fs = force_stage(system, cand, idx, kin.xi[idx], system.mu)
+        finite = np.isfinite(kin.qdot[idx]).all(axis=1) & np.isfinite(fs.c_A[0]).all(axis=1)
+        expect = bool(np.any(fs.nonsingular[0] & ~finite))
+        with np.errstate(all="ignore"):
+            try:
+                feasible_modes(copy.copy(system))
+                raised = False
+            except DegenerateError:
+                raised = True
+        assert raised == expect

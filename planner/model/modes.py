@@ -86,6 +86,17 @@ class CandidateSet:
         """``(M, n_rows)``: the tangent row ``2 i + 1`` of each row's contact ``i``."""
         return 2 * self.contact + 1
 
+    @cached_property
+    def strict_rows(self) -> np.ndarray:
+        """``(M, 2 n_c)`` bool over ``v = [v_1n, v_1t, ...]``: the normal of a breaking
+        contact (``v_n > 0``, eq. 25) and the tangent of a sliding one (``|v_t| > 0``, eq. 16),
+        the strict kinematic constraints."""
+        breaking, sliding, _ = self.masks
+        out = np.empty((len(self), 2 * self.n_contacts), bool)
+        out[:, 0::2], out[:, 1::2] = breaking, sliding
+        out.setflags(write=False)
+        return out
+
 
 @lru_cache(maxsize=64)
 def enumerate_modes(n_contacts: int, n_rows: int) -> CandidateSet:

@@ -263,10 +263,10 @@ class RelaxedCodes:
     def add_velocities(self, v: np.ndarray) -> None:
         """Read the modes off relative velocities ``v (m, 2 n_c)`` (eq. 5) of nonsingular
         candidates."""
+        if not v.shape[0]:
+            return
         ve = v / self.row
         # At generic velocities exactly k rows vanish: nothing to read off (the common case).
-        if not ve.shape[0]:
-            return
         if np.maximum.reduce(np.add.reduce(np.abs(ve) <= self.gen, axis=1)) <= self.k:
             return
         if self.strict is None:
@@ -304,16 +304,18 @@ def predict_candidates(
     """
     kin = kinematic_stage(system, cand, tol=tol, singular_tol=singular_tol)
     idx = kin.ok.nonzero()[0]
-    fs = force_stage(system, cand, idx, kin.xi[idx], mu_arr, singular_tol=singular_tol)
+    fs = force_stage(system, cand, idx, kin.xi.take(idx, axis=0), mu_arr,
+                     singular_tol=singular_tol)
     f_ok = fs.nonsingular[0]
-    margin = np.minimum(fs.margin[0], kin.margin[idx])
+    kin_margin = kin.margin.take(idx)
+    margin = np.minimum(fs.margin[0], kin_margin)
     feasible = f_ok & (margin >= -tol)
-    # Overflow check (qdot of admissible candidates and c_A of nonsingular Q_AI must be finite):
-    # the largest magnitudes are finite in the common case (no sum: it could overflow); else
-    # look closer.
-    if not (math.isfinite(np.maximum.reduce(np.abs(kin.qdot.take(idx, axis=0)), axis=None,
-                                            initial=0.0))
-            and math.isfinite(np.maximum.reduce(np.abs(fs.c_A[0]), axis=None, initial=0.0))):
+    # Overflow check (qdot of admissible candidates and c_A of nonsingular Q_AI must be finite).
+    # A non-finite qdot makes every v = K z - rhs non-finite, so an admissible candidate with
+    # one has kinematic margin +inf; the largest force of a pair is finite when its c_A is.
+    # In the common case neither shows anything; else look closer.
+    if not (np.maximum.reduce(kin_margin, initial=-np.inf) < np.inf
+            and math.isfinite(np.maximum.reduce(fs.force_scale[0], axis=None, initial=0.0))):
         finite = np.isfinite(kin.qdot[idx]).all(axis=1) & np.isfinite(fs.c_A[0]).all(axis=1)
         if np.any(f_ok & ~finite):
             raise DegenerateError(
@@ -421,7 +423,7 @@ def finish_prediction(
     else:
         status = Status.UNIQUE if n_feasible == 1 else Status.AMBIGUOUS
         reason = f"{n_feasible} feasible mode(s)"
-    if boundary or any(m.on_boundary for m in list(modes) + list(extra)):
+    if boundary or any(m.on_boundary for m in modes + extra):
         reason += "; some decisions are within tolerance of a boundary"
     if limits:
         reason += "; NOT COMPLETE: " + "; ".join(limits)

@@ -227,9 +227,11 @@ def closed_bases_suffice(system: System, kinematics: KinematicStage | None = Non
         n_c, k = system.n_contacts, system.dof
         if not structure_tests_fit(n_c, k):
             hit = False
-        elif kinematics is not None and kinematics.candidates is enumerate_modes(n_c, k) and \
-                bool(certified_by_determinants(kinematics.det[None], n_c, k)[0]):
-            hit = True
+        elif kinematics is not None and kinematics.candidates is enumerate_modes(n_c, k) and (
+                np.minimum.reduce(np.abs(kinematics.det), initial=np.inf) > DET_CERTIFICATE
+                and every_structure_test_covered(n_c, k)
+                or bool(certified_by_determinants(kinematics.det[None], n_c, k)[0])):
+            hit = True  # (every candidate a witness: certified_by_determinants' common case)
         else:
             hit = bool(closed_bases_stacked(eq.Kn[None])[0])
         eq.derived["closed_bases"] = hit
@@ -254,12 +256,24 @@ def certified_by_determinants(det: np.ndarray, n_c: int, k: int) -> np.ndarray:
     B, M = det.shape
     if cover is None or not cover.shape[0]:
         return np.zeros(B, bool) if cover is None else np.ones(B, bool)
+    abs_det = np.abs(det)
+    if np.minimum.reduce(abs_det, axis=None, initial=np.inf) > DET_CERTIFICATE:  # all witnesses
+        return np.full(B, every_structure_test_covered(n_c, k))
     # good[:, M] is False: the padding of cover's rows points there.  (Boolean gathers, not a
     # matrix product: no BLAS threads for this.)
     good = np.zeros((B, M + 1), bool)
-    np.greater(np.abs(det), DET_CERTIFICATE, out=good[:, :M])
+    np.greater(abs_det, DET_CERTIFICATE, out=good[:, :M])
     witnessed = np.logical_or.reduce(good.take(cover, axis=1), axis=2)  # (B, T)
     return np.logical_and.reduce(witnessed, axis=1)
+
+
+@lru_cache(maxsize=64)
+def every_structure_test_covered(n_c: int, k: int) -> bool:
+    """True when every test of :func:`closed_bases_suffice` has at least one eq. (49)
+    candidate containing its rows (:func:`structure_test_cover`), so that all candidates
+    having ``|det P_A| > DET_CERTIFICATE`` prove the structural test."""
+    cover = structure_test_cover(n_c, k)
+    return cover is not None and bool(np.all(cover[:, 0] < len(enumerate_modes(n_c, k))))
 
 
 @lru_cache(maxsize=64)

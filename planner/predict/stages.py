@@ -4,13 +4,13 @@ Eqs. (13)-(16), (23)-(25) (kinematic stage: velocities, breaking contacts separa
 directions ``xi``) and eqs. (18)-(22), (26)-(28) (force stage: ``W_Amu``, contact forces, joint
 efforts, Coulomb inequalities) of Trinkle & Zeng (1994), with the tolerances they are judged by
 and :class:`FeasibleMode`, the certificate a feasible mode carries.  The tolerance policy is
-described in :mod:`planner.predict.feasibility` and ``docs/conventions.md``.
+described in :mod:`planner.predict.feasibility` and ``docs/conventions.md``.  The per-system
+set-up they share (equilibrated ``K``, the rows of ``G``) is :mod:`planner.predict.setup`.
 """
 
 from __future__ import annotations
 
-import weakref
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from functools import cached_property, lru_cache
 from typing import Any
 
@@ -19,6 +19,13 @@ import numpy as np
 from planner.model.modes import CandidateSet, Mode, enumerate_modes
 from planner.model.system import System
 from planner.predict.linalg import LU_CHUNK, det_solve, lu_det_solve, transposed_det_solve
+from planner.predict.setup import (
+    EquilibratedKinematics,
+    ForceSetup,
+    equilibrated_kinematics,
+    force_rhs,
+    system_setup,
+)
 
 __all__ = [
     "DEFAULT_SINGULAR_TOL", "DEFAULT_TOL", "EquilibratedKinematics", "FeasibleMode",
@@ -145,110 +152,12 @@ class KinematicStage:
         return out
 
 
-@dataclass(frozen=True, eq=False)
-class EquilibratedKinematics:
-    """``K = [W^T  -J_E]`` (2 n_c, 3 + |tau_I|) scaled for rank tests: ``Kn = diag(1/row) K
-    diag(1/col)`` with unit-max columns then unit rows, ``bn = rhs / row`` where ``rhs`` is
-    ``J_V thetadot_V`` (eq. 24's right side per constraint row).  A solution ``z'`` of the
-    scaled rows gives ``z = z' / col``.  ``b_scale`` is ``max |bn|`` (0 without rows).
-    ``KT = K^T`` (3 + |tau_I|, 2 n_c), C-contiguous: ``v = z KT - rhs`` is eq. (5) for row
-    vectors ``z = (qdot, thetadot_E)``.  ``thetadot_base (n_theta,)``: the commanded
-    velocities of the velocity-controlled joints, 0 at the effort-controlled ones."""
-
-    Kn: np.ndarray
-    bn: np.ndarray
-    col: np.ndarray
-    row: np.ndarray
-    rhs: np.ndarray
-    velocity_scale: float
-    b_scale: float = 0.0
-    KT: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
-    thetadot_base: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    #: Friction-independent results derived from these rows by other modules (e.g. the
-    #: structural test of :func:`planner.predict.indeterminate.closed_bases_suffice`), cached
-    #: with the system's set-up.
-    derived: dict[str, Any] = field(default_factory=dict)
-
-
-@dataclass(frozen=True, eq=False)
-class ForceSetup:
-    """Friction-independent data of eq. (26) for one system: ``G = [W^T  J_E]``
-    (2 n_c, 3 + |tau_I|), whose rows are the loads of unit contact-force components, the
-    global row scaling ``rs`` of ``Q`` (largest ``|G|`` per column, 0 -> 1), the right side
-    ``rhs = [-g_obj; tau_I - g_man_I]`` (:func:`force_rhs`) and ``rhs / rs``;
-    ``normal_rows``, ``tangent_rows`` (n_c, 3 + |tau_I|): the normal and the tangent rows of
-    ``G``, C-contiguous."""
-
-    G: np.ndarray
-    rs: np.ndarray
-    rhs: np.ndarray
-    rhs_scaled: np.ndarray
-    normal_rows: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
-    tangent_rows: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
-
-
-#: Per-system cache of :func:`system_setup` (a System's
-#: arrays are read-only; keyed by identity, so copies of a System do not share it).
-_SETUP: weakref.WeakKeyDictionary[System, tuple[EquilibratedKinematics, ForceSetup]] = (
-    weakref.WeakKeyDictionary()
-)
-
-
-def system_setup(system: System) -> tuple[EquilibratedKinematics, ForceSetup]:
-    """:class:`EquilibratedKinematics` and :class:`ForceSetup` of ``system`` (built together
-    once per system: ``K`` and ``G`` differ only in the sign of the ``J_E`` columns)."""
-    hit = _SETUP.get(system)
-    if hit is None:
-        hit = _SETUP[system] = _build_setup(system)
-    return hit
-
-
-def equilibrated_kinematics(system: System) -> EquilibratedKinematics:
-    """Build :class:`EquilibratedKinematics` (shared by every kinematic test; cached per
-    system, whose arrays are read-only)."""
-    return system_setup(system)[0]
-
-
-def _build_setup(system: System) -> tuple[EquilibratedKinematics, ForceSetup]:
-    E, V = system.effort_joints, system.velocity_joints
-    J, inputs = system.J, system.joint_inputs
-    # K = [W^T  -J_E] and G = [W^T  J_E] (rows: constraint rows; columns: the k unknowns).
-    WT, J_E = system.W.T, J[:, E]  # (indexed, not taken: K keeps its layout and its bits)
-    K = np.concatenate([WT, -J_E], axis=1)
-    rhs = J[:, V] @ inputs[V]  # J_V thetadot_V per constraint row (as indexed: same bits)
-    vel_scale = float(np.maximum.reduce(np.abs(rhs))) if rhs.size else 0.0
-    col = np.maximum.reduce(np.abs(K), axis=0)
-    _zero_to_one(col)
-    Kc = K / col
-    row = np.sqrt(np.add.reduce(Kc * Kc, axis=1))  # numpy.linalg.norm(Kc, axis=1)
-    _zero_to_one(row)
-    bn = rhs / row
-    b_scale = float(np.maximum.reduce(np.abs(bn))) if bn.size else 0.0
-    base = np.zeros(len(inputs))
-    base[V] = inputs.take(V)
-    eq = EquilibratedKinematics(Kc / row[:, None], bn, col, row, rhs, vel_scale, b_scale,
-                                np.ascontiguousarray(K.T), base)
-    # G's column maxima equal K's (|-x| = |x|): rs is col.
-    f_rhs = np.empty(K.shape[1])  # [-g_obj; tau_I - g_man_I]
-    n_q = system.n_q  # 3 n_b
-    np.negative(system.g_obj, out=f_rhs[:n_q])
-    np.subtract(inputs.take(E), system.g_man.take(E), out=f_rhs[n_q:])
-    G = np.concatenate([WT, J_E], axis=1)
-    return eq, ForceSetup(G, col, f_rhs, f_rhs / col, G[0::2].copy(), G[1::2].copy())
-
-
 @lru_cache(maxsize=256)
 def _row_offsets(P: int, stride: int) -> np.ndarray:
     """``(P, 1)``: ``0, stride, 2 stride, ...`` (read-only; the flat row offset of each pair)."""
     out = np.arange(0, P * stride, stride)[:, None]
     out.setflags(write=False)
     return out
-
-
-def _zero_to_one(x: np.ndarray) -> None:
-    """Replace exact zeros of the scaling vector ``x`` by 1, in place."""
-    if np.count_nonzero(x) < x.shape[0]:
-        x[x == 0] = 1.0
 
 
 def kinematic_stage(
@@ -279,22 +188,19 @@ def kinematic_stage(
     z /= eq.col
     v = z @ eq.KT  # (M, 2 n_c), eq. (5): v = W^T qdot - J_E thetadot_E - J_V thetadot_V
     v -= eq.rhs
-    v_n, v_t = v[:, 0::2], v[:, 1::2]
-    is_break, is_slide, _ = cand.masks
-    strict = np.where(is_break, v_n, np.where(is_slide, np.abs(v_t), np.inf))
-    if strict.shape[1]:
-        margin = np.minimum.reduce(strict, axis=1)
-        if vel_scale > 0:
-            margin /= vel_scale
-    else:
-        margin = np.full(M, np.inf)
-    # xi = sgn(v_t) (eq. 16) at sliding contacts of nonsingular candidates; NaN counts as 0.
-    xi = (v_t > 0).view(np.int8) - (v_t < 0).view(np.int8)
-    if all_nonsingular:
-        xi *= is_slide.view(np.int8)
-    else:
+    # Strict slacks: v_n of breaking contacts (eq. 25), |v_t| of sliding ones (eq. 16).
+    slack = np.abs(v)
+    slack[:, 0::2] = v[:, 0::2]
+    margin = np.minimum.reduce(slack, axis=1, where=cand.strict_rows, initial=np.inf)
+    if vel_scale > 0:
+        margin /= vel_scale
+    # xi = sgn(v_t) (eq. 16) at sliding contacts; 0 where v_t is NaN (singular candidates).
+    v_t = v[:, 1::2]
+    xi = np.greater(v_t, 0.0).view(np.int8)
+    xi -= np.less(v_t, 0.0).view(np.int8)
+    xi *= cand.masks[1].view(np.int8)
+    if not all_nonsingular:
         margin[~nonsingular] = -np.inf
-        xi *= is_slide & nonsingular[:, None]
     ok = margin > tol  # singular candidates have margin -inf
     boundary = np.abs(margin) <= tol
     n_q = system.n_q  # 3 n_b
@@ -311,7 +217,8 @@ class ForceStage:
 
     Shapes use ``L`` friction vectors and ``m`` modes: ``c_A (L, m, k)``, ``contact_forces
     (L, m, n_c, 2)``, ``joint_efforts (L, m, n_theta)``, ``margin (L, m)``,
-    ``nonsingular (L, m)``.
+    ``nonsingular (L, m)``, ``force_scale (L, m)``: the largest ``|c_A|`` of each (the unit of
+    the margin; NaN where singular, at least the smallest normal double).
     """
 
     c_A: np.ndarray  # noqa: N815 (the paper's symbol)
@@ -319,11 +226,7 @@ class ForceStage:
     joint_efforts: np.ndarray
     margin: np.ndarray
     nonsingular: np.ndarray
-
-
-def force_rhs(system: System) -> np.ndarray:
-    """Right side of eq. (26): ``[-g_obj; tau_I - g_man_I]``, shape (3 + |tau_I|,)."""
-    return system_setup(system)[1].rhs.copy()
+    force_scale: np.ndarray
 
 
 def force_matrices(
@@ -377,15 +280,15 @@ def force_stage(
     n_c, k = system.n_contacts, candidates.n_rows
     P = L * m  # (friction vector, candidate) pairs, friction-major
     setup = system_setup(system)[1]
-    _, slide_mask, roll_mask = candidates.masks
     rows = candidates.rows.take(index, axis=0)
+    _, slide_mask, roll_mask = candidates.masks
     is_s, is_r = slide_mask.take(index, axis=0), roll_mask.take(index, axis=0)
     if L == 1:
         mu_p = mu2  # broadcasts over the m pairs
-        muxi = mu2 * xi.astype(float)  # (P, n_c): mu_i xi_i (0 unless sliding)
+        muxi = mu2 * xi  # (P, n_c): mu_i xi_i (0 unless sliding)
     else:
         mu_p = np.repeat(mu2, m, axis=0)
-        muxi = mu_p * np.tile(xi, (L, 1)).astype(float)
+        muxi = mu_p * np.tile(xi, (L, 1))
         rows, is_s, is_r = np.tile(rows, (L, 1)), np.tile(is_s, (L, 1)), np.tile(is_r, (L, 1))
     # Q_AI^T (eqs. 17-20, 26): the rows of G, a sliding contact's normal row minus mu_i xi_i
     # times its tangent row.
@@ -411,7 +314,7 @@ def force_stage(
     c_A = y / cn
     # Scatter to full contact forces; sliding tangential force c_t = -mu xi c_n (eq. 17).
     c_full = np.zeros((P, 2 * n_c))
-    c_full.reshape(-1)[flat] = c_A
+    c_full.put(flat, c_A)
     fn, ft = c_full[:, 0::2], c_full[:, 1::2]
     ft -= muxi * fn
     # eq. (3): tau = J^T c + g_man (a stacked product, as before: same bits, no BLAS threads)
@@ -425,11 +328,11 @@ def force_stage(
     if k and n_c:
         # Largest applicable force; 0 -> _TINY (all forces 0: the slacks are 0 or inf).
         f_scale = np.maximum.reduce(np.abs(c_A), axis=1)
-        margin = np.minimum.reduce(slack, axis=1) / np.maximum(f_scale, _TINY, out=f_scale)
+        margin = np.minimum.reduce(slack, axis=1)
+        margin /= np.maximum(f_scale, _TINY, out=f_scale)
     else:
-        margin = np.full(P, np.inf)
+        margin, f_scale = np.full(P, np.inf), np.full(P, _TINY)
     if not all_nonsingular:
         margin[~nonsingular] = -np.inf
-    c_A, nonsingular, margin = c_A.reshape(L, m, k), nonsingular.reshape(L, m), margin.reshape(L, m)
-    forces = c_full.reshape(L, m, n_c, 2)
-    return ForceStage(c_A, forces, efforts, margin, nonsingular)
+    return ForceStage(c_A.reshape(L, m, k), c_full.reshape(L, m, n_c, 2), efforts,
+                      margin.reshape(L, m), nonsingular.reshape(L, m), f_scale.reshape(L, m))
