@@ -106,6 +106,11 @@ static int key_of(int state, int xi) {
   }
 }
 
+static void basis_free(Basis *b) {
+  free(b->T); free(b->side); free(b->bT); free(b->Minv); free(b->x); free(b->r);
+  b->T = NULL; b->side = NULL; b->bT = b->Minv = b->x = b->r = NULL;
+}
+
 static int basis_alloc(Basis *b, int m, int n) {
   b->T = xmalloc(sizeof(int) * n);
   b->side = xmalloc(sizeof(int) * n);
@@ -115,11 +120,9 @@ static int basis_alloc(Basis *b, int m, int n) {
   b->r = xmalloc(sizeof(double) * (m ? m : 1));
   b->since = 0;
   b->valid = 0;
-  return b->T && b->side && b->bT && b->Minv && b->x && b->r;
-}
-
-static void basis_free(Basis *b) {
-  free(b->T); free(b->side); free(b->bT); free(b->Minv); free(b->x); free(b->r);
+  if (b->T && b->side && b->bT && b->Minv && b->x && b->r) return 1;
+  basis_free(b);   /* all or nothing: a half-allocated basis is never used */
+  return 0;
 }
 
 static int basis_copy(Basis *dst, const Basis *src, int m, int n) {
