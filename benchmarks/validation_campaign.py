@@ -46,6 +46,8 @@ from sim.scenes.paper import scaled_system
 from sim.system_run import judge_recording, simulate_system
 
 NEAR = 0.03
+#: MuJoCo backend settings of every run (``--mujoco-soft-squeeze``; ``None``: the defaults)
+MUJOCO_SETTINGS: Any = None
 #: The classifier's slip threshold as a fraction of the drive speed (``sim.classify``).
 SLIP = 0.05
 SCALES = {"ex41": ("example_4_1", 0.01), "ex43": ("example_4_3", 0.1)}
@@ -192,7 +194,8 @@ def reach(system: System, mu: np.ndarray, p: dict[str, Any]) -> tuple[float, np.
 def run_point(case: str, engine: str, system: System, mu: np.ndarray, ctrl: np.ndarray
               ) -> dict[str, Any]:
     t0 = time.perf_counter()
-    res = simulate_system(system, engine, mu=mu)
+    res = simulate_system(system, engine, mu=mu,
+                          engine_settings=MUJOCO_SETTINGS if engine == "mujoco" else None)
     p = res.summary["parameters"]
     row: dict[str, Any] = {
         "case": case, "engine": engine, "mu": mu.tolist(), "status": res.verdict.outcome.value,
@@ -202,6 +205,8 @@ def run_point(case: str, engine: str, system: System, mu: np.ndarray, ctrl: np.n
         "near_velocity": near_velocity(system, mu),
         "wedge": wedge_pairs(system, mu, *reach(system, mu, p)), "control_mu": ctrl.tolist(),
     }
+    if engine == "mujoco" and MUJOCO_SETTINGS is not None:
+        row["squeeze"] = [MUJOCO_SETTINGS.squeeze_d0, MUJOCO_SETTINGS.squeeze_solref]
     if not np.array_equal(ctrl, mu) and res.verdict.outcome.value != "fault":
         scale = p["speed_scale"]
         judged = feasible_modes(system.with_mu(ctrl).with_joint_inputs(
@@ -301,7 +306,15 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=1, help="processes")
     ap.add_argument("--chunk", default="0/1", help="K/N: run only tasks with number %% N == K")
     ap.add_argument("--table-only", action="store_true", help="print the table of --jsonl")
+    ap.add_argument("--mujoco-soft-squeeze", action="store_true",
+                    help="MuJoCo: soft, damped squeeze pairs (sim.backends.soft_squeeze; "
+                    "docs/simulation.md, 'MuJoCo: the sliding lift-off'); default off")
     args = ap.parse_args()
+    if args.mujoco_soft_squeeze:
+        from sim.backends import soft_squeeze
+
+        global MUJOCO_SETTINGS
+        MUJOCO_SETTINGS = soft_squeeze()
     done = read_rows(args.jsonl) if args.jsonl else []
     if args.table_only:
         print(table(done))

@@ -159,9 +159,12 @@ def stick_slip_verdict(verdict: Verdict, rec: Any, prediction: Any, settle: floa
 
 def simulate_system(system: System, engine: str, *, mu: Any = None, mu_kinetic: Any = None,
                     judge_mu: Any = None, duration: float | None = None,
-                    speed: float | None = None) -> SystemRun:
+                    speed: float | None = None,
+                    engine_settings: Any = None) -> SystemRun:
     """Run ``system`` on ``engine`` at ``mu`` (default the file's) and judge it at
-    ``judge_mu`` (default ``mu``). ``duration`` [s]; ``speed`` [m/s] of the fastest contact."""
+    ``judge_mu`` (default ``mu``). ``duration`` [s]; ``speed`` [m/s] of the fastest contact;
+    ``engine_settings``: the backend's :class:`sim.backends.EngineSettings` (default: its
+    defaults)."""
     from planner.predict.feasibility import feasible_modes
     from sim.backends import ENGINES, make_backend
     from sim.run import RunSettings, run_scene
@@ -205,7 +208,7 @@ def simulate_system(system: System, engine: str, *, mu: Any = None, mu_kinetic: 
     settings = RunSettings(duration=duration, dt=es["dt"], slip_speed=0.05 * drive,
                            penetration_tol=0.02 * size, jam_force=jam_force,
                            jam_after=es["settle"] + 0.2, start_ramp=ramp)
-    rec = run_scene(scene, make_backend(engine), settings)
+    rec = run_scene(scene, make_backend(engine, engine_settings), settings)
     verdict, observed, th = judge_recording(rec, pred, engine, drive, load, size, jam_force)
     iw = rec.body_names.index("workpiece")
     summary: dict[str, Any] = {

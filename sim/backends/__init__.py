@@ -32,6 +32,30 @@ CARRY_SOLREF = (0.01, 1.0)
 #: (Example 4.3 at mu = .05 .15 .85), so such scenes keep 1.
 CARRY_IMPRATIO = 10.0
 
+#: MuJoCo solimp ``d0`` (the impedance at zero penetration) of every ``squeeze`` pair when
+#: ``EngineSettings.squeeze_d0`` is set (off by default); the impedance rises to the stiff
+#: default's 0.99 over the *load width*
+#: (:func:`sim.backends.mujoco_squeeze.load_width`: the penetration at which the contact would
+#: carry the scene's load at ``d0``). MuJoCo's elliptic cone pushes a sliding contact apart by
+#: ``friction B_t |v_t|`` [m/s^2] (``B_t`` its friction rows' damping): it stays closed only
+#: while the lift ratio ``rho = friction B_t |v_t| / ((1 + mu^2) f_n R_n)`` is below 1, and
+#: ``R_n = (1 - imp) / imp x diagA``. At the stiff 0.99 a finger that slides under 13 % of the
+#: load has ``rho`` 2-8 and chatters; at 0.9 ``R_n`` is 11 x larger and ``rho`` < 1, while
+#: contacts pressed deeper than the load width (squeezes of many times the load) stay as stiff
+#: as before (docs/simulation.md, "MuJoCo: the sliding lift-off"). The value is the support
+#: pairs' (:data:`SUPPORT_SOLIMP`), measured there. Not the default: a jam, a velocity-step
+#: start and the hand plans change (measured in the same section).
+SQUEEZE_D0 = 0.9
+
+#: MuJoCo solref of every ``squeeze`` pair that gets :data:`SQUEEZE_D0`: the same stiffness as the
+#: default ``(0.004, 1)`` (``K = 1 / (d_width timeconst dampratio)^2``) with twice its damping
+#: (``B = 2 / (d_width timeconst)``), 0.002 s being MuJoCo's smallest time constant at the 1 ms
+#: step (``2 dt``, "refsafe"). The soft impedance takes away the velocity term that damped the
+#: three-finger pinch of Example 4.1 in 3S (a lightly loaded slider at lift ratio ~0.9 carries
+#: its normal force mostly by it): without more damping the pinch flickers
+#: (docs/simulation.md, "MuJoCo: the sliding lift-off").
+SQUEEZE_SOLREF = (0.002, 2.0)
+
 #: Every engine :func:`make_backend` knows, in the order reports list them.
 ENGINES = ("pymunk", "mujoco")
 
@@ -52,7 +76,12 @@ class EngineSettings:
     docs/simulation.md; ``None``: the stiff default of all other pairs), ``carry_solref``
     (MuJoCo solref of every ``carry`` pair, :data:`CARRY_SOLREF`; ``None``: ``solref``) and
     ``carry_impratio`` (MuJoCo impratio of a scene without ``squeeze`` pairs,
-    :data:`CARRY_IMPRATIO`); roles in :mod:`sim.backends.roles`.
+    :data:`CARRY_IMPRATIO`); roles in :mod:`sim.backends.roles`. ``squeeze_d0`` (MuJoCo
+    solimp ``d0`` of every ``squeeze`` pair, rising to 0.99 over the load width; ``None``, the
+    default: the stiff ``(0.99, 0.999, 0.001)``; :data:`SQUEEZE_D0`) and ``squeeze_solref``
+    (their solref when ``squeeze_d0`` is set, :data:`SQUEEZE_SOLREF`; ``None``: ``solref``);
+    measured in docs/simulation.md, "MuJoCo: the sliding lift-off". :func:`soft_squeeze` gives
+    both.
     """
 
     dt: float = 1e-3
@@ -67,6 +96,17 @@ class EngineSettings:
     support_solimp: tuple[float, ...] | None = SUPPORT_SOLIMP
     carry_solref: tuple[float, float] | None = CARRY_SOLREF
     carry_impratio: float = CARRY_IMPRATIO
+    squeeze_d0: float | None = None
+    squeeze_solref: tuple[float, float] | None = SQUEEZE_SOLREF
+
+
+def soft_squeeze(settings: EngineSettings | None = None) -> EngineSettings:
+    """``settings`` (default: the defaults) with MuJoCo's soft, damped squeeze pairs
+    (:data:`SQUEEZE_D0`, :data:`SQUEEZE_SOLREF`)."""
+    from dataclasses import replace
+
+    return replace(settings or EngineSettings(), squeeze_d0=SQUEEZE_D0,
+                   squeeze_solref=SQUEEZE_SOLREF)
 
 
 def check_engine(engine: str) -> str:
@@ -87,4 +127,5 @@ def make_backend(engine: str, settings: EngineSettings | None = None) -> Backend
 
     return MujocoBackend(solref=es.solref, out_of_plane_stiffness=es.z_stiffness,
                          support_solimp=es.support_solimp, carry_solref=es.carry_solref,
-                         carry_impratio=es.carry_impratio)
+                         carry_impratio=es.carry_impratio, squeeze_d0=es.squeeze_d0,
+                         squeeze_solref=es.squeeze_solref)

@@ -18,9 +18,13 @@ degree of freedom on every dynamic body (noslip does nothing in a strictly plana
   effort-controlled joints get the effort in ``qfrc_applied``.
 * Loads: ``xfrc_applied`` (force at the body COM and a torque about z).
 * Contact impedance per pair role (:mod:`sim.backends.roles`, decided after the first
-  ``mj_forward``): ``squeeze`` pairs keep ``solref``/``solimp``, ``support`` pairs get
-  ``support_solimp``, ``carry`` pairs ``carry_solref``, and a scene without ``squeeze`` pairs
-  ``carry_impratio`` (docs/simulation.md, "MuJoCo: contact roles").
+  ``mj_forward``): ``squeeze`` pairs keep ``solref``/``solimp`` (with ``squeeze_d0`` set:
+  ``solimp = (squeeze_d0, solimp[0], load width)``, :mod:`sim.backends.mujoco_squeeze`, and
+  ``squeeze_solref``),
+  ``support`` pairs
+  get ``support_solimp``, ``carry`` pairs ``carry_solref``, and a scene without ``squeeze``
+  pairs ``carry_impratio`` (docs/simulation.md, "MuJoCo: contact roles" and "MuJoCo: the
+  sliding lift-off").
 
 Forces are read with ``mj_contactForce`` in the contact frame and projected to the world;
 velocities of contact points with ``mj_jac``.
@@ -34,6 +38,7 @@ import mujoco
 import numpy as np
 
 from sim.backends import CARRY_IMPRATIO, CARRY_SOLREF, SUPPORT_SOLIMP
+from sim.backends.mujoco_squeeze import contact_diag_a, load_width
 from sim.backends.roles import CARRY, SQUEEZE, SUPPORT, contact_roles
 from sim.backends.switching import replace_joint, switch_joint
 from sim.scene import (
@@ -63,8 +68,17 @@ class MujocoBackend:
                  impratio: float = 1.0, out_of_plane_stiffness: float = 0.0,
                  support_solimp: tuple[float, ...] | None = SUPPORT_SOLIMP,
                  carry_solref: tuple[float, float] | None = CARRY_SOLREF,
-                 carry_impratio: float = CARRY_IMPRATIO) -> None:
+                 carry_impratio: float = CARRY_IMPRATIO,
+                 squeeze_d0: float | None = None,
+                 squeeze_solref: tuple[float, float] | None = None) -> None:
         self.impratio = impratio
+        #: solimp d0 of every ``squeeze`` pair, rising to ``solimp[0]`` (the stiff default) over
+        #: the load width (:mod:`sim.backends.mujoco_squeeze`); ``None``: ``solimp`` unchanged
+        self.squeeze_d0 = squeeze_d0
+        #: solref of the ``squeeze`` pairs that get ``squeeze_d0``; ``None``: ``solref``
+        self.squeeze_solref = squeeze_solref
+        #: ``{pair: solimp width [m]}`` given to the ``squeeze`` pairs (the load width)
+        self.squeeze_widths: dict[str, float] = {}
         #: solimp of every ``support`` pair (a static body: a table, a palm); ``None`` uses
         #: ``solimp`` (module docstring)
         self.support_solimp = support_solimp
@@ -225,20 +239,49 @@ class MujocoBackend:
 
     def _set_roles(self) -> None:
         """Contact impedance per pair role (:mod:`sim.backends.roles`, measured in
-        docs/simulation.md): ``support`` pairs get ``support_solimp``, ``carry`` pairs
-        ``carry_solref``, and a scene without ``squeeze`` pairs ``carry_impratio``."""
+        docs/simulation.md): ``squeeze`` pairs get ``solimp = (squeeze_d0, solimp[0], load
+        width)`` and ``squeeze_solref`` when ``squeeze_d0`` is set, ``support`` pairs
+        ``support_solimp``, ``carry`` pairs ``carry_solref``, and a scene without ``squeeze``
+        pairs ``carry_impratio``."""
         m = self.model
         self.roles = contact_roles(self.scene, self._read_contacts(), self.state())
+        load = self._load()
+        self.squeeze_widths = {}
         for name, role in self.roles.items():
+            # one load width per scene pair, from its touching contacts (the finger's MuJoCo
+            # pairs with the workpiece's other edge boxes get the same impedance)
+            diag_a = max((contact_diag_a(m, self.data, i) for i in self._subpairs[name]),
+                         default=0.0)
+            soft = (role == SQUEEZE and self.squeeze_d0 is not None and load > 0
+                    and diag_a > 0)
             for i in self._subpairs[name]:
                 if role == SUPPORT and self.support_solimp is not None:
                     m.pair_solimp[i] = self.support_solimp
                 elif role == CARRY and self.carry_solref is not None:
                     m.pair_solref[i] = self.carry_solref
+                elif soft:
+                    assert self.squeeze_d0 is not None
+                    # soft (squeeze_d0) at zero penetration, the stiff default's impedance at
+                    # zero (solimp[0]) from the load width on; the width at the default
+                    # stiffness, which squeeze_solref keeps
+                    tc = max(float(m.pair_solref[i][0]), 2.0 * float(m.opt.timestep))
+                    d_far = float(m.pair_solimp[i][0])
+                    w = load_width(load, self.squeeze_d0, d_far,
+                                   (tc, float(m.pair_solref[i][1])), diag_a)
+                    m.pair_solimp[i] = (self.squeeze_d0, d_far, w, float(m.pair_solimp[i][3]),
+                                        float(m.pair_solimp[i][4]))
+                    if self.squeeze_solref is not None:
+                        m.pair_solref[i] = self.squeeze_solref
+                    self.squeeze_widths[name] = w
         roles = set(self.roles.values())
         if CARRY in roles and SQUEEZE not in roles:
             m.opt.impratio = self.carry_impratio
         mujoco.mj_forward(m, self.data)
+
+    def _load(self) -> float:
+        """The scene's load [N]: the largest in-plane force of its loads (the weight or
+        external wrench that keeps the contacts closed; 0 without loads)."""
+        return max((float(np.hypot(*ld.force)) for ld in self.scene.loads), default=0.0)
 
     @staticmethod
     def _polygon_geoms(body, gname: str, shp: Polygon, depth: float, length: float) -> list:
