@@ -46,7 +46,8 @@ from sim.scenes.paper import scaled_system
 from sim.system_run import judge_recording, simulate_system
 
 NEAR = 0.03
-#: MuJoCo backend settings of every run (``--mujoco-soft-squeeze``; ``None``: the defaults)
+#: MuJoCo backend settings of every run (``--mujoco-backend-defaults``; ``None``: the system
+#: scenes' own, ``sim.system_run.SYSTEM_SETTINGS``)
 MUJOCO_SETTINGS: Any = None
 #: The classifier's slip threshold as a fraction of the drive speed (``sim.classify``).
 SLIP = 0.05
@@ -206,7 +207,7 @@ def run_point(case: str, engine: str, system: System, mu: np.ndarray, ctrl: np.n
         "wedge": wedge_pairs(system, mu, *reach(system, mu, p)), "control_mu": ctrl.tolist(),
     }
     if engine == "mujoco" and MUJOCO_SETTINGS is not None:
-        row["squeeze"] = [MUJOCO_SETTINGS.squeeze_d0, MUJOCO_SETTINGS.squeeze_solref]
+        row["settings"] = "backend defaults"
     if not np.array_equal(ctrl, mu) and res.verdict.outcome.value != "fault":
         scale = p["speed_scale"]
         judged = feasible_modes(system.with_mu(ctrl).with_joint_inputs(
@@ -306,15 +307,16 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=1, help="processes")
     ap.add_argument("--chunk", default="0/1", help="K/N: run only tasks with number %% N == K")
     ap.add_argument("--table-only", action="store_true", help="print the table of --jsonl")
-    ap.add_argument("--mujoco-soft-squeeze", action="store_true",
-                    help="MuJoCo: soft, damped squeeze pairs (sim.backends.soft_squeeze; "
-                    "docs/simulation.md, 'MuJoCo: the sliding lift-off'); default off")
+    ap.add_argument("--mujoco-backend-defaults", action="store_true",
+                    help="MuJoCo: the backend's defaults (stiff squeeze pairs, driven bodies 1e6 "
+                    "x the workpiece) instead of the system scenes' settings "
+                    "(sim.system_run.SYSTEM_SETTINGS); for comparison")
     args = ap.parse_args()
-    if args.mujoco_soft_squeeze:
-        from sim.backends import soft_squeeze
+    if args.mujoco_backend_defaults:
+        from sim.backends import EngineSettings
 
         global MUJOCO_SETTINGS
-        MUJOCO_SETTINGS = soft_squeeze()
+        MUJOCO_SETTINGS = EngineSettings()
     done = read_rows(args.jsonl) if args.jsonl else []
     if args.table_only:
         print(table(done))

@@ -20,13 +20,14 @@ prediction at friction it was not run at.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
 from planner.errors import InputError
 from planner.model.system import System
+from sim.backends import SYSTEM_HEAVY_RATIO, EngineSettings, soft_squeeze
 from sim.compare import JAM, ObservedMode, Verdict
 
 #: Slow-motion drive rate per engine [1/s]: the fastest contact moves this many scene sizes per
@@ -41,6 +42,13 @@ MAX_SPEED = {"pymunk": 2e-3, "mujoco": 5e-4}
 ENGINE = {
     "pymunk": {"dt": 1e-3, "creep": 1e-9, "duration": 1.5, "settle": 0.3},
     "mujoco": {"dt": 1e-3, "creep": 1e-8, "duration": 2.5, "settle": 1.0},
+}
+#: Backend settings of system scenes per engine: MuJoCo with the soft, damped squeeze pairs
+#: (:func:`sim.backends.soft_squeeze`, docs/simulation.md "MuJoCo: the sliding lift-off") and
+#: driven bodies :data:`sim.backends.SYSTEM_HEAVY_RATIO` times the workpiece's mass.
+SYSTEM_SETTINGS = {
+    "pymunk": EngineSettings(),
+    "mujoco": soft_squeeze(EngineSettings(heavy_ratio=SYSTEM_HEAVY_RATIO)),
 }
 #: A total normal force above this multiple of the run's force scale is a jam: the scale is the
 #: larger of the load and the largest total normal force certified by a mode predicted at the
@@ -94,7 +102,6 @@ def judge_recording(rec: Any, prediction: Any, engine: str, drive: float, load: 
     plus ``jam_force``, or the feasible modes with the jam force in the thresholds) so this
     module does not depend on the order the two are merged in."""
     import inspect
-    from dataclasses import replace
 
     from sim.classify import Thresholds, judge_run
 
@@ -124,7 +131,6 @@ def stick_slip_verdict(verdict: Verdict, rec: Any, prediction: Any, settle: floa
     scene size) while contacts go missing on more than ``LOST_FRACTION`` of the judged steps
     (stick-slip or chatter; a resting contact is never missing in a sound run). Contacts that
     the nearest predicted mode (by twist) breaks are not counted (their absence is predicted)."""
-    from dataclasses import replace
 
     from sim.compare import Outcome
 
@@ -163,8 +169,8 @@ def simulate_system(system: System, engine: str, *, mu: Any = None, mu_kinetic: 
                     engine_settings: Any = None) -> SystemRun:
     """Run ``system`` on ``engine`` at ``mu`` (default the file's) and judge it at
     ``judge_mu`` (default ``mu``). ``duration`` [s]; ``speed`` [m/s] of the fastest contact;
-    ``engine_settings``: the backend's :class:`sim.backends.EngineSettings` (default: its
-    defaults)."""
+    ``engine_settings``: the backend's :class:`sim.backends.EngineSettings` (default:
+    :data:`SYSTEM_SETTINGS`)."""
     from planner.predict.feasibility import feasible_modes
     from sim.backends import ENGINES, make_backend
     from sim.run import RunSettings, run_scene
@@ -208,7 +214,8 @@ def simulate_system(system: System, engine: str, *, mu: Any = None, mu_kinetic: 
     settings = RunSettings(duration=duration, dt=es["dt"], slip_speed=0.05 * drive,
                            penetration_tol=0.02 * size, jam_force=jam_force,
                            jam_after=es["settle"] + 0.2, start_ramp=ramp)
-    rec = run_scene(scene, make_backend(engine, engine_settings), settings)
+    rec = run_scene(scene, make_backend(engine, engine_settings or SYSTEM_SETTINGS[engine]),
+                    settings)
     verdict, observed, th = judge_recording(rec, pred, engine, drive, load, size, jam_force)
     iw = rec.body_names.index("workpiece")
     summary: dict[str, Any] = {

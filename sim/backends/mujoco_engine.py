@@ -10,8 +10,9 @@ degree of freedom on every dynamic body (noslip does nothing in a strictly plana
   in the plane, segments capsules.
 * Dynamic body: slide x, slide y, slide z, hinge z at the body origin; explicit mass, COM and
   inertia.
-* Driven body: slide x, slide y, hinge z, mass ``1e6`` times the heaviest dynamic body, with
-  ``qpos``/``qvel`` overwritten before every step (mocap bodies do not transmit friction).
+* Driven body: slide x, slide y, hinge z, mass ``heavy_ratio`` (default :data:`HEAVY_RATIO`)
+  times the heaviest dynamic body, with ``qpos``/``qvel`` overwritten before every step (mocap
+  bodies do not transmit friction).
 * Joint to the base: hinge z (revolute) or slide along ``axis`` (prismatic) at ``anchor``; a
   joint on a parent body (a chain link): the body nested in its parent, same joint types;
   velocity-controlled joints get a huge armature and their ``qpos``/``qvel`` overwritten every step;
@@ -37,7 +38,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from sim.backends import CARRY_IMPRATIO, CARRY_SOLREF, SUPPORT_SOLIMP
+from sim.backends import CARRY_IMPRATIO, CARRY_SOLREF, HEAVY_RATIO, SUPPORT_SOLIMP
 from sim.backends.mujoco_squeeze import contact_diag_a, load_width
 from sim.backends.roles import CARRY, SQUEEZE, SUPPORT, contact_roles
 from sim.backends.switching import replace_joint, switch_joint
@@ -54,8 +55,6 @@ from sim.scene import (
     Scene,
 )
 
-HEAVY_RATIO = 1e6
-
 
 class MujocoBackend:
     """MuJoCo (mujoco-core) via MjSpec."""
@@ -70,8 +69,11 @@ class MujocoBackend:
                  carry_solref: tuple[float, float] | None = CARRY_SOLREF,
                  carry_impratio: float = CARRY_IMPRATIO,
                  squeeze_d0: float | None = None,
-                 squeeze_solref: tuple[float, float] | None = None) -> None:
+                 squeeze_solref: tuple[float, float] | None = None,
+                 heavy_ratio: float = HEAVY_RATIO) -> None:
         self.impratio = impratio
+        #: driven-body mass over the heaviest dynamic body's (:data:`HEAVY_RATIO`)
+        self.heavy_ratio = heavy_ratio
         #: solimp d0 of every ``squeeze`` pair, rising to ``solimp[0]`` (the stiff default) over
         #: the load width (:mod:`sim.backends.mujoco_squeeze`); ``None``: ``solimp`` unchanged
         self.squeeze_d0 = squeeze_d0
@@ -109,8 +111,8 @@ class MujocoBackend:
         spec.option.ccd_iterations = 200
         spec.option.timestep = 0.002
         depth = 0.1 * scene.length_scale
-        heavy = HEAVY_RATIO * max([b.mass for b in scene.bodies if b.kind == BodyKind.DYNAMIC]
-                                  or [1.0])
+        heavy = self.heavy_ratio * max([b.mass for b in scene.bodies
+                                        if b.kind == BodyKind.DYNAMIC] or [1.0])
         joints_of = {j.body: j for j in scene.joints}
         self._geoms: dict[tuple[str, int], list[str]] = {}
         self._dofs: dict[str, list[str]] = {}
@@ -438,8 +440,8 @@ class MujocoBackend:
             return
         nm = f"{j.body}:{j.name}"
         if control == Control.VELOCITY:
-            heavy = HEAVY_RATIO * max([b.mass for b in self.scene.bodies
-                                       if b.kind == BodyKind.DYNAMIC] or [1.0])
+            heavy = self.heavy_ratio * max([b.mass for b in self.scene.bodies
+                                            if b.kind == BodyKind.DYNAMIC] or [1.0])
             self.model.dof_armature[self._vadr[nm]] = heavy * self.scene.length_scale ** 2
             self._target[nm] = float(self.data.qpos[self._qadr[nm]])
         else:
