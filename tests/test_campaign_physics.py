@@ -14,11 +14,9 @@
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 import numpy as np
 import pytest
+from campaign_module import campaign
 
 from planner.files.system_file import load_system
 from planner.predict.feasibility import feasible_modes
@@ -31,21 +29,11 @@ from sim.scenes.paper import scaled_system
 from sim.scenes.system import system_scene
 from sim.system_run import force_scale, judge_recording, simulate_system
 
-ROOT = Path(__file__).resolve().parents[1]
 WEDGE_MU = [0.86, 0.42, 0.95]
 
 
 def example(name: str, scale: float):
     return scaled_system(load_system(DATA_DIR / f"{name}.json"), scale)
-
-
-def campaign():
-    spec = importlib.util.spec_from_file_location(
-        "validation_campaign", ROOT / "benchmarks" / "validation_campaign.py")
-    assert spec is not None and spec.loader is not None
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
 
 
 def test_ramped_command_rises_smoothly_from_rest() -> None:

@@ -13,10 +13,8 @@ same stiffness (``SQUEEZE_SOLREF``).
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 import pytest
+from campaign_module import campaign
 
 from sim.backends import SQUEEZE_D0, SQUEEZE_SOLREF, EngineSettings, soft_squeeze
 from sim.compare import Outcome
@@ -26,19 +24,9 @@ pytest.importorskip("mujoco")
 from sim.backends.mujoco_engine import MujocoBackend  # noqa: E402
 from sim.backends.mujoco_squeeze import load_width  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[1]
 SOFT = soft_squeeze()
 #: The backend's defaults: stiff squeeze pairs, driven bodies 1e6 x the workpiece's mass
 STIFF = EngineSettings()
-
-
-def campaign():
-    spec = importlib.util.spec_from_file_location(
-        "validation_campaign", ROOT / "benchmarks" / "validation_campaign.py")
-    assert spec is not None and spec.loader is not None
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
 
 
 def test_load_width_is_the_penetration_that_carries_the_load() -> None:
