@@ -269,9 +269,8 @@ class NativeTree:
             int(lp_min_size), ZERO_FORCE)
         if not self.ctx:
             raise MemoryError("native search core: out of memory building the LP")
-        cap_leaves = CODES_PER_CALL
-        self._states = np.zeros((cap_leaves, n_c), np.int8)
-        self._xi = np.zeros((cap_leaves, n_c), np.int8)
+        self._states = np.zeros((CODES_PER_CALL, n_c), np.int8)
+        self._xi = np.zeros((CODES_PER_CALL, n_c), np.int8)
         self._codes = np.zeros((CODES_PER_CALL, n_c), np.int8)
         self._leaf = np.zeros(CODES_PER_CALL, np.int32)
 
@@ -302,8 +301,7 @@ class NativeTree:
             nc = n_codes.value
             if nc:
                 leaf = self._leaf[:nc]
-                leaves.add(self._codes[:nc].copy(), self._states[leaf],
-                                    self._xi[leaf])
+                leaves.add(self._codes[:nc].copy(), self._states[leaf], self._xi[leaf])
             if ret == 0:
                 break
         out = (ctypes.c_longlong * 8)()

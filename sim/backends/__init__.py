@@ -43,8 +43,9 @@ CARRY_IMPRATIO = 10.0
 #: load has ``rho`` 2-8 and chatters; at 0.9 ``R_n`` is 11 x larger and ``rho`` < 1, while
 #: contacts pressed deeper than the load width (squeezes of many times the load) stay as stiff
 #: as before (docs/simulation.md, "MuJoCo: the sliding lift-off"). The value is the support
-#: pairs' (:data:`SUPPORT_SOLIMP`), measured there. Not the default: a jam, a velocity-step
-#: start and the hand plans change (measured in the same section).
+#: pairs' (:data:`SUPPORT_SOLIMP`), measured there. The default of system scenes
+#: (:data:`sim.system_run.SYSTEM_SETTINGS`), not of the registered scenarios and hands: a jam,
+#: a velocity-step start and the hand plans change (measured in the same section).
 SQUEEZE_D0 = 0.9
 
 #: MuJoCo solref of every ``squeeze`` pair that gets :data:`SQUEEZE_D0`: the same stiffness as the

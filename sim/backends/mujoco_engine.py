@@ -21,11 +21,9 @@ degree of freedom on every dynamic body (noslip does nothing in a strictly plana
 * Contact impedance per pair role (:mod:`sim.backends.roles`, decided after the first
   ``mj_forward``): ``squeeze`` pairs keep ``solref``/``solimp`` (with ``squeeze_d0`` set:
   ``solimp = (squeeze_d0, solimp[0], load width)``, :mod:`sim.backends.mujoco_squeeze`, and
-  ``squeeze_solref``),
-  ``support`` pairs
-  get ``support_solimp``, ``carry`` pairs ``carry_solref``, and a scene without ``squeeze``
-  pairs ``carry_impratio`` (docs/simulation.md, "MuJoCo: contact roles" and "MuJoCo: the
-  sliding lift-off").
+  ``squeeze_solref``), ``support`` pairs get ``support_solimp``, ``carry`` pairs
+  ``carry_solref``, and a scene without ``squeeze`` pairs ``carry_impratio``
+  (docs/simulation.md, "MuJoCo: contact roles" and "MuJoCo: the sliding lift-off").
 
 Forces are read with ``mj_contactForce`` in the contact frame and projected to the world;
 velocities of contact points with ``mj_jac``.
@@ -111,8 +109,7 @@ class MujocoBackend:
         spec.option.ccd_iterations = 200
         spec.option.timestep = 0.002
         depth = 0.1 * scene.length_scale
-        heavy = self.heavy_ratio * max([b.mass for b in scene.bodies
-                                        if b.kind == BodyKind.DYNAMIC] or [1.0])
+        heavy = self._heavy_mass(scene)
         joints_of = {j.body: j for j in scene.joints}
         self._geoms: dict[tuple[str, int], list[str]] = {}
         self._dofs: dict[str, list[str]] = {}
@@ -280,6 +277,12 @@ class MujocoBackend:
             m.opt.impratio = self.carry_impratio
         mujoco.mj_forward(m, self.data)
 
+    def _heavy_mass(self, scene: Scene) -> float:
+        """Mass [kg] of a driven body (armature of a velocity-controlled joint per length
+        scale squared): ``heavy_ratio`` times the heaviest dynamic body's (1 kg without one)."""
+        return self.heavy_ratio * max([b.mass for b in scene.bodies
+                                       if b.kind == BodyKind.DYNAMIC] or [1.0])
+
     def _load(self) -> float:
         """The scene's load [N]: the largest in-plane force of its loads (the weight or
         external wrench that keeps the contacts closed; 0 without loads)."""
@@ -440,9 +443,8 @@ class MujocoBackend:
             return
         nm = f"{j.body}:{j.name}"
         if control == Control.VELOCITY:
-            heavy = self.heavy_ratio * max([b.mass for b in self.scene.bodies
-                                            if b.kind == BodyKind.DYNAMIC] or [1.0])
-            self.model.dof_armature[self._vadr[nm]] = heavy * self.scene.length_scale ** 2
+            self.model.dof_armature[self._vadr[nm]] = (self._heavy_mass(self.scene)
+                                                       * self.scene.length_scale ** 2)
             self._target[nm] = float(self.data.qpos[self._qadr[nm]])
         else:
             self.model.dof_armature[self._vadr[nm]] = 0.0
