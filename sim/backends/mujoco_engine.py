@@ -37,7 +37,7 @@ import mujoco
 import numpy as np
 
 from sim.backends import CARRY_IMPRATIO, CARRY_SOLREF, HEAVY_RATIO, SUPPORT_SOLIMP
-from sim.backends.mujoco_squeeze import contact_diag_a, load_width
+from sim.backends.mujoco_squeeze import contact_diag_a, load_width, scene_load
 from sim.backends.roles import CARRY, SQUEEZE, SUPPORT, contact_roles
 from sim.backends.switching import replace_joint, switch_joint
 from sim.scene import (
@@ -244,7 +244,7 @@ class MujocoBackend:
         pairs ``carry_impratio``."""
         m = self.model
         self.roles = contact_roles(self.scene, self._read_contacts(), self.state())
-        load = self._load()
+        load = scene_load(self.scene)
         self.squeeze_widths = {}
         for name, role in self.roles.items():
             # one load width per scene pair, from its touching contacts (the finger's MuJoCo
@@ -282,11 +282,6 @@ class MujocoBackend:
         scale squared): ``heavy_ratio`` times the heaviest dynamic body's (1 kg without one)."""
         return self.heavy_ratio * max([b.mass for b in scene.bodies
                                        if b.kind == BodyKind.DYNAMIC] or [1.0])
-
-    def _load(self) -> float:
-        """The scene's load [N]: the largest in-plane force of its loads (the weight or
-        external wrench that keeps the contacts closed; 0 without loads)."""
-        return max((float(np.hypot(*ld.force)) for ld in self.scene.loads), default=0.0)
 
     @staticmethod
     def _polygon_geoms(body, gname: str, shp: Polygon, depth: float, length: float) -> list:

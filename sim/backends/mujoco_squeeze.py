@@ -1,10 +1,18 @@
 """The soft squeeze impedance of MuJoCo contact pairs (``sim.backends.soft_squeeze``;
-docs/simulation.md, "MuJoCo: the sliding lift-off"): the load width and MuJoCo's inverse
-effective mass of a pair's contacts."""
+docs/simulation.md, "MuJoCo: the sliding lift-off"): the scene's load, the load width and
+MuJoCo's inverse effective mass of a pair's contacts."""
 
 from __future__ import annotations
 
 from typing import Any
+
+import numpy as np
+
+
+def scene_load(scene: Any) -> float:
+    """The load [N] of a :class:`sim.scene.Scene`: the largest in-plane force of its loads (the
+    weight or external wrench that keeps the contacts closed; 0 without loads)."""
+    return max((float(np.hypot(*ld.force)) for ld in scene.loads), default=0.0)
 
 
 def load_width(load: float, d0: float, d_width: float, solref: tuple[float, float],
