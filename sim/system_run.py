@@ -27,7 +27,13 @@ import numpy as np
 
 from planner.errors import InputError
 from planner.model.system import System
-from sim.backends import SYSTEM_HEAVY_RATIO, EngineSettings, soft_squeeze
+from sim.backends import (
+    SUPPORT_IMPRATIO,
+    SUPPORT_SOLREF,
+    SYSTEM_HEAVY_RATIO,
+    EngineSettings,
+    soft_squeeze,
+)
 from sim.compare import JAM, ObservedMode, Verdict
 
 #: Slow-motion drive rate per engine [1/s]: the fastest contact moves this many scene sizes per
@@ -44,11 +50,15 @@ ENGINE = {
     "mujoco": {"dt": 1e-3, "creep": 1e-8, "duration": 2.5, "settle": 1.0},
 }
 #: Backend settings of system scenes per engine: MuJoCo with the soft, damped squeeze pairs
-#: (:func:`sim.backends.soft_squeeze`, docs/simulation.md "MuJoCo: the sliding lift-off") and
-#: driven bodies :data:`sim.backends.SYSTEM_HEAVY_RATIO` times the workpiece's mass.
+#: (:func:`sim.backends.soft_squeeze`, docs/simulation.md "MuJoCo: the sliding lift-off"),
+#: driven bodies :data:`sim.backends.SYSTEM_HEAVY_RATIO` times the workpiece's mass and the
+#: sliding supports' solref and impratio (:data:`sim.backends.SUPPORT_SOLREF`,
+#: :data:`sim.backends.SUPPORT_IMPRATIO`; "MuJoCo: sliding supports").
 SYSTEM_SETTINGS = {
     "pymunk": EngineSettings(),
-    "mujoco": soft_squeeze(EngineSettings(heavy_ratio=SYSTEM_HEAVY_RATIO)),
+    "mujoco": soft_squeeze(EngineSettings(heavy_ratio=SYSTEM_HEAVY_RATIO,
+                                          support_solref=SUPPORT_SOLREF,
+                                          support_impratio=SUPPORT_IMPRATIO)),
 }
 #: A total normal force above this multiple of the run's force scale is a jam: the scale is the
 #: larger of the load and the largest total normal force certified by a mode predicted at the

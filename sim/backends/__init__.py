@@ -31,6 +31,15 @@ CARRY_SOLREF = (0.01, 1.0)
 #: option: with a prescribed squeeze it changed the mode MuJoCo picks where two are feasible
 #: (Example 4.3 at mu = .05 .15 .85), so such scenes keep 1.
 CARRY_IMPRATIO = 10.0
+#: MuJoCo solref and impratio of every ``support`` pair in system scenes
+#: (:data:`sim.system_run.SYSTEM_SETTINGS`; ``EngineSettings.support_solref`` /
+#: ``support_impratio``): the ``carry`` pairs' values (:data:`CARRY_SOLREF`,
+#: :data:`CARRY_IMPRATIO`), for the same physics -- a contact that slides while it carries the
+#: load. With the defaults (solref 0.004 s, impratio 1) a box pushed along a table at friction
+#: >= 0.45 stick-slips and rocks in MuJoCo (docs/simulation.md, "MuJoCo: sliding supports").
+#: The impratio is model-wide and set only in scenes with a support pair (the paper examples,
+#: squeezed without one, keep 1).
+SUPPORT_SOLREF, SUPPORT_IMPRATIO = CARRY_SOLREF, CARRY_IMPRATIO
 
 #: MuJoCo solimp ``d0`` (the impedance at zero penetration) of every ``squeeze`` pair when
 #: ``EngineSettings.squeeze_d0`` is set (off by default); the impedance rises to the stiff
@@ -96,7 +105,10 @@ class EngineSettings:
     (their solref when ``squeeze_d0`` is set, :data:`SQUEEZE_SOLREF`; ``None``: ``solref``);
     measured in docs/simulation.md, "MuJoCo: the sliding lift-off". :func:`soft_squeeze` gives
     both. ``heavy_ratio``: MuJoCo driven-body mass over the heaviest dynamic body's
-    (:data:`HEAVY_RATIO`, :data:`SYSTEM_HEAVY_RATIO`).
+    (:data:`HEAVY_RATIO`, :data:`SYSTEM_HEAVY_RATIO`). ``support_solref`` and
+    ``support_impratio``: MuJoCo solref of every ``support`` pair and impratio of a scene with
+    them and a ``squeeze`` pair (``None``, the default: unchanged; :data:`SUPPORT_SOLREF`,
+    :data:`SUPPORT_IMPRATIO`).
     """
 
     dt: float = 1e-3
@@ -114,6 +126,8 @@ class EngineSettings:
     squeeze_d0: float | None = None
     squeeze_solref: tuple[float, float] | None = SQUEEZE_SOLREF
     heavy_ratio: float = HEAVY_RATIO
+    support_solref: tuple[float, float] | None = None
+    support_impratio: float | None = None
 
 
 def soft_squeeze(settings: EngineSettings | None = None) -> EngineSettings:
@@ -144,4 +158,5 @@ def make_backend(engine: str, settings: EngineSettings | None = None) -> Backend
     return MujocoBackend(solref=es.solref, out_of_plane_stiffness=es.z_stiffness,
                          support_solimp=es.support_solimp, carry_solref=es.carry_solref,
                          carry_impratio=es.carry_impratio, squeeze_d0=es.squeeze_d0,
-                         squeeze_solref=es.squeeze_solref, heavy_ratio=es.heavy_ratio)
+                         squeeze_solref=es.squeeze_solref, heavy_ratio=es.heavy_ratio,
+                         support_solref=es.support_solref, support_impratio=es.support_impratio)

@@ -21,9 +21,9 @@ degree of freedom on every dynamic body (noslip does nothing in a strictly plana
 * Contact impedance per pair role (:mod:`sim.backends.roles`, decided after the first
   ``mj_forward``): ``squeeze`` pairs keep ``solref``/``solimp`` (with ``squeeze_d0`` set:
   ``solimp = (squeeze_d0, solimp[0], load width)``, :mod:`sim.backends.mujoco_squeeze`, and
-  ``squeeze_solref``), ``support`` pairs get ``support_solimp``, ``carry`` pairs
-  ``carry_solref``, and a scene without ``squeeze`` pairs ``carry_impratio``
-  (docs/simulation.md, "MuJoCo: contact roles" and "MuJoCo: the sliding lift-off").
+  ``squeeze_solref``), ``support`` pairs get ``support_solimp`` and ``support_solref``,
+  ``carry`` pairs ``carry_solref``; a scene without ``squeeze`` pairs gets ``carry_impratio``,
+  else one with ``support`` pairs ``support_impratio`` (:mod:`sim.backends.mujoco_roles`).
 
 Forces are read with ``mj_contactForce`` in the contact frame and projected to the world;
 velocities of contact points with ``mj_jac``.
@@ -37,8 +37,9 @@ import mujoco
 import numpy as np
 
 from sim.backends import CARRY_IMPRATIO, CARRY_SOLREF, HEAVY_RATIO, SUPPORT_SOLIMP
-from sim.backends.mujoco_squeeze import contact_diag_a, load_width, scene_load
-from sim.backends.roles import CARRY, SQUEEZE, SUPPORT, contact_roles
+from sim.backends.mujoco_roles import apply_role_impedance
+from sim.backends.mujoco_squeeze import scene_load
+from sim.backends.roles import contact_roles
 from sim.backends.switching import replace_joint, switch_joint
 from sim.scene import (
     ABSENT,
@@ -68,7 +69,9 @@ class MujocoBackend:
                  carry_impratio: float = CARRY_IMPRATIO,
                  squeeze_d0: float | None = None,
                  squeeze_solref: tuple[float, float] | None = None,
-                 heavy_ratio: float = HEAVY_RATIO) -> None:
+                 heavy_ratio: float = HEAVY_RATIO,
+                 support_solref: tuple[float, float] | None = None,
+                 support_impratio: float | None = None) -> None:
         self.impratio = impratio
         #: driven-body mass over the heaviest dynamic body's (:data:`HEAVY_RATIO`)
         self.heavy_ratio = heavy_ratio
@@ -79,9 +82,10 @@ class MujocoBackend:
         self.squeeze_solref = squeeze_solref
         #: ``{pair: solimp width [m]}`` given to the ``squeeze`` pairs (the load width)
         self.squeeze_widths: dict[str, float] = {}
-        #: solimp of every ``support`` pair (a static body: a table, a palm); ``None`` uses
-        #: ``solimp`` (module docstring)
+        #: solimp, solref of every ``support`` pair (a static body: a table, a palm) and the
+        #: impratio of a scene with them; ``None`` keeps ``solimp``, ``solref``, ``impratio``
         self.support_solimp = support_solimp
+        self.support_solref, self.support_impratio = support_solref, support_impratio
         #: solref of every ``carry`` pair and impratio of a scene without ``squeeze`` pairs
         #: (:mod:`sim.backends.roles`); ``None``: ``solref``
         self.carry_solref = carry_solref
@@ -237,45 +241,12 @@ class MujocoBackend:
         return created[joint.parent], (c * dx + s * dy, -s * dx + c * dy, th - pth)
 
     def _set_roles(self) -> None:
-        """Contact impedance per pair role (:mod:`sim.backends.roles`, measured in
-        docs/simulation.md): ``squeeze`` pairs get ``solimp = (squeeze_d0, solimp[0], load
-        width)`` and ``squeeze_solref`` when ``squeeze_d0`` is set, ``support`` pairs
-        ``support_solimp``, ``carry`` pairs ``carry_solref``, and a scene without ``squeeze``
-        pairs ``carry_impratio``."""
-        m = self.model
+        """Decide every pair's role (:mod:`sim.backends.roles`) and set its contact impedance
+        (:func:`sim.backends.mujoco_roles.apply_role_impedance`)."""
         self.roles = contact_roles(self.scene, self._read_contacts(), self.state())
-        load = scene_load(self.scene)
-        self.squeeze_widths = {}
-        for name, role in self.roles.items():
-            # one load width per scene pair, from its touching contacts (the finger's MuJoCo
-            # pairs with the workpiece's other edge boxes get the same impedance)
-            diag_a = max((contact_diag_a(m, self.data, i) for i in self._subpairs[name]),
-                         default=0.0)
-            soft = (role == SQUEEZE and self.squeeze_d0 is not None and load > 0
-                    and diag_a > 0)
-            for i in self._subpairs[name]:
-                if role == SUPPORT and self.support_solimp is not None:
-                    m.pair_solimp[i] = self.support_solimp
-                elif role == CARRY and self.carry_solref is not None:
-                    m.pair_solref[i] = self.carry_solref
-                elif soft:
-                    assert self.squeeze_d0 is not None
-                    # soft (squeeze_d0) at zero penetration, the stiff default's impedance at
-                    # zero (solimp[0]) from the load width on; the width at the default
-                    # stiffness, which squeeze_solref keeps
-                    tc = max(float(m.pair_solref[i][0]), 2.0 * float(m.opt.timestep))
-                    d_far = float(m.pair_solimp[i][0])
-                    w = load_width(load, self.squeeze_d0, d_far,
-                                   (tc, float(m.pair_solref[i][1])), diag_a)
-                    m.pair_solimp[i] = (self.squeeze_d0, d_far, w, float(m.pair_solimp[i][3]),
-                                        float(m.pair_solimp[i][4]))
-                    if self.squeeze_solref is not None:
-                        m.pair_solref[i] = self.squeeze_solref
-                    self.squeeze_widths[name] = w
-        roles = set(self.roles.values())
-        if CARRY in roles and SQUEEZE not in roles:
-            m.opt.impratio = self.carry_impratio
-        mujoco.mj_forward(m, self.data)
+        self.squeeze_widths = apply_role_impedance(self.model, self.data, self.roles,
+                                                   self._subpairs, scene_load(self.scene), self)
+        mujoco.mj_forward(self.model, self.data)
 
     def _heavy_mass(self, scene: Scene) -> float:
         """Mass [kg] of a driven body (armature of a velocity-controlled joint per length
