@@ -7,7 +7,8 @@ absolute times; the ratios are measured in the same run):
   (``planner.sweeps.random_systems``, ``3 + |tau_I| = n_c``) at ``n_c = 4`` and ``8``, each call
   on a fresh System object (no per-system cache reused), against a batched
   ``numpy.linalg.solve`` of as many ``n_c x n_c`` systems as the call has candidates (target:
-  within 20x);
+  within 20x), the two timed in alternating blocks of :data:`BLOCK` calls (warm loops, and a
+  burst of other work slows both sides of the ratio);
 * ``batch``: ``feasible_modes_batch`` against a loop of single calls over 1,000 waypoints of
   the two-finger segment (target: >= 10x), and that both give the same predictions;
 * ``map``: ``mu_grid`` 200 x 200 of a box on a table with force-indeterminate modes
@@ -50,6 +51,9 @@ from planner.predict.batch import feasible_modes_batch  # noqa: E402
 from planner.predict.feasibility import feasible_modes  # noqa: E402
 from planner.sweeps.random_systems import random_system  # noqa: E402
 
+#: Timed calls per block of the latency measurement (the two sides alternate by blocks).
+BLOCK = 20
+
 
 def latency(seeds: int, repeat: int) -> list[dict]:
     rows = []
@@ -58,19 +62,22 @@ def latency(seeds: int, repeat: int) -> list[dict]:
             system = random_system(seed, n_c)
             feasible_modes(system)  # warm-up (imports, enumerate_modes cache)
             fresh = [copy.copy(system) for _ in range(repeat)]
-            times = []
-            for s in fresh:
-                t0 = time.perf_counter()
-                pred = feasible_modes(s)
-                times.append(time.perf_counter() - t0)
             m = candidate_count(n_c, system.dof)
             rng = np.random.default_rng(seed)
             A, b = rng.normal(size=(m, n_c, n_c)), rng.normal(size=(m, n_c, 1))
-            solve = []
-            for _ in range(repeat):
-                t0 = time.perf_counter()
-                np.linalg.solve(A, b)
-                solve.append(time.perf_counter() - t0)
+            np.linalg.solve(A, b)
+            # Blocks of BLOCK calls of each side in turn (warm loops, as a planner's; a burst of
+            # other work on the machine slows both sides of the ratio, not one).
+            times, solve = [], []
+            for start in range(0, repeat, BLOCK):
+                for s in fresh[start:start + BLOCK]:
+                    t0 = time.perf_counter()
+                    pred = feasible_modes(s)
+                    times.append(time.perf_counter() - t0)
+                for _ in range(len(fresh[start:start + BLOCK])):
+                    t0 = time.perf_counter()
+                    np.linalg.solve(A, b)
+                    solve.append(time.perf_counter() - t0)
             t, ts = median(times), median(solve)
             rows.append({"n_c": n_c, "seed": seed, "candidates": m, "predict_s": t,
                          "batched_solve_s": ts, "ratio": t / ts, "complete": pred.complete,
