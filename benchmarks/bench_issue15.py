@@ -70,11 +70,12 @@ def latency(seeds: int, repeat: int) -> list[dict]:
             # other work on the machine slows both sides of the ratio, not one).
             times, solve = [], []
             for start in range(0, repeat, BLOCK):
-                for s in fresh[start:start + BLOCK]:
+                block = fresh[start:start + BLOCK]
+                for s in block:
                     t0 = time.perf_counter()
                     pred = feasible_modes(s)
                     times.append(time.perf_counter() - t0)
-                for _ in range(len(fresh[start:start + BLOCK])):
+                for _ in block:
                     t0 = time.perf_counter()
                     np.linalg.solve(A, b)
                     solve.append(time.perf_counter() - t0)

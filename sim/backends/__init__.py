@@ -31,6 +31,7 @@ CARRY_SOLREF = (0.01, 1.0)
 #: option: with a prescribed squeeze it changed the mode MuJoCo picks where two are feasible
 #: (Example 4.3 at mu = .05 .15 .85), so such scenes keep 1.
 CARRY_IMPRATIO = 10.0
+
 #: MuJoCo solref and impratio of every ``support`` pair in system scenes
 #: (:data:`sim.system_run.SYSTEM_SETTINGS`; ``EngineSettings.support_solref`` /
 #: ``support_impratio``): the ``carry`` pairs' values (:data:`CARRY_SOLREF`,
@@ -107,8 +108,8 @@ class EngineSettings:
     both. ``heavy_ratio``: MuJoCo driven-body mass over the heaviest dynamic body's
     (:data:`HEAVY_RATIO`, :data:`SYSTEM_HEAVY_RATIO`). ``support_solref`` and
     ``support_impratio``: MuJoCo solref of every ``support`` pair and impratio of a scene with
-    them and a ``squeeze`` pair (``None``, the default: unchanged; :data:`SUPPORT_SOLREF`,
-    :data:`SUPPORT_IMPRATIO`).
+    them where ``carry_impratio`` does not apply (``None``, the default: unchanged;
+    :data:`SUPPORT_SOLREF`, :data:`SUPPORT_IMPRATIO`).
     """
 
     dt: float = 1e-3

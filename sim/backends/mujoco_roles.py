@@ -29,9 +29,12 @@ def apply_role_impedance(m: Any, d: Any, roles: Mapping[str, str],
     widths: dict[str, float] = {}
     for name, role in roles.items():
         # one load width per scene pair, from its touching contacts (the finger's MuJoCo
-        # pairs with the workpiece's other edge boxes get the same impedance)
-        diag_a = max((contact_diag_a(m, d, i) for i in subpairs[name]), default=0.0)
-        soft = role == SQUEEZE and opts.squeeze_d0 is not None and load > 0 and diag_a > 0
+        # pairs with the workpiece's other edge boxes get the same impedance); only a soft
+        # squeeze pair needs it
+        soft = role == SQUEEZE and opts.squeeze_d0 is not None and load > 0
+        diag_a = max((contact_diag_a(m, d, i) for i in subpairs[name]), default=0.0) \
+            if soft else 0.0
+        soft = soft and diag_a > 0
         for i in subpairs[name]:
             if role == SUPPORT:
                 if opts.support_solimp is not None:
