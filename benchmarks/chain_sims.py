@@ -1,10 +1,10 @@
-"""Chain manipulators in both simulators (issues 14 and 16): every case, its negative control.
+"""Chain manipulators in both simulators: every case, its negative control.
 
 * Region plans of the chain-finger hands (``plan_regions`` on the hand file's segment and
   friction interval) run at the interval's ends and middle on both engines
-  (:func:`sim.region_run.run_region_plan`), and once with torques outside every region
-  (:func:`sim.region_run.outside_torques`) or, for a hand without an effort joint, at
-  friction outside the box where the planner predicts a rival;
+  (:func:`scenarios.runs.validate_plan`), and once with torques outside every region
+  (:func:`planner.plan.negative_controls.outside_torques`) or, for a hand without an effort
+  joint, at friction outside the box where the planner predicts a rival;
 * the chain systems of ``tests/data`` through ``simulate_system`` (as ``qsplan simulate``),
   and judged at the friction of their negative control.
 
@@ -25,9 +25,10 @@ import numpy as np
 from planner.files.atomic import atomic_write_json
 from planner.files.hand_file import load_hand_file
 from planner.files.system_file import load_system
+from planner.plan.negative_controls import outside_torques
 from planner.plan.region_planner import plan_regions
-from sim.region_run import outside_torques, run_region_plan
-from sim.system_run import simulate_system
+from scenarios.runs import simulate_system, validate_plan
+from sim.settings import ENGINES
 
 ROOT = Path(__file__).resolve().parents[1]
 HANDS = ("prismatic_finger_hand", "two_link_finger_hand", "three_finger_hand",
@@ -37,7 +38,6 @@ SYSTEMS = {"two_link_finger_box": [2.0, 2.0, 0.0], "prismatic_finger_box": [2.0,
            "two_link_effort_finger_box": [2.0, 2.0, 0.5]}
 #: friction of the velocity-only hand's negative control (tests/test_chain_hands_sim.py)
 VELOCITY_ONLY_NEGATIVE = [0.4, 0.4, 2.0]
-ENGINES = ("pymunk", "mujoco")
 
 
 def _plan_row(name, rp, engine, mu, run, wall, kind="plan"):
@@ -47,7 +47,7 @@ def _plan_row(name, rp, engine, mu, run, wall, kind="plan"):
             "effort_joints": list(rp.effort_joints), "status": run.verdict.outcome.value,
             "claim_fraction": None if pm is None else pm.claim_fraction,
             "final_error_of_travel": None if pm is None else pm.final_error / pm.travel,
-            "slow_motion": run.summary["slow_motion"], "wall_s": round(wall, 2)}
+            "slow_motion": run.summary.parameters["slow_motion"], "wall_s": round(wall, 2)}
 
 
 def hand_rows(engines=ENGINES):
@@ -65,7 +65,7 @@ def hand_rows(engines=ENGINES):
             m_arg = m.tolist() if len(m) > 1 else float(m[0])
             for engine in engines:
                 t0 = time.perf_counter()
-                run = run_region_plan(rp, hf.hand, hf.q0, engine, m_arg)
+                run = validate_plan(rp, engine, m_arg, hand=hf.hand, q0=hf.q0)
                 rows.append(_plan_row(name, rp, engine, m_arg, run, time.perf_counter() - t0))
                 print(rows[-1], flush=True)
         mid = 0.5 * (lo + hi)
@@ -73,12 +73,14 @@ def hand_rows(engines=ENGINES):
         for engine in engines:
             t0 = time.perf_counter()
             if rp.effort_joints:
-                run = run_region_plan(rp, hf.hand, hf.q0, engine, m_arg, expect="disagree",
-                                      torques=outside_torques(rp, hf.hand, m_arg))
+                run = validate_plan(rp, engine, m_arg, hand=hf.hand, q0=hf.q0,
+                                    expect="disagree",
+                                    torques=outside_torques(rp, hf.hand, m_arg))
                 kind = "negative: torques outside the regions"
             else:
                 m_arg2 = VELOCITY_ONLY_NEGATIVE
-                run = run_region_plan(rp, hf.hand, hf.q0, engine, m_arg2, expect="disagree")
+                run = validate_plan(rp, engine, m_arg2, hand=hf.hand, q0=hf.q0,
+                                    expect="disagree")
                 kind = f"negative: mu {m_arg2}"
             rows.append(_plan_row(name, rp, engine, m_arg, run, time.perf_counter() - t0, kind))
             print(rows[-1], flush=True)

@@ -511,7 +511,7 @@ def fault_campaign(workdir: Path) -> Campaign:
     import test_sim_faults as tsf
 
     from sim.backends import make_backend
-    from sim.compare import Outcome
+    from sim.verdict import Outcome
     from sim.run import FaultKind, run_scene
     from sim.scene import Load
     from sim.scenes.paper import FingertipSpec

@@ -1,9 +1,9 @@
-"""Benchmark (issue 5): plan the two-finger hand segment with uncertain-mu torque bounds, then
+"""Benchmark: plan the two-finger hand segment with uncertain-mu torque bounds, then
 validate the plan in pymunk and MuJoCo; writes ``benchmarks/results/validate_bench.json``.
 
 Reports the best of 3 wall times of :func:`planner.plan.segment_planner.plan_hand` (mu in [0, 0.2],
 exact bounds; target <= 5 s), and per engine and per ``mu.validate`` value the wall time of
-:func:`sim.hand_run.run_plan` on the full segment without drawing (target: one plan validated
+:func:`scenarios.runs.validate_plan` on the full segment without drawing (target: one plan validated
 in both engines <= 60 s), with the simulated-seconds-per-wall-second ratio and the outcome
 (claimed-mode fraction, final position error / travel), all measured in the same run.
 
@@ -20,7 +20,7 @@ from pathlib import Path
 from planner.files.atomic import atomic_write_json
 from planner.plan.segment_planner import plan_hand
 from scenarios.registry import shipped_file
-from sim.backends import ENGINES
+from sim.settings import ENGINES
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -32,7 +32,7 @@ def main() -> None:
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" /
                                          "validate_bench.json"))
     args = ap.parse_args()
-    from sim.hand_run import run_plan
+    from scenarios.runs import validate_plan
 
     times = []
     plan = None
@@ -45,7 +45,7 @@ def main() -> None:
     for engine in ENGINES:
         for mu in mus:
             t = time.perf_counter()
-            res = run_plan(plan, engine, mu, render=False)
+            res = validate_plan(plan, engine, mu)
             wall = time.perf_counter() - t
             v = res.verdict
             pm = v.plan
@@ -53,10 +53,10 @@ def main() -> None:
             final_error = pm.final_error_of_travel if pm else float("nan")
             runs.append({
                 "engine": engine, "mu": mu, "wall_s": wall,
-                "sim_wall_s": res.summary["settings"]["wall_time_s"],
+                "sim_wall_s": res.summary.wall_time_s,
                 "simulated_s": plan.waypoints[-1].t,
                 "realtime_factor": plan.waypoints[-1].t / wall,
-                "steps": res.summary["settings"]["steps"], "status": v.outcome.value,
+                "steps": res.summary.parameters["steps"], "status": v.outcome.value,
                 "claim_fraction": claim_fraction,
                 "final_error_of_travel": final_error,
             })

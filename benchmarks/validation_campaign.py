@@ -1,10 +1,11 @@
 """Validation campaign: seeded random friction points and random systems, both engines.
 
-Cases (each simulated with :func:`sim.system_run.simulate_system`, the machinery of
-``qsplan simulate``):
+Cases (each simulated with :func:`scenarios.runs.simulate_system`, the path of ``qsplan
+simulate``):
 
-* ``ex41`` / ``ex43``: Examples 4.1 / 4.3 (eqs. 37, 42) scaled to 0.2 m / 2 m scenes
-  (:func:`sim.scenes.paper.scaled_system`) at friction drawn uniformly from [0.05, 1] per contact;
+* ``ex41`` / ``ex43``: Examples 4.1 / 4.3 (eqs. 37, 42), the shipped files (simulated at the
+  pipeline's scale, :data:`sim.settings.SIZE_RANGE`) at friction drawn uniformly from
+  [0.05, 1] per contact;
 * ``system``: random boxes and trapezoids on a table pushed by one frictionless finger from the
   left or (mirrored) the right, at a random height and direction (:func:`random_system`) --
   systems with ``workpiece`` geometry and ``environment`` contacts.
@@ -42,8 +43,8 @@ from planner.model.system import System
 from planner.model.workpiece import WorkpieceGeometry
 from planner.predict.feasibility import feasible_modes
 from scenarios.registry import DATA_DIR
-from sim.scenes.paper import scaled_system
-from sim.system_run import judge_recording, simulate_system
+from scenarios.runs import simulate_system
+from sim.judge import judge
 
 NEAR = 0.03
 #: MuJoCo backend settings of every run (``--mujoco-backend-defaults``; ``None``: the system
@@ -51,7 +52,7 @@ NEAR = 0.03
 MUJOCO_SETTINGS: Any = None
 #: The classifier's slip threshold as a fraction of the drive speed (``sim.classify``).
 SLIP = 0.05
-SCALES = {"ex41": ("example_4_1", 0.01), "ex43": ("example_4_3", 0.1)}
+EXAMPLES = {"ex41": "example_4_1", "ex43": "example_4_3"}
 
 
 def labels(system: System, mu: np.ndarray) -> frozenset[str]:
@@ -168,8 +169,7 @@ def draw(case: str, rng: np.random.Generator) -> tuple[System, np.ndarray, np.nd
             if not labels(system, ctrl) & labels(system, mu):
                 return system, mu, ctrl
         return system, mu, mu
-    data, scale = SCALES[case]
-    system = scaled_system(load_system(DATA_DIR / f"{data}.json"), scale)
+    system = load_system(DATA_DIR / f"{EXAMPLES[case]}.json")
     mu = rng.uniform(0.05, 1.0, size=system.n_contacts)
     for _ in range(50):
         ctrl = rng.uniform(0.05, 1.0, size=system.n_contacts)
@@ -194,31 +194,32 @@ def reach(system: System, mu: np.ndarray, p: dict[str, Any]) -> tuple[float, np.
 
 def run_point(case: str, engine: str, system: System, mu: np.ndarray, ctrl: np.ndarray
               ) -> dict[str, Any]:
+    """One point through the user's path (:func:`scenarios.runs.simulate_system`, as ``qsplan
+    simulate``), and the same recording judged against the control friction's prediction."""
+    from dataclasses import replace
+
     t0 = time.perf_counter()
     res = simulate_system(system, engine, mu=mu,
-                          engine_settings=MUJOCO_SETTINGS if engine == "mujoco" else None)
-    p = res.summary["parameters"]
+                          settings=MUJOCO_SETTINGS if engine == "mujoco" else None)
+    s = res.summary
+    p = s.parameters
     row: dict[str, Any] = {
         "case": case, "engine": engine, "mu": mu.tolist(), "status": res.verdict.outcome.value,
-        "predicted": res.summary["predicted"]["labels"],
-        "observed": res.summary["observed"]["counts"], "reason": res.verdict.reason,
-        "near_boundary": near_boundary(system, mu),
+        "predicted": s.predicted["labels"], "observed": s.observed["counts"],
+        "reason": res.verdict.reason, "near_boundary": near_boundary(system, mu),
         "near_velocity": near_velocity(system, mu),
         "wedge": wedge_pairs(system, mu, *reach(system, mu, p)), "control_mu": ctrl.tolist(),
     }
     if engine == "mujoco" and MUJOCO_SETTINGS is not None:
         row["settings"] = "backend defaults"
     if not np.array_equal(ctrl, mu) and res.verdict.outcome.value != "fault":
-        scale = p["speed_scale"]
-        judged = feasible_modes(system.with_mu(ctrl).with_joint_inputs(
-            np.asarray(system.joint_inputs) * scale))
+        control = system.with_mu(ctrl)
+        judged = feasible_modes(control)
         row["control_predicted"] = list(judged.labels)
-        # drawn disjoint at the file's speeds; near a boundary the scene's speeds can differ
         if not set(judged.labels or ["JAM"]) & set(row["predicted"]):  # a jam is "JAM"
-            load = float(np.linalg.norm(np.asarray(system.g_obj)[:2]))
-            v, _, _ = judge_recording(res.recording, judged, engine, p["drive_speed_m_per_s"],
-                                      load, p["length"], p["jam_force_N"])
-            row["control_status"] = v.outcome.value
+            exp = replace(res.job.expectation, modes=tuple(judged.all_modes), system=control)
+            row["control_status"] = judge(res.recording, exp,
+                                          res.job.thresholds).verdict.outcome.value
     row["wall_s"] = time.perf_counter() - t0
     return row
 
@@ -310,7 +311,7 @@ def main() -> None:
     ap.add_argument("--mujoco-backend-defaults", action="store_true",
                     help="MuJoCo: the backend's defaults (stiff squeeze pairs, driven bodies 1e6 "
                     "x the workpiece) instead of the system scenes' settings "
-                    "(sim.system_run.SYSTEM_SETTINGS); for comparison")
+                    "(sim.settings.SETTINGS); for comparison")
     args = ap.parse_args()
     if args.mujoco_backend_defaults:
         from sim.backends import EngineSettings

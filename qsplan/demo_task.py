@@ -1,24 +1,26 @@
-"""The whole-task part of ``qsplan demo`` (issue 16): the Figure 9 task from the initial to the goal
-grasp.
+"""The whole-task part of ``qsplan demo``: the Figure 9 task from the initial to the goal grasp,
+and the demo's runs and checks.
 
 * :func:`plan_task` -- plan ``figure9_task_hand`` (:func:`planner.plan.task_file.plan_hand_task`),
   write ``task/plan_task.json`` (version 2), its negative control (every torque reversed, still
   claiming every segment's mode: ``negative_control/task/plan_task_negative.json``) and the
   story pictures (``story/task_story.png``: start, segments, goal; ``story/task_regions.png``:
   the torque regions);
-* :func:`task_jobs` / :func:`task_job` -- one run of the whole plan per engine and friction value
-  (:func:`sim.task_run.run_task`: the whole task in one continuous simulation)
-  and the negative control per engine, each writing ``summary.json`` (whole verdict, then one
-  row per segment);
+* :class:`DemoRun`, :func:`run_demo_job` -- one run of a plan in a worker process through the
+  pipeline (:func:`scenarios.runs.validate_plan`: the whole task in one continuous
+  simulation), writing ``summary.json`` (whole verdict, then one row per segment);
+  :func:`task_jobs`: the whole plan per engine and friction value and the negative control per
+  engine;
 * :func:`task_plan_checks`, :func:`task_run_checks` and :func:`task_report_lines` -- the
   demo's checks and the report's story.
 
-Simulators are imported inside :func:`task_job` (it runs in a worker process).
+Simulators are imported inside :func:`run_demo_job` (it runs in a worker process).
 """
 
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -53,37 +55,109 @@ def plan_task(out: Path, render: bool) -> dict[str, Any]:
             "goal": pose, "figures": figures}
 
 
+@dataclass(frozen=True)
+class DemoRun:
+    """One simulator run of the demo, done in a worker process: ``plan`` (path) in ``engine``
+    at friction ``mu``, outputs in ``out`` (``folder``: the same relative to the report);
+    ``waypoints``: the first so many of a one-segment plan; ``expect``: ``agree``, or
+    ``disagree`` for a negative control; ``task``: a whole-task (version-2) plan."""
+
+    plan: str
+    engine: str
+    mu: float
+    out: str
+    folder: str
+    name: str
+    expect: str
+    task: bool = False
+    waypoints: int | None = None
+    render: bool = True
+
+
+def run_demo_job(job: DemoRun) -> dict[str, Any]:
+    """One run through the pipeline (:func:`scenarios.runs.validate_plan`); writes and returns
+    its summary (plus, for the R2S control, where the rival was observed)."""
+    from planner.plan.plan_file import load_plan
+    from planner.plan.task_file import load_task_plan
+    from scenarios.runs import validate_plan, write_run
+
+    plan = load_task_plan(job.plan) if job.task else load_plan(job.plan)
+    res = validate_plan(plan, job.engine, job.mu, waypoints=job.waypoints, name=job.name,
+                        source=job.plan, expect=job.expect)
+    extra: dict[str, Any] = {"folder": job.folder, "task": job.task}
+    if job.expect == "disagree" and not job.task:
+        extra.update(_rival_stats(plan, res, job.waypoints))
+    summary = write_run(res, job.out, render=job.render and not job.task, extra=extra)
+    return summary
+
+
+def _rival_stats(plan: Any, res: Any, n_wp: int | None) -> dict[str, Any]:
+    """Where the plan predicts a rival (not the claim): how much of that stretch showed it."""
+    import numpy as np
+
+    from sim.verdict import mode_label
+
+    wps = plan.waypoints[:n_wp] if n_wp else plan.waypoints
+    t = np.array([w.t for w in wps])
+    rec = res.recording
+    times = rec.times
+    k = np.clip(np.searchsorted(t, times, side="right") - 1, 0, len(t) - 1)
+    rival_wp = [j for j, w in enumerate(wps[:-1]) if plan.claim not in w.predicted]
+    settle = res.summary.parameters["settle_s"]
+    in_rival = np.isin(k, rival_wp) & (times >= settle)
+    labels = [mode_label(o) for o in res.judgement.observed]
+    hits = np.array([labels[i] in wps[k[i]].predicted for i in range(len(labels))], dtype=bool)
+    shown = hits & in_rival
+    first = float(times[np.flatnonzero(shown)[0]]) if shown.any() else None
+    dt = float(times[1] - times[0]) if len(times) > 1 else 0.0
+    rival_labels = sorted({lab for j in rival_wp for lab in wps[j].predicted})
+    plan_m = res.verdict.plan
+    return {
+        "rival_predicted": rival_labels,
+        "rival_stretch_s": [float(t[rival_wp[0]]), float(t[rival_wp[-1] + 1])] if rival_wp
+        else None,
+        "rival_observed_s": float(shown.sum() * dt),
+        "rival_observed_fraction": float(shown.sum() / max(in_rival.sum(), 1)),
+        "rival_first_observed_s": first,
+        "rival_first_interval_majority": plan_m.waypoint_observed[rival_wp[0]]
+        if rival_wp and plan_m is not None and plan_m.waypoint_observed else None,
+    }
+
+
 def task_jobs(path: Path, negative: Path, engines: list[str], mus: list[float], out: Path,
-              negative_mu: float) -> list[dict[str, Any]]:
+              negative_mu: float) -> list[DemoRun]:
     """The whole plan per engine and ``mu``, and the negative control per engine."""
-    jobs = [{"kind": "task", "plan": str(path), "engine": e, "mu": float(mu),
-             "out": str(out / "task" / e / f"mu_{mu:g}"), "expect": "agree",
-             "name": f"whole task, {e}, mu={mu:g}"} for e in engines for mu in mus]
-    jobs += [{"kind": "task", "plan": str(negative), "engine": e, "mu": float(negative_mu),
-              "out": str(out / "negative_control" / "task" / e), "expect": "disagree",
-              "name": f"negative control (torques reversed), whole task, {e}, "
-                      f"mu={negative_mu:g}"} for e in engines]
+    jobs = [DemoRun(plan=str(path), engine=e, mu=float(mu),
+                    out=str(out / "task" / e / f"mu_{mu:g}"), folder=f"task/{e}/mu_{mu:g}",
+                    name=f"whole task, {e}, mu={mu:g}", expect="agree", task=True)
+            for e in engines for mu in mus]
+    jobs += [DemoRun(plan=str(negative), engine=e, mu=float(negative_mu),
+                     out=str(out / "negative_control" / "task" / e),
+                     folder=f"negative_control/task/{e}",
+                     name=f"negative control (torques reversed), whole task, {e}, "
+                          f"mu={negative_mu:g}", expect="disagree", task=True)
+             for e in engines]
     return jobs
 
 
-def task_job(job: dict[str, Any]) -> dict[str, Any]:
-    """One run of a task plan in a worker process; writes and returns its summary."""
-    from planner.files.atomic import atomic_write_json
-    from planner.plan.task_file import load_task_plan
-    from sim.compare import Expect
-    from sim.task_run import run_task
+@dataclass(frozen=True)
+class Check:
+    """One expectation of the demo: what was ``expected``, what was ``measured``, whether it
+    ``held`` (timings are reported as info checks that always hold: they never gate the exit
+    code)."""
 
-    plan = load_task_plan(job["plan"])
-    run = run_task(plan, job["engine"], job["mu"])
-    summary = {**run.summary, "scenario": job["name"], "expect": job["expect"],
-               "passed": run.whole.held(Expect.parse(job["expect"])), "kind": "task",
-               "wall_time_s": run.summary["settings"]["wall_time_s"]}
-    atomic_write_json(Path(job["out"]) / "summary.json", summary)
-    return {**summary, "folder": job["out"]}
+    check: str
+    expected: str
+    measured: str
+    held: bool
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"check": self.check, "expected": self.expected, "measured": self.measured,
+                "held": self.held}
 
 
 def _check(name: str, expected: str, measured: str, held: bool) -> dict[str, Any]:
-    return {"check": name, "expected": expected, "measured": measured, "held": bool(held)}
+    return Check(name, expected, measured, bool(held)).to_dict()
 
 
 def task_plan_checks(task: dict[str, Any]) -> list[dict[str, Any]]:
@@ -105,9 +179,9 @@ def task_run_checks(task: dict[str, Any], results: list[dict[str, Any]]
     n = len(task["plan"].segments)
     checks: list[dict[str, Any]] = []
     for r in results:
-        if r.get("kind") != "task":
+        if not r["task"]:
             continue
-        where = f"{r['engine']}, mu={r['mu']:g}"
+        where = f"{r['engine']}, mu={r['parameters']['mu'][0]:g}"
         if r["expect"] == "agree":
             for row in r["segments"]:
                 frac = row.get("claim_fraction", float("nan"))
@@ -153,13 +227,13 @@ def task_report_lines(task: dict[str, Any], results: list[dict[str, Any]]) -> li
     L.append("| run | whole | segments (claimed mode, final error / travel) | wall [s] |")
     L.append("|---|---|---|---|")
     for r in results:
-        if r.get("kind") != "task":
+        if not r["task"]:
             continue
         segs = "; ".join(f"{row['segment']}: {row['status']} "
                          f"({row.get('claim_fraction', float('nan')):.0%}, "
                          f"{row.get('final_error_of_travel', float('nan')):.2%})"
                          for row in r["segments"])
-        L.append(f"| {r['scenario']} | {r['status']} | {segs} | {r['wall_time_s']:.1f} |")
+        L.append(f"| {r['name']} | {r['status']} | {segs} | {r['wall_time_s']:.1f} |")
     L.append("")
     return L
 

@@ -48,8 +48,10 @@ def execute(args: argparse.Namespace) -> int:
     if sc.engines and args.engine not in sc.engines:
         raise InputError(f"engine: expected one of {sc.engines}, got {args.engine!r}")
     params = parse_settings(sc, getattr(args, "set", None))
-    summary = sc.run(args.out, engine=args.engine, render=not args.no_render, **params)
-    keys = ("scenario", "engine", "status", "passed", "agreement", "reason")
+    from scenarios.runs import run_scenario
+
+    summary = run_scenario(sc, args.out, engine=args.engine, render=not args.no_render, **params)
+    keys = ("name", "scenario", "engine", "status", "passed", "agreement", "reason")
     print(json.dumps({k: summary[k] for k in keys if k in summary} or summary, default=str))
     if summary.get("status") == "fault":
         return 3

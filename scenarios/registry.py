@@ -18,10 +18,10 @@ from typing import Any
 import numpy as np
 
 from planner.errors import InputError
-from sim.compare import Expect
+from sim.verdict import Expect
 
-__all__ = ["DATA_DIR", "Expect", "Parameter", "Scenario", "all_scenarios", "get", "parse_settings",
-           "register", "shipped_file"]
+__all__ = ["DATA_DIR", "Expect", "Parameter", "PlanRun", "RulerRun", "RunSpec", "Scenario",
+           "SystemRun", "all_scenarios", "get", "parse_settings", "register", "shipped_file"]
 
 #: The shipped system and hand files (``example_4_1``, ``two_finger_hand``, ...).
 DATA_DIR = Path(__file__).resolve().parent / "data"
@@ -87,6 +87,48 @@ class Parameter:
 
 
 @dataclass(frozen=True)
+class SystemRun:
+    """A simulator scenario of a shipped system file: ``source`` (its name in
+    ``scenarios/data``) simulated at friction ``mu`` (one per contact), judged at ``judge_mu``
+    and/or against the prediction of ``judge_source`` (negative controls; default the same)."""
+
+    source: str
+    mu: tuple[float, ...]
+    judge_mu: tuple[float, ...] | None = None
+    judge_source: str | None = None
+
+
+@dataclass(frozen=True)
+class PlanRun:
+    """A simulator scenario of a plan: the shipped hand ``source`` planned for friction in
+    ``mu_interval`` with command ``policy`` (``rival:LABEL`` makes a negative control), run at
+    ``mu`` over its first ``waypoints`` waypoints (None: all)."""
+
+    source: str
+    mu: float
+    mu_interval: tuple[float, float] = (0.0, 0.2)
+    policy: str = "midband"
+    waypoints: int | None = None
+
+
+@dataclass(frozen=True)
+class RulerRun:
+    """The ruler of Sec. 5.1 at static / kinetic friction ``mu_s`` / ``mu_k``, judged against the
+    switches the planner predicts at kinetic ``predict_mu_k`` (default ``mu_k``), of which the
+    first ``required`` must be observed."""
+
+    mu_s: float
+    mu_k: float
+    predict_mu_k: float | None = None
+    required: int = 5
+
+
+#: What a simulator scenario runs (data; :func:`scenarios.runs.run_spec` runs it the way
+#: ``qsplan simulate`` / ``validate`` run a user's file).
+RunSpec = SystemRun | PlanRun | RulerRun
+
+
+@dataclass(frozen=True)
 class Scenario:
     """A registered scenario.
 
@@ -103,8 +145,10 @@ class Scenario:
         scenarios that only produce figures or tables.
     run : callable
         ``run(out_dir: pathlib.Path, **options) -> dict`` writes its outputs into ``out_dir``
-        and returns a JSON-ready summary (``status``: a :class:`sim.compare.Outcome` value, or
-        ``"info"`` for ``INFO`` scenarios; ``passed``: the expectation held).
+        and returns a JSON-ready summary (``status``: a :class:`sim.verdict.Outcome` value, or
+        ``"info"`` for ``INFO`` scenarios; ``passed``: the expectation held). A simulator
+        scenario gives ``spec`` instead (data, :data:`RunSpec`), run by
+        :func:`scenarios.runs.run_scenario`.
     engines : tuple of str
         Engines it runs on (empty when it does not simulate).
     tags : tuple of str
@@ -116,10 +160,16 @@ class Scenario:
     summary: str
     reference: str
     expect: Expect
-    run: Callable[..., dict[str, Any]]
+    run: Callable[..., dict[str, Any]] | None = None
     engines: tuple[str, ...] = ()
     tags: tuple[str, ...] = field(default_factory=tuple)
     parameters: tuple[Parameter, ...] = ()
+    spec: RunSpec | None = None
+
+    def __post_init__(self) -> None:
+        if (self.run is None) == (self.spec is None):
+            raise InputError(f"scenario {self.name!r}: expected a run function or a run "
+                             "spec, not both or neither")
 
     def defaults(self) -> dict[str, Any]:
         """``{name: default}`` of every parameter."""

@@ -32,7 +32,7 @@ from scenarios.muspace_maps import rod
 from scenarios.registry import Expect, Scenario, register
 
 #: Friction while sticking (R) and sliding (S) at each contact; support distances from the
-#: centre of mass [m] (the same numbers as the simulated ruler in scenarios/paper_sims.py).
+#: centre of mass [m] (the same numbers as the simulated ruler in scenarios/simulations.py).
 MU_R = (0.5, 0.5)
 MU_S = (0.3, 0.3)
 L1, L2 = 0.04, 0.025

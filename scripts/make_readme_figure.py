@@ -38,7 +38,7 @@ def tutorial_system_text() -> str:
 
 
 def draw_geometry(ax, system) -> None:
-    from sim.scenes.paper import workpiece_polygon
+    from sim.scenes.shapes import workpiece_polygon
 
     pts, nrm = np.asarray(system.points), np.asarray(system.normals)
     poly = workpiece_polygon(pts, nrm, 1.25 * float(np.max(np.linalg.norm(pts, axis=1))))

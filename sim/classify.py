@@ -1,4 +1,4 @@
-"""Observed contact modes from simulator contact data only (judged in :mod:`sim.compare`).
+"""Observed contact modes from simulator contact data only (judged in :mod:`sim.judge`).
 
 Per contact and recorded step (``docs/conventions.md`` mode tokens), from the contact's signals
 averaged over a centred window of ``window`` seconds (:func:`window_mean`):
@@ -37,18 +37,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from planner.model.modes import BREAK, ROLL, SLIDE, Mode
-from planner.predict.stages import FeasibleMode
-from sim.compare import (
-    FORCE_TOLERANCE,
-    JAM,
-    MODE_FRACTION_REQUIRED,
-    TWIST_TOLERANCE,
-    ObservedMode,
-    Verdict,
-    fault_verdict,
-)
-from sim.compare_motion import compare_motion
 from sim.run import Recording
+from sim.verdict import JAM, ObservedMode
 
 #: Per-contact token -> (mode code, sliding direction xi) of :class:`planner.model.modes.Mode`.
 TOKEN_CODES = {"R": (ROLL, 0), "S+": (SLIDE, 1), "S-": (SLIDE, -1), "B": (BREAK, 0)}
@@ -62,12 +52,13 @@ class Thresholds:
     growth rule); ``jam_twist_error``: relative twist error above which the workpiece no longer
     follows a predicted twist; ``jam_depth_force`` [N]: the depth-growth rule counts only
     where the window-mean total normal force also rose by more than this over the trailing
-    ``jam_rate_window`` (0: always; :func:`sim.system_run.judge_recording` sets the run's force
-    scale: a soft contact's depth creeping under steady forces is no jam -- MuJoCo's Example 4.3
-    at mu = .80 .72 .83 moved as ``R1 B2 S-3`` on every step and was read as a jam);
-    ``length_scale`` [m] weights rotation in twist errors; ``load``
-    [N] the load's size (scales force errors); ``early`` [s] the stretch at the start of the
-    judged steps over which twist and forces are compared with the certificate."""
+    ``jam_rate_window`` (0: always; system runs set the run's force scale: a soft contact's
+    depth creeping under steady forces is no jam -- MuJoCo's Example 4.3 at mu = .80 .72 .83
+    moved as ``R1 B2 S-3`` on every step and was read as a jam); ``length_scale`` [m] weights
+    rotation in twist errors; ``load`` [N] the force scale (scales force errors); ``early``
+    [s] the stretch at the start of the judged steps over which twist and forces are compared
+    with the certificate; ``drive`` [m/s] the fastest commanded contact speed (the floor of
+    twist errors, :func:`twist_error`)."""
 
     slip_speed: float
     force_floor: float
@@ -81,6 +72,7 @@ class Thresholds:
     length_scale: float = 1.0
     load: float = 1.0
     early: float = 0.2
+    drive: float = 0.0
 
     @classmethod
     def for_drive(cls, drive_speed: float, load: float, creep_floor: float = 1e-8,
@@ -91,7 +83,7 @@ class Thresholds:
         return cls(slip_speed=max(0.05 * drive_speed, 10.0 * creep_floor),
                    force_floor=1e-3 * load, settle=settle, jam_force=jam_force,
                    jam_depth_rate=max(0.01 * drive_speed, 10.0 * creep_floor),
-                   length_scale=length_scale, load=load)
+                   length_scale=length_scale, load=load, drive=drive_speed)
 
 
 def window_mean(values: np.ndarray, weights: np.ndarray, times: np.ndarray,
@@ -160,30 +152,43 @@ def mode_of(tokens: tuple[str, ...]) -> Mode:
     return Mode(tuple(c for c, _ in pairs), tuple(x for _, x in pairs))
 
 
-def workpiece_twist(rec: Recording, window: float) -> np.ndarray:
-    """(T, 3) twist ``(v_x, v_y, omega)`` [m/s, m/s, rad/s] of the workpiece frame's origin,
-    central differences of the recorded poses averaged over ``window`` seconds."""
-    iw = rec.body_names.index("workpiece")
-    pose = rec.poses[:, iw].copy()
+def workpiece_twist(rec: Recording, window: float,
+                    bodies: tuple[str, ...] = ("workpiece",)) -> np.ndarray:
+    """(T, 3 n_b) twists ``(v_x, v_y, omega)`` [m/s, m/s, rad/s] of the ``bodies``' frame
+    origins (the workpieces, in the system's order), central differences of the recorded poses
+    averaged over ``window`` seconds."""
+    idx = [rec.body_names.index(b) for b in bodies]
+    pose = rec.poses[:, idx].copy()  # (T, n_b, 3)
     if len(pose) < 2:
-        return np.zeros((len(pose), 3))
-    pose[:, 2] = np.unwrap(pose[:, 2])
-    q = np.gradient(pose, rec.times, axis=0)
+        return np.zeros((len(pose), 3 * len(idx)))
+    pose[:, :, 2] = np.unwrap(pose[:, :, 2], axis=0)
+    q = np.gradient(pose, rec.times, axis=0).reshape(len(pose), -1)
     return window_mean(q, np.ones_like(q), rec.times, window)
 
 
-def twist_error(observed: np.ndarray, predicted: np.ndarray, length_scale: float) -> np.ndarray:
-    """Relative error ``|q_obs - q_pred|_L / |q_pred|_L`` with ``|(v_x, v_y, w)|_L =
-    sqrt(v_x^2 + v_y^2 + (L w)^2)`` (``L = length_scale`` [m]); ``observed`` (..., 3)."""
+def twist_error(observed: np.ndarray, predicted: np.ndarray, length_scale: float,
+                floor: float = 0.0) -> np.ndarray:
+    """Error of observed twists against a predicted one, ``max_b |q_obs,b - q_pred,b|_L /
+    max(|q_pred|_L, floor)`` with ``|(v_x, v_y, w)|_L = sqrt(v_x^2 + v_y^2 + (L w)^2)``
+    (``L = length_scale`` [m]) per body ``b``; ``observed`` (..., 3 n_b), ``predicted``
+    (3 n_b,). ``floor`` [m/s] (the drive speed: docs/simulation.md, "Twist and forces") makes
+    the error absolute where the predicted twist is slower than it -- a predicted rest included;
+    with ``floor`` 0 a zero predicted twist gives ``inf`` for any motion."""
+    pred = np.asarray(predicted, dtype=float)
+    nb = pred.size // 3
     wvec = np.array([1.0, 1.0, length_scale])
-    diff = np.linalg.norm((np.asarray(observed) - predicted) * wvec, axis=-1)
-    size = float(np.linalg.norm(np.asarray(predicted) * wvec))
+    obs = np.asarray(observed, dtype=float)
+    diff = np.linalg.norm(((obs - pred).reshape(*obs.shape[:-1], nb, 3)) * wvec, axis=-1)
+    diff = np.max(diff, axis=-1)
+    size = max(float(np.linalg.norm(pred.reshape(nb, 3) * wvec)), float(floor))
     return diff / size if size > 0 else np.where(diff > 0, np.inf, 0.0)
 
 
 def jam_steps(rec: Recording, th: Thresholds,
-              predicted_twists: Sequence[np.ndarray] = ()) -> np.ndarray:
-    """(T,) bool: steps showing a jam (module docstring)."""
+              predicted_twists: Sequence[np.ndarray] = (),
+              bodies: tuple[str, ...] = ("workpiece",)) -> np.ndarray:
+    """(T,) bool: steps showing a jam (module docstring); ``predicted_twists`` (3 n_b,) of the
+    ``bodies``."""
     T = len(rec.times)
     grows = np.zeros(T, dtype=bool)
     if T == 0:
@@ -212,17 +217,19 @@ def jam_steps(rec: Recording, th: Thresholds,
                 grows &= rising | (total > (th.jam_force or np.inf))
     if not predicted_twists or not grows.any():
         return grows
-    q = workpiece_twist(rec, th.window)
+    q = workpiece_twist(rec, th.window, bodies)
     follows = np.zeros(T, dtype=bool)
     for qp in predicted_twists:
-        follows |= twist_error(q, np.asarray(qp, dtype=float), th.length_scale) \
+        follows |= twist_error(q, np.asarray(qp, dtype=float), th.length_scale, th.drive) \
             <= th.jam_twist_error
     return grows & ~follows
 
 
 def observed_modes(rec: Recording, th: Thresholds,
-                   predicted_twists: Sequence[np.ndarray] = ()) -> list[ObservedMode]:
-    """Observed :class:`Mode` per recorded step, or :data:`sim.compare.JAM`."""
+                   predicted_twists: Sequence[np.ndarray] = (),
+                   bodies: tuple[str, ...] = ("workpiece",)) -> list[ObservedMode]:
+    """Observed :class:`Mode` per recorded step, or :data:`sim.verdict.JAM`
+    (``predicted_twists`` of the workpieces ``bodies``: :func:`jam_steps`)."""
     tok = window_tokens(rec, th)
     cache: dict[tuple[str, ...], Mode] = {}
     modes = []
@@ -231,7 +238,7 @@ def observed_modes(rec: Recording, th: Thresholds,
         if key not in cache:
             cache[key] = mode_of(key)
         modes.append(cache[key])
-    jam = jam_steps(rec, th, predicted_twists)
+    jam = jam_steps(rec, th, predicted_twists, bodies)
     if rec.jammed_at is not None and np.any(jam):
         jam[int(np.flatnonzero(jam)[0]):] = True  # the run stopped on a sustained jam
     return [JAM if j else m for j, m in zip(jam, modes)]
@@ -250,33 +257,3 @@ def judged_mask(rec: Recording, th: Thresholds) -> np.ndarray:
     """(T,) bool: the steps a comparison judges, those at or after ``th.settle`` (a run that
     stopped early has fewer; one that stopped before settling has none)."""
     return rec.times >= th.settle - 1e-12
-
-
-def judge_run(rec: Recording, th: Thresholds, predicted: Sequence[FeasibleMode],
-              required: float = MODE_FRACTION_REQUIRED,
-              twist_tolerance: float = TWIST_TOLERANCE,
-              force_tolerance: float = FORCE_TOLERANCE) -> tuple[Verdict, list[ObservedMode]]:
-    """Classify ``rec`` and judge it against the planner's ``predicted`` feasible modes (empty
-    for a predicted jam) with :func:`sim.compare.compare_motion` on the judged steps (modes,
-    workpiece twist, forces). A run that faulted is a fault unless its steps up to one window
-    before the fault already disagreed (:func:`sim.compare.fault_verdict`).
-    Returns ``(verdict, observed mode per recorded step)``."""
-    observed = observed_modes(rec, th, [m.qdot for m in predicted])
-    mask = judged_mask(rec, th)
-    if rec.fault is not None:
-        # what the run showed up to one window before the fault (the fault's own blow-up
-        # excluded): a disagreement there means the run had left the plan
-        before, _ = judge_run(rec.until(rec.fault.time - th.window), th, predicted, required,
-                              twist_tolerance, force_tolerance)
-        return fault_verdict(rec.fault, before), observed
-    judged = [o for o, k in zip(observed, mask) if k]
-    iw = rec.body_names.index("workpiece")
-    flicker = flicker_fraction(rec, th, mask)
-    return compare_motion(judged, predicted, rec.times[mask], rec.poses[mask, iw],
-                          np.where(rec.present, rec.normal_force, 0.0)[mask],
-                          np.where(rec.present, rec.tangent_force, 0.0)[mask],
-                          length_scale=th.length_scale, load=th.load,
-                          early=th.early, initial_pose=rec.poses[0, iw] if len(rec.times)
-                          else None, flicker=flicker, required=required,
-                          twist_tolerance=twist_tolerance,
-                          force_tolerance=force_tolerance), observed

@@ -19,8 +19,8 @@ import numpy as np
 
 from planner.files.atomic import atomic_write_bytes, save_figure
 from planner.model.hand import Hand
-from sim.compare import ObservedMode
 from sim.run import Recording
+from sim.verdict import ObservedMode
 
 COLOURS = {"R": "tab:green", "S+": "tab:orange", "S-": "tab:red", "B": "0.6", "JAM": "black"}
 ORDER = ["B", "R", "S-", "S+", "JAM"]
@@ -207,3 +207,43 @@ def hand_animation(rec: Recording, observed: Sequence[ObservedMode], hand: Hand,
     images[0].save(buf, format="GIF", save_all=True, append_images=images[1:], duration=120,
                    loop=0)
     return atomic_write_bytes(path, buf.getvalue())
+
+
+def draw_run(result: Any, out_dir: Path, *, animation: bool = True) -> dict[str, Path]:
+    """The pictures of an executed job (:class:`sim.jobs.RunResult`) written into ``out_dir``:
+    ``timeline.png`` (observed against predicted tokens per contact) and, with
+    ``animation``, ``animation.gif`` of a system of one workpiece or a one-segment plan (a
+    whole task's per-segment verdicts are in its summary). Returns ``{name: path}``."""
+    from sim.expectation import ModeSet, PlanSchedule, Switches
+
+    rec = result.recording
+    if not len(rec.times):
+        return {}
+    exp = result.job.expectation
+    observed = result.judgement.observed
+    out: dict[str, Path] = {}
+    if isinstance(exp, ModeSet):
+        predicted: list[ObservedMode] = [m.mode for m in exp.modes] or ["JAM"]
+        out["timeline"] = timeline_plot(rec, observed, predicted, out_dir / "timeline.png")
+        meta = result.job.scene.meta
+        if animation and len(exp.bodies) == 1 and "polygons" in meta:
+            out["animation"] = animation_gif(
+                rec, observed, np.asarray(meta["polygons"][0]), out_dir / "animation.gif",
+                finger_radius=float(meta["finger_radius"]))
+    elif isinstance(exp, PlanSchedule) and len(exp.segments) == 1:
+        from sim.scenes.hand import finger_angles
+
+        seg = exp.segments[0]
+        hand = result.job.scene.meta["hand"]
+        out["timeline"] = hand_timeline(rec, observed, seg.times, seg.predicted, seg.claim,
+                                        out_dir / "timeline.png")
+        if animation:
+            out["animation"] = hand_animation(rec, observed, hand, finger_angles(rec, hand),
+                                              seg.times, seg.poses, out_dir / "animation.gif")
+    elif isinstance(exp, Switches):
+        from sim.classify import mode_of
+
+        out["timeline"] = timeline_plot(rec, observed, [mode_of(("S+", "R")),
+                                                        mode_of(("R", "S-"))],
+                                        out_dir / "timeline.png")
+    return out

@@ -24,7 +24,10 @@ Backends (:mod:`sim.backends.pymunk_engine`, :mod:`sim.backends.mujoco_engine`) 
 ``set_friction(pair, mu)``
     change one pair's Coulomb coefficient between steps (used to emulate static/kinetic
     friction, Sec. 5.1);
-``health()`` (optional)
+``set_control(joint, control)``
+    drive a revolute joint by velocity or by effort from the next step on (a task's segments
+    may use other control partitions; :mod:`sim.backends.switching`);
+``health()``
     ``None`` or the reason why the engine flagged numerical trouble.
 
 With ``body_a`` = manipulator and ``body_b`` = workpiece, the reading follows
@@ -312,7 +315,9 @@ class Backend(Protocol):
 
     def set_friction(self, pair: str, mu: float) -> None: ...
 
-    # optional: ``health() -> str | None``, a reason when the engine flagged numerical trouble
+    def set_control(self, joint: str, control: Control) -> None: ...
+
+    def health(self) -> str | None: ...
 
 
 def point_velocity(state: BodyState, point: np.ndarray) -> np.ndarray:

@@ -10,13 +10,12 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from sim_helpers import example
 
-from planner.files.system_file import load_system
 from planner.predict.feasibility import Prediction, feasible_modes
-from scenarios.registry import DATA_DIR
 from sim.classify import Thresholds
+from sim.expectation import ModeSet
 from sim.run import Recording
-from sim.scenes.paper import scaled_system
 
 TRACE_DIR = Path(__file__).resolve().parent / "data"
 
@@ -28,9 +27,22 @@ class Trace:
 
     def prediction(self, mu: tuple[float, ...] | None = None) -> Prediction:
         m = self.meta
-        system = scaled_system(load_system(DATA_DIR / f"{m['data']}.json"), m["scale"],
-                               m["speed"])
+        system = example(m["data"], m["scale"], m["speed"])
         return feasible_modes(system, tuple(m["mu"]) if mu is None else mu)
+
+    def system(self, mu: tuple[float, ...] | None = None) -> Any:
+        """The (scaled) system the trace was recorded from, at its friction or ``mu``."""
+        m = self.meta
+        return example(m["data"], m["scale"], m["speed"]).with_mu(
+            tuple(m["mu"]) if mu is None else mu)
+
+    def expectation(self, modes: Any, mu: tuple[float, ...] | None = None,
+                    system: Any = None) -> ModeSet:
+        """The expectation of judging the trace against ``modes`` of its system at ``mu``
+        (or of ``system``)."""
+        m = self.meta
+        return ModeSet(tuple(modes), system if system is not None else self.system(mu), 1.0,
+                       ("workpiece",), m["speed"], m["length_scale"], m["load"])
 
     def thresholds(self, **kw: Any) -> Thresholds:
         m = self.meta

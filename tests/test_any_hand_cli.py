@@ -28,7 +28,7 @@ from planner.model.validation import validation_frictions
 from planner.plan.task_file import load_task_plan
 from qsplan.cli import main
 from scenarios.registry import DATA_DIR
-from sim.hand_run import Schedule
+from sim.schedule import SegmentSchedule
 
 
 def test_validation_frictions_stay_inside_the_planned_box() -> None:
@@ -47,8 +47,8 @@ def test_a_two_link_finger_task_plan_drives_each_joint_with_its_own_command(tmp_
                  "--out", str(plan_path)]) == 0
     plan = load_task_plan(plan_path)
     seg = plan.segments[0]
-    sched = Schedule.from_plan(seg, 4)
-    rates = sched.joint_commands()[:, [c == "velocity" for c in sched.controls]]
+    sched = SegmentSchedule.from_segment(seg, 4)
+    rates = sched.commands[:, [c == "velocity" for c in sched.controls]]
     assert np.allclose(rates, [[0.02, 0.01]] * len(seg.waypoints))  # the file's two rates
     out = tmp_path / "val"
     assert main(["-q", "validate", str(plan_path), "--engine", "pymunk", "--mu", "0.1",

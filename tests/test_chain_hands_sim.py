@@ -20,15 +20,16 @@ import pytest
 
 from planner.errors import InputError
 from planner.files.hand_file import load_hand_file
+from planner.plan.negative_controls import outside_torques
 from planner.plan.region_planner import joint_inputs, plan_regions
 from planner.predict.feasibility import feasible_modes
+from scenarios.runs import validate_plan
 from sim.backends import ENGINES, EngineSettings, make_backend
-from sim.compare import Outcome
-from sim.hand_run import Schedule, hand_engine_settings
-from sim.hand_settings import effort_force
-from sim.region_run import outside_torques, run_region_plan
 from sim.scene import Body, Capsule, Control, Joint, JointKind, Scene
 from sim.scenes.hand import finger_body, hand_scene, joint_coordinates
+from sim.schedule import SegmentSchedule, effort_force
+from sim.settings import SceneKind, settings_for, with_mass_for_load
+from sim.verdict import Outcome
 
 DATA = Path(__file__).resolve().parents[1] / "scenarios" / "data"
 CHAIN_HANDS = ["prismatic_finger_hand", "two_link_finger_hand", "three_finger_hand",
@@ -52,7 +53,7 @@ def test_links_follow_the_planners_forward_kinematics(name, engine):
         np.arange(hand.n_joints) % 2, -1.0, 1.0)
     commands = [_constant(float(r)) for r in rates]
     scene = hand_scene(hand, q0, 0.1, ["velocity"] * hand.n_joints, commands)
-    be = make_backend(engine, hand_engine_settings(hand, engine))
+    be = make_backend(engine, settings_for(SceneKind.HAND, engine))
     be.build(scene)
     names = [b.name for b in scene.bodies]
     steps, dt = 400, 1e-3
@@ -175,28 +176,32 @@ def test_the_squeeze_force_stiffens_mujoco_hand_contacts():
     """effort_force: |tau| / longest normal lever (eq. 3 without friction), by hand; the
     MuJoCo masses follow it, pymunk's do not."""
     hand, q0, rp, _ = _region_plan("three_finger_hand")
-    sched = Schedule.from_region_plan(rp, hand.n_contacts)
-    cmd = sched.joint_commands()
+    sched = SegmentSchedule.from_region_plan(rp, hand.n_contacts)
+    cmd = sched.commands
     J = hand.jacobian(q0)
     by_hand = max(float(np.max(np.abs(cmd[:, j]))) / float(np.max(np.abs(J[:, 0, j])))
                   for j in rp.effort_joints)
     f = effort_force(hand, q0, sched.controls, cmd)
     assert f == pytest.approx(by_hand)
     assert f > 5.0 * float(np.linalg.norm(hand.load_force))  # a squeeze, not the load
-    base = hand_engine_settings(hand, "mujoco")
-    es = hand_engine_settings(hand, "mujoco", f)
-    ratio = f / float(np.linalg.norm(hand.load_force))
-    assert es.mass_scale == pytest.approx(base.mass_scale * ratio)
-    assert hand_engine_settings(hand, "pymunk", f) == hand_engine_settings(hand, "pymunk")
+    load = float(np.linalg.norm(hand.load_force))
+
+    def settings(engine, force):
+        return with_mass_for_load(settings_for(SceneKind.HAND, engine), engine,
+                                  max(load, force), hand.mass, hand.length_scale)
+
+    base, es = settings("mujoco", 0.0), settings("mujoco", f)
+    assert es.mass_scale == pytest.approx(base.mass_scale * f / load)
+    assert settings("pymunk", f) == settings("pymunk", 0.0)
     velocity_only = tuple("velocity" for _ in sched.controls)
     assert effort_force(hand, q0, velocity_only, cmd) == 0.0
 
 
 def _check_agrees(name, engine, waypoints):
     hand, q0, rp, mu = _region_plan(name)
-    run = run_region_plan(rp, hand, q0, engine, mu, waypoints=waypoints)
+    run = validate_plan(rp, engine, mu, hand=hand, q0=q0, waypoints=waypoints)
     assert run.verdict.outcome is Outcome.AGREED, run.verdict.reasons
-    assert run.summary["passed"] and run.summary["claim"] == rp.claim
+    assert run.summary.passed and run.summary.predicted["claims"] == [rp.claim]
     assert run.verdict.judged_steps > 100
 
 
@@ -220,9 +225,9 @@ def test_torques_outside_the_region_disagree(name, engine):
     # the negative control is one: outside every region, the planner predicts a rival there
     for w, t in zip(rp.waypoints, tau):
         assert not w.region.contains(t)
-    run = run_region_plan(rp, hand, q0, engine, mu, torques=tau, expect="disagree")
+    run = validate_plan(rp, engine, mu, hand=hand, q0=q0, torques=tau, expect="disagree")
     assert run.verdict.outcome is Outcome.DISAGREED, run.verdict.reasons
-    assert run.summary["passed"]
+    assert run.summary.passed
 
 
 @pytest.mark.parametrize("engine", ENGINES)
@@ -235,20 +240,20 @@ def test_velocity_only_plan_at_friction_outside_its_box_disagrees(engine):
     w = rp.waypoints[0]
     system = hand.system(w.q, mu, joint_inputs(hand, rp.velocity_joints, w.velocity_commands))
     assert rp.claim not in feasible_modes(system).labels
-    run = run_region_plan(rp, hand, q0, engine, mu, expect="disagree", waypoints=3)
+    run = validate_plan(rp, engine, mu, hand=hand, q0=q0, expect="disagree", waypoints=3)
     assert run.verdict.outcome is Outcome.DISAGREED, run.verdict.reasons
 
 
 def test_region_schedule_commands_every_joint():
     hand, q0, rp, _ = _region_plan("three_finger_hand")
-    sched = Schedule.from_region_plan(rp, hand.n_contacts)
-    cmd = sched.joint_commands()
+    sched = SegmentSchedule.from_region_plan(rp, hand.n_contacts)
+    cmd = sched.commands
     assert cmd.shape == (len(rp.waypoints), 3)
     assert np.allclose(cmd[:, list(rp.effort_joints)], [w.torque_command for w in rp.waypoints])
     assert sched.controls == ("velocity", "effort", "effort")
     slow = sched.slowed(4.0)
-    assert np.allclose(slow.joint_commands()[:, 0], cmd[:, 0] / 4.0)
-    assert np.allclose(slow.joint_commands()[:, 1:], cmd[:, 1:])
+    assert np.allclose(slow.commands[:, 0], cmd[:, 0] / 4.0)
+    assert np.allclose(slow.commands[:, 1:], cmd[:, 1:])
     assert slow.times[-1] == pytest.approx(4.0 * sched.times[-1])
     with pytest.raises(InputError, match=r"torques: expected \(11, 2\)"):
-        Schedule.from_region_plan(rp, hand.n_contacts, np.zeros((11, 3)))
+        SegmentSchedule.from_region_plan(rp, hand.n_contacts, np.zeros((11, 3)))

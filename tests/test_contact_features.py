@@ -28,15 +28,11 @@ import pytest
 from planner.errors import InputError
 from planner.files.system_file import system_from_dict
 from planner.predict.feasibility import feasible_modes
-from sim.compare import Outcome
+from scenarios.runs import simulate_system
 from sim.scene import Capsule, Circle
-from sim.scenes.system import (
-    FEATURE_RADIUS,
-    contact_feature,
-    near_acute_vertex,
-    system_scene,
-)
-from sim.system_run import simulate_system
+from sim.scenes.shapes import FEATURE_RADIUS, contact_feature, near_acute_vertex
+from sim.scenes.system import system_scene
+from sim.verdict import Outcome
 
 WEIGHT = 0.981
 POLY = [[0.0, 0.0], [0.1, 0.0], [0.03, 0.06]]

@@ -1,4 +1,4 @@
-"""sim.hand_run and sim.compare.compare_plan: comparison, shortened plan runs in both engines,
+"""The plan judge (sim.judge_plan.compare_plan), shortened plan runs in both engines,
 the negative control, and `qsplan validate` exit codes."""
 
 from __future__ import annotations
@@ -13,7 +13,8 @@ from planner.errors import InputError
 from planner.model.modes import Mode
 from qsplan.cli import main
 from scenarios.registry import DATA_DIR
-from sim.compare import Outcome, compare_plan
+from sim.judge_plan import compare_plan
+from sim.verdict import Outcome
 
 HAND_FILE = DATA_DIR / "two_finger_hand.json"
 
@@ -82,16 +83,18 @@ def _short(plan, n=SHORT):
 
 @pytest.mark.parametrize("engine", ["pymunk", "mujoco"])
 def test_short_midband_plan_passes(plans, engine, tmp_path):
-    from sim.hand_run import run_plan
+    from scenarios.runs import validate_plan, write_run
 
     render = engine == "pymunk"  # drawing is engine-independent; once is enough
-    res = run_plan(plans["midband"], engine, 0.1, tmp_path, waypoints=SHORT, render=render)
+    res = validate_plan(plans["midband"], engine, 0.1, waypoints=SHORT)
+    write_run(res, tmp_path, render=render)
     v = res.verdict
     assert v.outcome is Outcome.AGREED, v.reasons
     assert v.plan is not None
     assert v.plan.claim_fraction >= 0.95 and v.plan.final_error_of_travel < 0.02
     s = json.loads((tmp_path / "summary.json").read_text())
     assert s["passed"] is True and s["claim"] == CLAIM.label and s["engine"] == engine
+    assert s["kind"] == "hand" and s["predicted"]["claims"] == [CLAIM.label]
     assert s["status"] == "agreed" and s["judged_steps"] == v.judged_steps > 0
     if render:
         assert (tmp_path / "timeline.png").stat().st_size > 0
@@ -102,11 +105,11 @@ def test_short_midband_plan_passes(plans, engine, tmp_path):
 def test_negative_control_fails_and_shows_r2s(plans, engine):
     """Torque in the R2S band while claiming 4S (mu = 0.2): the validator must disagree, and what
     it sees at the start is the rival the planner predicted there."""
-    from sim.hand_run import run_plan
+    from scenarios.runs import validate_plan
 
     plan = plans["rival:R2S"]
     assert plan.claim == CLAIM.label and R2S.label in plan.waypoints[0].predicted
-    res = run_plan(plan, engine, 0.2, waypoints=SHORT, render=False)
+    res = validate_plan(plan, engine, 0.2, waypoints=SHORT, expect="disagree")
     v = res.verdict
     assert v.outcome is Outcome.DISAGREED and v.plan is not None
     assert v.plan.claim_fraction < 0.5 and v.plan.waypoint_observed[0] == R2S.label
@@ -114,14 +117,14 @@ def test_negative_control_fails_and_shows_r2s(plans, engine):
 
 
 def test_run_plan_input_errors(plans):
-    from sim.hand_run import run_plan
+    from scenarios.runs import validate_plan
 
     with pytest.raises(InputError, match=r"engine: expected one of pymunk, mujoco, got 'bullet'"):
-        run_plan(plans["midband"], "bullet", 0.1, waypoints=2, render=False)
+        validate_plan(plans["midband"], "bullet", 0.1, waypoints=2)
     with pytest.raises(InputError, match=r"mu: expected 4 friction coefficients .one per contact"):
-        run_plan(plans["midband"], "pymunk", [0.1, 0.2], waypoints=2, render=False)
-    with pytest.raises(InputError, match=r"truncated: expected 2 <= n <= 41, got 1"):
-        run_plan(plans["midband"], "pymunk", 0.1, waypoints=1, render=False)
+        validate_plan(plans["midband"], "pymunk", [0.1, 0.2], waypoints=2)
+    with pytest.raises(InputError, match=r"waypoints: expected 2 <= n <= 41, got 1"):
+        validate_plan(plans["midband"], "pymunk", 0.1, waypoints=1)
 
 
 # ---- qsplan validate -----------------------------------------------------------------------------
@@ -164,31 +167,33 @@ def test_validate_bad_input(plan_files, tmp_path, capsys):
 
 
 def test_validate_fault_exit_code(plan_files, monkeypatch):
-    """A simulator fault is exit 3, never a pass (run_plan replaced by a faulting stub)."""
-    import sim.hand_run as pe
-    from sim.compare import fault_verdict
-    from sim.run import Fault, FaultKind
+    """A simulator fault is exit 3, never a pass (the engine's backend replaced by one whose
+    health check fails at once)."""
+    import sim.jobs as jobs
 
-    def faulty(plan, engine, mu, out=None, **kw):
-        verdict = fault_verdict(Fault(FaultKind.NAN, 0.1, "injected"))
-        return pe.PlanRun(verdict, None, (), {"settings": {"wall_time_s": 0.0}})
+    real = jobs.make_backend
 
-    monkeypatch.setattr(pe, "run_plan", faulty)
+    def faulty(engine, settings=None):
+        backend = real(engine, settings)
+        backend.health = lambda: "injected fault"  # type: ignore[method-assign]
+        return backend
+
+    monkeypatch.setattr(jobs, "make_backend", faulty)
     assert main(["validate", str(plan_files["good"]), "--mu", "0.1"]) == 3
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("engine", ["pymunk", "mujoco"])
 def test_acceptance_full_segment(plans, engine):
-    """Issue 5 acceptance: the full 13.3 s segment with the midband torque passes at mu = 0,
+    """The full 13.3 s segment with the midband torque passes at mu = 0,
     0.1, 0.2 (4S >= 95 %, final position within 2 % of travel); the negative control fails."""
-    from sim.hand_run import run_plan
+    from scenarios.runs import validate_plan
 
     for mu in (0.0, 0.1, 0.2):
-        v = run_plan(plans["midband"], engine, mu, render=False).verdict
+        v = validate_plan(plans["midband"], engine, mu).verdict
         assert v.outcome is Outcome.AGREED and v.plan is not None, (mu, v.reasons)
         assert v.plan.claim_fraction >= 0.95 and v.plan.final_error_of_travel <= 0.02
-    v = run_plan(plans["rival:R2S"], engine, 0.2, render=False).verdict
+    v = validate_plan(plans["rival:R2S"], engine, 0.2).verdict
     assert v.outcome is Outcome.DISAGREED and v.plan is not None
     assert v.plan.waypoint_observed[0] == R2S.label
 
@@ -200,10 +205,10 @@ def test_plan_for_a_wider_band_holds_at_its_top(engine):
     segment (before the window classifier MuJoCo read 87 % and 0 %: contact 2 slid at 1 mm/s
     but its label stayed frozen)."""
     from planner.plan.segment_planner import plan_hand
-    from sim.hand_run import run_plan
+    from scenarios.runs import validate_plan
 
     plan = plan_hand(HAND_FILE, mu=(0.0, 0.4), policy="midband")
     for mu in (0.3, 0.4):
-        v = run_plan(plan, engine, mu, render=False).verdict
+        v = validate_plan(plan, engine, mu).verdict
         assert v.outcome is Outcome.AGREED and v.plan is not None, (mu, v.reasons)
         assert v.plan.claim_fraction >= 0.95

@@ -18,8 +18,8 @@ import pytest
 
 from planner.files.hand_file import hand_from_dict
 from scenarios.registry import DATA_DIR
-from sim.compare import Outcome
 from sim.run import FaultKind
+from sim.verdict import Outcome
 
 HAND_FILE = DATA_DIR / "two_finger_hand.json"
 
@@ -68,8 +68,9 @@ def shipped_plan():
 def test_the_pre_load_is_what_makes_the_mirrored_hand_start(mirrored_plan, engine):
     """Built exactly touching (overlap 0) the mirrored hand's contacts are missing at the
     first step (the crash of issue 14); with the scene-scaled pre-load they all touch."""
-    from sim.backends import make_backend
     from sim.hand_run import ENGINE_SETTINGS
+
+    from sim.backends import make_backend
     from sim.run import RunSettings, run_scene
     from sim.scenes.hand import hand_scene
 

@@ -1,4 +1,4 @@
-"""sim.scenes.hand: the two-finger hand file as a scene in both engines (issue 5)."""
+"""sim.scenes.hand: the two-finger hand file as a scene in both engines."""
 
 from __future__ import annotations
 
@@ -10,10 +10,12 @@ import pytest
 from planner.errors import InputError
 from planner.files.hand_file import hand_from_dict, load_hand
 from sim.backends import make_backend
-from sim.hand_run import ENGINE_SETTINGS
 from sim.run import RunSettings, run_scene
 from sim.scene import preload_depth
-from sim.scenes.hand import hand_scene, pair_names, polygon_inertia
+from sim.scenes.hand import hand_scene, pair_names
+from sim.scenes.shapes import polygon_inertia
+from sim.settings import SceneKind, settings_for
+from sim.similarity import scaled_masses
 
 
 @pytest.fixture(scope="module")
@@ -22,8 +24,8 @@ def hand_file(data_dir):
 
 
 def _scene(hand, q0, tau=-0.003, speed=0.02, mu=0.1, mass_scale=1.0):
-    return hand_scene(hand, q0, mu, ["effort", "velocity"],
-                      [lambda t, s: tau, lambda t, s: speed], mass_scale=mass_scale)
+    return scaled_masses(hand_scene(hand, q0, mu, ["effort", "velocity"],
+                                    [lambda t, s: tau, lambda t, s: speed]), mass_scale)
 
 
 def test_scene_layout(hand_file):
@@ -51,10 +53,11 @@ def test_polygon_inertia_of_a_square():
 
 @pytest.mark.parametrize("engine", ["pymunk", "mujoco"])
 def test_contacts_and_normals_match_the_model(hand_file, engine):
-    """With the hand settings (sim.hand_run.ENGINE_SETTINGS): all four contacts touch, along the model's inward normals, and the
-    driven finger pushes the workpiece to the left (the 4S direction)."""
+    """With the hand settings (sim.settings.SETTINGS): all four contacts touch, along the
+    model's inward normals, and the driven finger pushes the workpiece to the left (the 4S
+    direction)."""
     hand, q0, _ = hand_file
-    es = ENGINE_SETTINGS[engine]
+    es = settings_for(SceneKind.HAND, engine)
     scene = _scene(hand, q0, mass_scale=es.mass_scale)
     rec = run_scene(scene, make_backend(engine, es), RunSettings(
         duration=0.3, dt=1e-3, slip_speed=1e-4, penetration_tol=2e-3))
@@ -77,8 +80,8 @@ def test_bad_inputs_rejected(hand_file):
         hand_scene(hand, q0, 0.1, ["effort"], [None, None])
     with pytest.raises(InputError, match="expected 'velocity' or 'effort' per joint"):
         hand_scene(hand, q0, 0.1, ["effort", "torque"], [None, None])
-    with pytest.raises(InputError, match="mass_scale: expected a finite number > 0, got 0"):
-        hand_scene(hand, q0, 0.1, ["effort", "velocity"], [None, None], mass_scale=0.0)
+    with pytest.raises(InputError, match="mass scale: expected a finite number > 0, got 0"):
+        _scene(hand, q0, mass_scale=0.0)
     broken = json.loads(json.dumps(data))
     del broken["palm"]
     with pytest.raises(InputError, match="expected key 'palm'"):
@@ -120,7 +123,7 @@ def test_a_tip_at_an_acute_vertex_reads_its_edge(acute_tip, engine):
     hand, q, i = acute_tip
     pts, nrm, _ = hand.contact_geometry(q)
     scene = _scene(hand, q, mu=0.2, tau=0.0, speed=0.0)
-    backend = make_backend(engine, ENGINE_SETTINGS[engine])
+    backend = make_backend(engine, settings_for(SceneKind.HAND, engine))
     backend.build(scene)
     backend.step(1e-4)
     r = backend.contacts()[scene.pairs[i].name]

@@ -17,15 +17,15 @@ import numpy as np
 import pytest
 
 from planner.files.system_file import load_system
-from scenarios.paper_sims import DATA
 from scenarios.registry import DATA_DIR
-from sim.backends import CARRY_IMPRATIO, CARRY_SOLREF, SUPPORT_SOLIMP, EngineSettings, make_backend
+from sim.backends import EngineSettings, make_backend
 from sim.backends.roles import CARRY, SQUEEZE, SUPPORT, contact_roles
 from sim.run import RunSettings, run_scene
 from sim.scene import BodyState, ContactReading
-from sim.scenes.paper import example_scene, scaled_system
 from sim.scenes.ruler import ruler_scene
 from sim.scenes.system import system_scene
+from sim.settings import CARRY_IMPRATIO, CARRY_SOLREF, SUPPORT_SOLIMP
+from sim.similarity import scaled_scene
 
 pytest.importorskip("mujoco")
 
@@ -60,8 +60,7 @@ def test_roles_of_the_shipped_scene_kinds() -> None:
         assert box.model.pair_solimp[i] == pytest.approx(solimp)
         assert tuple(box.model.pair_solref[i]) == box.solref
 
-    ex = scaled_system(load_system(DATA / "example_4_1.json"), 0.01, 5e-4)
-    b = built(example_scene(ex, speed=5e-4, mass=0.01))
+    b = built(scaled_scene(system_scene(load_system(DATA_DIR / "example_4_1.json")), 0.01))
     assert set(b.roles.values()) == {SQUEEZE}
     assert b.model.opt.impratio == 1.0
 
@@ -110,13 +109,8 @@ def test_pair_settings_reach_the_pair_they_name() -> None:
     is not the order it was added in. Friction and the per-role impedance must land on the
     pair they name (a lookup by index once put the table's soft impedance and friction on the
     stacked blocks' interface, and the upper block slid off at 0.6 of the drive)."""
-    from planner.files.system_file import load_system
-    from scenarios.registry import DATA_DIR
-    from sim.backends import SUPPORT_SOLIMP, make_backend
-    from sim.scenes.multibody import multibody_scene
-
     mu = [0.5, 0.45, 0.3, 0.25, 0.1]
-    scene = multibody_scene(load_system(DATA_DIR / "stacked_blocks_lower.json").with_mu(mu))
+    scene = system_scene(load_system(DATA_DIR / "stacked_blocks_lower.json").with_mu(mu))
     be = make_backend("mujoco")
     be.build(scene)
     m = be.model

@@ -6,7 +6,7 @@ impratio 1) a box at table friction >= 0.45 stick-slips in a cycle of about 25 m
 its rocking on the two soft supports: the sliding contacts' friction falls to half the cone
 (``|T| / N`` 0.26 at mu = 0.59) while they slip, the supports go missing and the verdict is
 ``inconclusive``. System scenes give support pairs the carry pairs' solref and impratio
-(:data:`sim.backends.SUPPORT_SOLREF`, :data:`sim.backends.SUPPORT_IMPRATIO`); scenes without a
+(:data:`sim.settings.SUPPORT_SOLREF`, :data:`sim.settings.SUPPORT_IMPRATIO`); scenes without a
 support pair (the paper examples) keep impratio 1.
 """
 
@@ -20,26 +20,24 @@ from campaign_module import campaign
 
 from planner.files.system_file import load_system
 from scenarios.registry import DATA_DIR
-from sim.backends import (
-    SQUEEZE_SOLREF,
-    SUPPORT_IMPRATIO,
-    SUPPORT_SOLREF,
-    make_backend,
-)
+from scenarios.runs import simulate_system
+from sim.backends import make_backend
 from sim.backends.roles import SQUEEZE, SUPPORT
-from sim.compare import Outcome
-from sim.scenes.paper import example_scene, scaled_system
 from sim.scenes.system import system_scene
-from sim.system_run import SYSTEM_SETTINGS, simulate_system
+from sim.settings import SQUEEZE_SOLREF, SUPPORT_IMPRATIO, SUPPORT_SOLREF, SceneKind, settings_for
+from sim.similarity import scaled_scene
+from sim.verdict import Outcome
+
+SYSTEM_MUJOCO = settings_for(SceneKind.SYSTEM, "mujoco")
 
 pytest.importorskip("mujoco")
 
 #: The system scenes' MuJoCo settings without the sliding supports' (the settings before them)
-PLAIN = replace(SYSTEM_SETTINGS["mujoco"], support_solref=None, support_impratio=None)
+PLAIN = replace(SYSTEM_MUJOCO, support_solref=None, support_impratio=None)
 
 
 def test_support_settings_reach_the_support_pairs_only() -> None:
-    box = make_backend("mujoco", SYSTEM_SETTINGS["mujoco"])
+    box = make_backend("mujoco", SYSTEM_MUJOCO)
     box.build(system_scene(load_system(DATA_DIR / "box_on_table_low.json")))
     assert box.roles == {"c1": SUPPORT, "c2": SUPPORT, "c3": SQUEEZE}
     assert box.model.opt.impratio == SUPPORT_IMPRATIO > 1.0
@@ -51,9 +49,8 @@ def test_support_settings_reach_the_support_pairs_only() -> None:
     plain.build(system_scene(load_system(DATA_DIR / "box_on_table_low.json")))
     assert plain.model.opt.impratio == 1.0
     # Example 4.1: squeeze pairs only, no support -- the model-wide impratio stays 1
-    ex = scaled_system(load_system(DATA_DIR / "example_4_1.json"), 0.01, 5e-4)
-    b = make_backend("mujoco", SYSTEM_SETTINGS["mujoco"])
-    b.build(example_scene(ex, speed=5e-4, mass=0.01))
+    b = make_backend("mujoco", SYSTEM_MUJOCO)
+    b.build(scaled_scene(system_scene(load_system(DATA_DIR / "example_4_1.json")), 0.01))
     assert set(b.roles.values()) == {SQUEEZE}
     assert b.model.opt.impratio == 1.0
 
@@ -65,10 +62,10 @@ def test_high_friction_box_slides_in_mujoco(index: int) -> None:
     sliding supports' settings MuJoCo's box stick-slips (``inconclusive``, so the check can
     fail); with them it agrees, its table contacts present on every judged step."""
     system, mu, _ = campaign().point("system", index, 1)
-    old = simulate_system(system, "mujoco", mu=mu, engine_settings=PLAIN)
+    old = simulate_system(system, "mujoco", mu=mu, settings=PLAIN)
     assert old.verdict.outcome == Outcome.INCONCLUSIVE, old.verdict.reason
     res = simulate_system(system, "mujoco", mu=mu)
     assert res.verdict.outcome == Outcome.AGREED, res.verdict.reason
     rec = res.recording
-    judged = rec.times >= res.summary["parameters"]["settle_s"]
+    judged = rec.times >= res.summary.parameters["settle_s"]
     assert np.all(rec.present[judged][:, :2]), "a table contact went missing"

@@ -12,9 +12,9 @@ import pytest
 
 from planner.files.system_file import load_system
 from scenarios.registry import DATA_DIR
-from sim.compare import Outcome
-from sim.multibody_run import simulate_multibody
-from sim.scenes.multibody import multibody_scene
+from scenarios.runs import simulate_system
+from sim.scenes.system import system_scene
+from sim.verdict import Outcome
 
 ENGINES = ("pymunk", "mujoco")
 STACK = DATA_DIR / "stacked_blocks.json"
@@ -25,7 +25,7 @@ def test_scene_has_one_site_per_contact_with_planner_signs() -> None:
     normal points into: pair (body_a = other, body_b = body), the engine's reading convention
     (normal into body_b, slip of body_b minus body_a) is then eq. (5)'s."""
     system = load_system(STACK)
-    scene = multibody_scene(system)
+    scene = system_scene(system)
     pairs = {p.name: p for p in scene.pairs}
     assert [p.name for p in scene.pairs] == ["c1", "c2", "c3", "c4", "c5"]
     assert (pairs["c3"].body_a, pairs["c3"].body_b) == ("work0", "work1")
@@ -38,29 +38,18 @@ def test_scene_has_one_site_per_contact_with_planner_signs() -> None:
 def test_negative_control_system_must_match() -> None:
     from planner.errors import InputError
 
-    with pytest.raises(InputError, match="judge_system: expected the same number of contacts"):
-        simulate_multibody(load_system(STACK), "pymunk",
-                           judge_system=load_system(DATA_DIR / "ruler_block.json"))
+    with pytest.raises(InputError, match="judge system: expected the same number of contacts"):
+        simulate_system(load_system(STACK), "pymunk",
+                        judge_system=load_system(DATA_DIR / "ruler_block.json"))
 
 
 @pytest.mark.parametrize("engine", ENGINES)
 def test_stacked_blocks_pushed_at_the_lower_block(engine) -> None:
     """The upper block rides along (``S-1 S-2 R3 R4 R5``): both bodies' observed twists are
     (1, 0, 0) times the drive speed, body by body (the registered scenarios check the modes)."""
-    run = simulate_multibody(load_system(DATA_DIR / "stacked_blocks_lower.json"), engine,
-                             mu=[0.5, 0.5, 0.3, 0.3, 0.0])
+    run = simulate_system(load_system(DATA_DIR / "stacked_blocks_lower.json"), engine,
+                          mu=[0.5, 0.5, 0.3, 0.3, 0.0])
     assert run.verdict.outcome is Outcome.AGREED, run.verdict.reason
-    assert np.allclose(run.twists, [[1, 0, 0], [1, 0, 0]], atol=0.05)
-
-
-def test_single_body_simulate_refuses_several_workpieces() -> None:
-    """:func:`sim.system_run.simulate_system` builds one-workpiece scenes; a multi-body system is
-    bad input naming the multi-body route, never a silently wrong scene (``qsplan simulate``
-    dispatches such files to :func:`sim.multibody_run.simulate_multibody`:
-    tests/test_simulate_multibody_cli.py)."""
-    from planner.errors import InputError
-    from planner.files.system_file import load_system
-    from sim.system_run import simulate_system
-
-    with pytest.raises(InputError, match="expected one workpiece, got 2"):
-        simulate_system(load_system(STACK), "pymunk")
+    twists = np.asarray(run.verdict.motion.twist_observed).reshape(2, 3)
+    drive = run.summary.parameters["drive_speed_m_per_s"]
+    assert np.allclose(twists / drive, [[1, 0, 0], [1, 0, 0]], atol=0.05)

@@ -13,6 +13,7 @@ import json
 import pytest
 
 from scenarios.registry import all_scenarios
+from scenarios.runs import run_scenario
 
 SLOW = {("ruler_single_mu", "mujoco"), ("ruler_static_kinetic", "mujoco"),
         ("neg_ruler_wrong_mu", "mujoco"), ("ruler_single_mu", "pymunk"),
@@ -29,32 +30,30 @@ def _cases():
 @pytest.mark.parametrize(("name", "engine"), list(_cases()))
 def test_scenario(name, engine, tmp_path):
     sc = all_scenarios()[name]
-    summary = sc.run(tmp_path, engine=engine, render=False)
+    summary = run_scenario(sc, tmp_path, engine=engine, render=False)
     on_disk = json.loads((tmp_path / "summary.json").read_text())
-    for key in ("scenario", "engine", "parameters", "expect", "agreement", "passed",
-                "predicted", "observed"):
+    for key in ("scenario", "name", "kind", "engine", "parameters", "expect", "agreement",
+                "passed", "predicted", "observed", "segments", "files"):
         assert key in on_disk, key
     assert on_disk["scenario"] == name and on_disk["engine"] == engine
     assert summary["status"] != "fault", summary["reason"]
     assert summary["passed"], summary["reason"]
     if sc.expect == "agree":
         assert summary["status"] == "agreed"
-        if "switch_positions" not in summary:
+        if summary["kind"] != "ruler":
             assert summary["agreement"] >= 0.95
-            # the planner's prediction on the scaled system equals the unscaled one
-            assert summary["predicted"]["scale_invariant"]
     else:
         assert summary["status"] == "disagreed"
     if name == "ruler_static_kinetic":  # acceptance: >= 5 switches, each within 2 %
-        pred = summary["switch_positions"]["predicted"]
-        obs = summary["switch_positions"]["observed"]
+        pred = summary["predicted"]["switch_positions_m"]
+        obs = summary["observed"]["switch_positions_m"]
         assert len(pred) >= 5 and len(obs) >= 5
         for p, o in zip(pred[:5], obs[:5]):
             assert abs(o - p) <= 0.02 * p
 
 
 def test_rendered_outputs(tmp_path):
-    s = all_scenarios()["ex43_one"].run(tmp_path, engine="pymunk", render=True)
+    s = run_scenario(all_scenarios()["ex43_one"], tmp_path, engine="pymunk", render=True)
     assert (tmp_path / "timeline.png").stat().st_size > 1000
     assert (tmp_path / "animation.gif").read_bytes()[:3] == b"GIF"
     assert s["passed"]
@@ -83,8 +82,8 @@ def test_ruler_creep_makes_explained_misses_inconclusive():
     """A missed switch that the measured creep can explain (creep x time of the switch,
     relative to its position, on top of the tolerance) is inconclusive; a miss beyond that, or
     any miss without creep above the slip threshold, stays a disagreement."""
-    from scenarios.paper_sims import creep_verdict
-    from sim.compare import Outcome, Verdict
+    from sim.judge_switches import creep_verdict
+    from sim.verdict import Outcome, Verdict
 
     miss = Verdict(Outcome.DISAGREED, ("1 of 2 switches",), agreement=0.5, judged_steps=2)
     pred, obs, times = [0.015, 0.009], [0.0151, 0.0093], [20.0, 40.0]

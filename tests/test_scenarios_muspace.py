@@ -14,6 +14,7 @@ import pytest
 
 from planner.friction.muspace import MuSpaceMap
 from scenarios.registry import all_scenarios
+from scenarios.runs import run_scenario
 
 MAPS = {"muspace_ex41": "example_4_1", "muspace_ex43": "example_4_3", "muspace_rod": "rod"}
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
@@ -33,7 +34,7 @@ def _png_ok(path):
 
 @pytest.mark.parametrize("name", sorted(MAPS))
 def test_map_scenario_writes_png_json_summary(name, tmp_path):
-    summary = all_scenarios()[name].run(tmp_path, n=31)
+    summary = run_scenario(all_scenarios()[name], tmp_path, n=31)
     assert summary["passed"], summary["reason"]
     on_disk = json.loads((tmp_path / "summary.json").read_text())
     assert on_disk["scenario"] == MAPS[name] and on_disk["status"] == "info"
@@ -53,7 +54,7 @@ def test_map_scenario_writes_png_json_summary(name, tmp_path):
 def test_ruler_muspace_bounces_between_corners(tmp_path):
     from scenarios.ruler_muspace import L1, L2, MU_R, MU_S
 
-    summary = all_scenarios()["ruler_muspace"].run(tmp_path, n=25, switches=4)
+    summary = run_scenario(all_scenarios()["ruler_muspace"], tmp_path, n=25, switches=4)
     assert summary["passed"], summary["reason"]
     _png_ok(tmp_path / "ruler_muspace.png")
     data = json.loads((tmp_path / "ruler_muspace.json").read_text())

@@ -14,15 +14,22 @@ from planner.predict.stages import FeasibleMode
 from sim.classify import (
     Thresholds,
     jam_steps,
-    judge_run,
     observed_modes,
     raw_tokens,
     window_mean,
     window_tokens,
 )
-from sim.compare import JAM, Expect, Outcome, Verdict, compare_modes
+from sim.expectation import ModeSet
+from sim.judge import judge_modes
+from sim.judge_switches import compare_switches
 from sim.run import Fault, FaultKind, Recording
-from sim.scenes.ruler import compare_switches
+from sim.verdict import JAM, Expect, Outcome, Verdict
+
+
+def judge_run(rec, th, modes):
+    """A run judged against feasible ``modes`` without a system (no certificate family)."""
+    return judge_modes(rec, ModeSet(tuple(modes), None, 1.0, ("workpiece",), 1e-3, 1.0, 1.0),
+                       th)
 
 
 def _rec(vt, fn, present=None, depth=None, dt=0.01, fault=None, jammed_at=None, poses=None):
@@ -142,8 +149,13 @@ def test_compare_outcomes():
     cmp = judge_run(bad, TH, [S])[0]
     assert cmp.outcome == Outcome.FAULT and "penetration at t=0.5000" in cmp.reason
     assert cmp.fault is not None and cmp.fault.kind is FaultKind.PENETRATION
-    assert compare_modes([], [S.mode]).outcome == Outcome.INCONCLUSIVE
-    assert compare_modes([JAM] * 3, [JAM]).outcome == Outcome.AGREED
+    # nothing judged; a predicted jam observed on every judged step
+    assert judge_run(_rec([[2e-4]] * 10, [[1.0]] * 10),
+                     dataclasses.replace(TH, settle=1.0), [S])[0].outcome == Outcome.INCONCLUSIVE
+    grows = _rec(np.zeros((100, 1)), np.ones((100, 1)) * 100.0)
+    th_jam = dataclasses.replace(TH, jam_force=10.0)
+    v, observed = judge_run(grows, th_jam, [])
+    assert observed[-1] == JAM and v.outcome == Outcome.AGREED, v.reason
 
 
 def test_a_run_stopped_before_settling_is_inconclusive():
@@ -183,7 +195,7 @@ def test_sliding_finger_sees_through_creep_and_dates_the_hand_over():
     """Ruler: finger 1 slides at the drive speed while finger 2 'sticks' but creeps at 20 % of
     it (MuJoCo's soft friction measured 13-27 %); then they swap at t = 1 s. The sliding finger
     is the one that carries the motion, and the hand-over is dated where it happened."""
-    from sim.scenes.ruler import creep, observed_switches, sliding_finger
+    from sim.judge_switches import creep, observed_switches, sliding_finger
 
     T, dt, v = 200, 0.01, 1e-3
     t = dt * (1 + np.arange(T))

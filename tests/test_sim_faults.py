@@ -13,26 +13,25 @@ import dataclasses
 
 import numpy as np
 import pytest
+from sim_helpers import example, example_scene
 
 import sim.backends.mujoco_engine as mujoco_backend
-from planner.files.system_file import load_system
 from planner.predict.feasibility import feasible_modes
-from scenarios.paper_sims import DATA
 from sim.backends import make_backend
 from sim.backends.pymunk_engine import PymunkBackend
-from sim.classify import Thresholds, judge_run
-from sim.compare import Expect, Outcome
+from sim.classify import Thresholds
+from sim.expectation import ModeSet
+from sim.judge import judge_modes
 from sim.run import EngineWatch, FaultKind, RunSettings, run_scene
 from sim.scene import Load
-from sim.scenes.paper import FingertipSpec, example_scene, scaled_system
+from sim.verdict import Expect, Outcome
 
 ENGINES = ("pymunk", "mujoco")
 SPEED = 1e-3
 
 
-def _scene(finger: FingertipSpec | None = None, mu=(0.2, 0.3, 0.1)):
-    system = scaled_system(load_system(DATA / "example_4_1.json"), 0.01, SPEED).with_mu(mu)
-    return example_scene(system, speed=SPEED, mass=0.01, finger=finger)
+def _scene(gap: float = 0.0, mu=(0.2, 0.3, 0.1)):
+    return example_scene("example_4_1", 0.01, SPEED, mu, mass=0.01, gap=gap)
 
 
 def _settings(**kw):
@@ -44,8 +43,10 @@ def _settings(**kw):
 def _judge(rec, mu=(0.2, 0.3, 0.1)):
     # steps before the settling time are never judged, so a fault there is only a fault
     th = Thresholds.for_drive(SPEED, 1.0, settle=0.1)
-    system = scaled_system(load_system(DATA / "example_4_1.json"), 0.01, SPEED)
-    return judge_run(rec, th, feasible_modes(system, mu).all_modes)[0]
+    system = example("example_4_1", 0.01, SPEED).with_mu(mu)
+    exp = ModeSet(tuple(feasible_modes(system).all_modes), system, 1.0, ("workpiece",), SPEED,
+                  0.37, 1.0)
+    return judge_modes(rec, exp, th)[0]
 
 
 @pytest.mark.parametrize("engine", ENGINES)
@@ -63,7 +64,7 @@ def test_nan_load_is_a_fault(engine, tmp_path, monkeypatch):
 
 @pytest.mark.parametrize("engine", ENGINES)
 def test_contact_lost_at_start(engine):
-    rec = run_scene(_scene(FingertipSpec(overlap=-1e-3)), make_backend(engine), _settings())
+    rec = run_scene(_scene(gap=1e-3), make_backend(engine), _settings())
     assert rec.fault is not None and rec.fault.kind == FaultKind.CONTACT_LOST_AT_START
     assert "not touching" in rec.fault.reason
     assert _judge(rec).outcome == Outcome.FAULT

@@ -17,13 +17,13 @@ from sim_traces import load_trace
 from sim.classify import (
     flicker_fraction,
     jam_steps,
-    judge_run,
     judged_mask,
     mode_of,
     raw_tokens,
     window_tokens,
 )
-from sim.compare import JAM, TWIST_TOLERANCE, Outcome
+from sim.judge import judge_modes
+from sim.verdict import JAM, TWIST_TOLERANCE, Outcome
 
 FLICKER = ["mujoco_ex41_3s_flicker", "mujoco_ex41_3s_flicker_b", "pymunk_ex41_jam_flicker"]
 
@@ -51,7 +51,7 @@ def test_window_classifier_sees_the_predicted_mode_through_mujoco_flicker(name):
     mask = judged_mask(t.rec, th)
     raw = [mode_of(tuple(r)) for r in raw_tokens(t.rec, th)[mask]]
     assert np.mean([m == pred.all_modes[0].mode for m in raw]) < 0.35
-    v, observed = judge_run(t.rec, th, pred.all_modes)
+    v, observed = judge_modes(t.rec, t.expectation(pred.all_modes), th)
     assert v.agreement >= 0.95 and v.judged_steps == int(mask.sum())
     assert v.motion is not None and v.motion.twist_error is not None
     assert v.motion.twist_error <= TWIST_TOLERANCE
@@ -77,7 +77,7 @@ def test_recorded_jams_agree_with_a_predicted_jam(name):
     th = t.thresholds()
     pred = t.prediction()
     assert pred.all_modes == ()
-    v, _ = judge_run(t.rec, th, pred.all_modes)
+    v, _ = judge_modes(t.rec, t.expectation(pred.all_modes), th)
     assert v.outcome is Outcome.AGREED and v.observed_counts == ((JAM, v.judged_steps),)
 
 
@@ -88,7 +88,7 @@ def test_negative_control_jam_judged_by_a_feasible_prediction(name):
     t = load_trace(name)
     pred = t.prediction((0.2, 0.3, 0.1))
     assert [m.mode.label for m in pred.all_modes] == ["S+1 S-2 S-3"]
-    v, _ = judge_run(t.rec, t.thresholds(), pred.all_modes)
+    v, _ = judge_modes(t.rec, t.expectation(pred.all_modes, (0.2, 0.3, 0.1)), t.thresholds())
     assert v.outcome is Outcome.DISAGREED and v.agreement < 0.5
 
 
@@ -99,7 +99,8 @@ def test_negative_control_wrong_region(name):
     t = load_trace(name)
     pred = t.prediction((0.75, 0.45, 0.55))
     assert [m.mode.label for m in pred.all_modes] == ["R1 S-2 B3"]
-    v, _ = judge_run(t.rec, t.thresholds(), pred.all_modes)
+    v, _ = judge_modes(t.rec, t.expectation(pred.all_modes, (0.75, 0.45, 0.55)),
+                       t.thresholds())
     assert v.outcome is Outcome.DISAGREED and v.agreement == 0.0
     assert v.motion is not None and v.motion.twist_cosine is not None
     assert v.motion.twist_error > TWIST_TOLERANCE and v.motion.twist_cosine < 0.5
@@ -107,7 +108,7 @@ def test_negative_control_wrong_region(name):
 
 def test_clean_pymunk_run_agrees_in_modes_twist_and_forces():
     t = load_trace("pymunk_ex41_3s")
-    v, _ = judge_run(t.rec, t.thresholds(), t.prediction().all_modes)
+    v, _ = judge_modes(t.rec, t.expectation(t.prediction().all_modes), t.thresholds())
     assert v.outcome is Outcome.AGREED and v.agreement == 1.0
     assert v.motion is not None and v.motion.force_error is not None
     assert v.motion.force_error <= 0.1 and v.motion.twist_error <= TWIST_TOLERANCE
@@ -120,18 +121,20 @@ def test_negative_control_twist_alone():
     t = load_trace("pymunk_ex41_3s")
     fm = t.prediction().all_modes[0]
     wrong = dataclasses.replace(fm, qdot=1.5 * np.asarray(fm.qdot))
-    v, _ = judge_run(t.rec, t.thresholds(), [wrong])
+    v, _ = judge_modes(t.rec, t.expectation([wrong]), t.thresholds())
     assert v.agreement == 1.0 and v.outcome is Outcome.DISAGREED
     assert v.motion is not None and v.motion.twist_size_ratio == pytest.approx(2 / 3, rel=0.05)
 
 
 def test_negative_control_forces_alone():
-    """Modes and twist right, contact forces doubled in the certificate: disagreed (a clean
-    run, no flicker to blame)."""
+    """Modes and twist right, the load doubled in the judged system (so every member of the
+    certificate family carries twice the forces): disagreed (a clean run, no flicker to
+    blame)."""
     t = load_trace("pymunk_ex41_3s")
+    system = t.system()
+    heavy = dataclasses.replace(system, g_obj=2.0 * np.asarray(system.g_obj))
     fm = t.prediction().all_modes[0]
-    wrong = dataclasses.replace(fm, contact_forces=2.0 * np.asarray(fm.contact_forces))
-    v, _ = judge_run(t.rec, t.thresholds(), [wrong])
+    v, _ = judge_modes(t.rec, t.expectation([fm], system=heavy), t.thresholds())
     assert v.agreement == 1.0 and v.outcome is Outcome.DISAGREED
     assert "contact forces off the certificate" in v.reason
 

@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from sim_helpers import scaled_system
 
 from planner.errors import InputError
 from planner.files.system_file import load_system
 from planner.model.geometry import cross2, rot90
 from planner.predict.feasibility import feasible_modes
-from scenarios.paper_sims import DATA
+from planner.predict.ruler import predicted_switches
+from scenarios.registry import DATA_DIR as DATA
 from sim.backends import make_backend
 from sim.run import RunSettings, run_scene
 from sim.scene import (
@@ -25,8 +27,7 @@ from sim.scene import (
     Polygon,
     Scene,
 )
-from sim.scenes.paper import scaled_system, workpiece_polygon
-from sim.scenes.ruler import predicted_switches
+from sim.scenes.shapes import workpiece_polygon
 
 ENGINES = ("pymunk", "mujoco")
 
@@ -66,6 +67,8 @@ def test_example_workpiece_passes_through_contacts_tangent(data, scale):
 
 @pytest.mark.parametrize("mu", [(0.2, 0.3, 0.1), (0.75, 0.45, 0.55), (0.75, 0.95, 0.25)])
 def test_scaling_keeps_the_feasible_mode_set(mu):
+    """The premise of simulating a similar scene (sim.similarity): a uniform scaling of
+    lengths, and a positive one of the contact velocities, changes no feasible mode."""
     base = load_system(DATA / "example_4_1.json")
     scaled = scaled_system(base, 0.01, speed=0.002)
     assert feasible_modes(scaled, mu).labels == feasible_modes(base, mu).labels

@@ -39,6 +39,7 @@ measurement.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import numpy as np
@@ -48,8 +49,10 @@ from planner.files.system_file import load_system
 from planner.predict.feasibility import feasible_modes
 from qsplan.cli import main
 from scenarios.registry import DATA_DIR
-from sim.compare import Outcome
-from sim.system_run import ENGINE, RATE, judge_recording, simulate_system
+from scenarios.runs import simulate_system
+from sim.judge import judge
+from sim.settings import SceneKind, settings_for
+from sim.verdict import Outcome
 
 W, WEIGHT = 0.08, 0.981
 CASES = {"low": (0.06, 0.3, "S-1 S-2 R3"), "high": (0.10, 0.9, "B1 R2 S+3")}
@@ -92,16 +95,16 @@ def run(case: str, engine: str):
 def test_box_agrees_and_negative_control_disagrees(case: str, engine: str) -> None:
     res = run(case, engine)
     assert res.verdict.outcome is Outcome.AGREED, res.verdict.reason
-    assert res.summary["observed"]["counts"] == {CASES[case][2]: res.verdict.judged_steps}
+    assert res.summary.observed["counts"] == {CASES[case][2]: res.verdict.judged_steps}
     if case == "low":  # a resting, sliding box: no contact goes missing (no stick-slip)
-        settled = res.recording.times >= ENGINE[engine]["settle"]
+        settled = res.recording.times >= res.summary.parameters["settle_s"]
         assert res.recording.present[settled].all()
     # the same recording judged at the other case's friction: the negative control
     other_mu = CASES[OTHER[case]][1]
-    judged = feasible_modes(box(case).with_mu([other_mu, other_mu, 0.0]))
-    p = res.summary["parameters"]
-    verdict, _, _ = judge_recording(res.recording, judged, engine, p["drive_speed_m_per_s"],
-                                    WEIGHT, p["length"], p["jam_force_N"])
+    other = box(case).with_mu([other_mu, other_mu, 0.0])
+    judged = feasible_modes(other)
+    exp = dataclasses.replace(res.job.expectation, modes=tuple(judged.all_modes), system=other)
+    verdict = judge(res.recording, exp, res.job.thresholds).verdict
     assert verdict.outcome is Outcome.DISAGREED, verdict.reason
 
 
@@ -113,12 +116,14 @@ def test_box_moves_as_predicted(engine: str) -> None:
         res = run(case, engine)
         rec = res.recording
         iw = rec.body_names.index("workpiece")
-        k = rec.times >= ENGINE[engine]["settle"]
+        p = res.summary.parameters
+        k = rec.times >= p["settle_s"]
         t, pose = rec.times[k], rec.poses[k, iw]
         vx = np.polyfit(t, pose[:, 0], 1)[0]
         omega = np.polyfit(t, pose[:, 2], 1)[0]
-        v = res.summary["parameters"]["drive_speed_m_per_s"]
-        assert v == pytest.approx(RATE[engine] * res.summary["parameters"]["length"])
+        v = p["drive_speed_m_per_s"]
+        assert p["scene_scale"] == 1.0  # a 7 cm box is simulated at its own size
+        assert v == pytest.approx(settings_for(SceneKind.SYSTEM, engine).rate * p["size_m"])
         if case == "low":
             assert vx == pytest.approx(v, rel=0.02)
             assert abs(omega) < 0.01 * v / CASES[case][0]
@@ -134,7 +139,7 @@ def test_cli_judge_mu_negative_control(tmp_path, capsys) -> None:
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"] == "agreed" and summary["predicted"]["labels"] == ["B1 R2 S+3"]
     assert summary["expect"] == "agree" and summary["passed"] is True
-    assert summary["parameters"]["length"] > 0
+    assert summary["parameters"]["size_m"] > 0 and summary["kind"] == "system"
     code = main(["simulate", f, "--engine", "pymunk", "--duration", "0.8",
                  "--judge-mu", "0.3,0.3,0"])
     assert code == 1
@@ -146,8 +151,9 @@ def test_mujoco_support_pairs_get_the_support_impedance() -> None:
     """The two table pairs (a static body) are built with ``SUPPORT_SOLIMP``; the finger pair
     keeps the backend's stiff default ``solimp``."""
     pytest.importorskip("mujoco")
-    from sim.backends import SUPPORT_SOLIMP, make_backend
+    from sim.backends import make_backend
     from sim.scenes.system import system_scene
+    from sim.settings import SUPPORT_SOLIMP
 
     backend = make_backend("mujoco")
     backend.build(system_scene(box("low")))

@@ -25,10 +25,11 @@ import pytest
 from planner.errors import InputError
 from planner.files.system_file import load_system, system_from_dict
 from planner.predict.feasibility import feasible_modes
+from scenarios.runs import simulate_system
 from sim.backends import ENGINES, make_backend
-from sim.compare import Outcome
-from sim.scenes.system import PRELOAD, commanded_contact_speed, scale_velocities, system_scene
-from sim.system_run import simulate_system
+from sim.scenes.shapes import PRELOAD
+from sim.scenes.system import commanded_contact_speed, scale_velocities, system_scene
+from sim.verdict import Outcome
 
 DATA = Path(__file__).resolve().parent / "data"
 FILES = ["two_link_finger_box", "prismatic_finger_box"]
@@ -96,7 +97,7 @@ def test_chain_pushing_a_box_agrees_and_its_negative_control_disagrees(name, eng
         assert np.mean(rec.tangent_force[late, 2]) == pytest.approx(0.01 / 0.12, rel=0.02)
     neg = simulate_system(system, engine, judge_mu=judge)
     assert neg.verdict.outcome is Outcome.DISAGREED, neg.verdict.reasons
-    assert neg.summary["parameters"]["negative_control"]
+    assert neg.summary.parameters["negative_control"]
 
 
 def test_a_chain_link_that_would_cut_the_workpiece_is_refused():

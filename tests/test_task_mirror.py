@@ -12,8 +12,8 @@ import pytest
 
 from planner.plan.task_file import plan_hand_task
 from planner.sweeps.random_hands import mirror_hand
-from sim.compare import Outcome
-from sim.task_run import run_task
+from scenarios.runs import validate_plan
+from sim.verdict import Outcome
 
 DATA = Path(__file__).resolve().parents[1] / "scenarios" / "data"
 
@@ -46,5 +46,5 @@ def test_the_mirrored_task_is_the_mirror_image_of_the_plan(plans):
 
 def test_the_mirrored_task_holds_in_pymunk(plans):
     _, mirrored = plans
-    run = run_task(mirrored, "pymunk", 0.1)
-    assert run.whole.outcome is Outcome.AGREED, run.whole.reasons
+    run = validate_plan(mirrored, "pymunk", 0.1)
+    assert run.verdict.outcome is Outcome.AGREED, run.verdict.reasons

@@ -13,8 +13,12 @@ import pytest
 
 from planner.errors import InputError
 from planner.plan.task_file import negative_control, plan_hand_task, save_task_plan
-from sim.compare import Outcome
-from sim.task_run import run_task, run_task_segments
+from scenarios.runs import validate_plan
+from sim.verdict import Outcome
+
+
+def verdicts(run):
+    return [s.verdict for s in run.judgement.segments]
 
 DATA = Path(__file__).resolve().parents[1] / "scenarios" / "data"
 
@@ -26,19 +30,19 @@ def task_plan():
 
 @pytest.mark.parametrize("mu", [0.0, 0.1])
 def test_the_figure_9_task_holds_in_one_continuous_pymunk_run(task_plan, mu):
-    run = run_task(task_plan, "pymunk", mu)
-    assert len(run.verdicts) == 3
-    assert [v.outcome for v in run.verdicts] == [Outcome.AGREED] * 3
-    assert run.whole.outcome is Outcome.AGREED
-    for v in run.verdicts:
+    run = validate_plan(task_plan, "pymunk", mu)
+    assert len(verdicts(run)) == 3
+    assert [v.outcome for v in verdicts(run)] == [Outcome.AGREED] * 3
+    assert run.verdict.outcome is Outcome.AGREED
+    for v in verdicts(run):
         assert v.plan is not None and v.plan.claim_fraction >= 0.95
         assert v.plan.final_error_of_travel <= 0.02
     # one recording: six pairs (the union of the segments' contacts), two of them gained later
     rec = run.recording
     assert rec is not None and rec.fault is None and rec.pair_names == tuple(
         f"c{i}" for i in range(1, 7))
-    assert run.summary["settings"]["open_at_start"] == ["c5", "c6"]
-    rows = run.summary["segments"]
+    assert run.job.run.open_at_start == ("c5", "c6")
+    rows = list(run.summary.segments)
     assert [r["contacts"] for r in rows] == [["c1", "c2", "c3", "c4"], ["c2", "c3", "c4", "c5"],
                                              ["c2", "c4", "c5", "c6"]]
     assert rec.times[-1] == pytest.approx(rows[-1]["start_s"] + rows[-1]["duration_s"],
@@ -57,27 +61,20 @@ def test_the_figure_9_task_holds_in_one_continuous_mujoco_run(task_plan):
     polygon sticks out by ``thickness x cos 32 deg`` at the acute vertex 3 and the tip met it
     outside the polygon (docs/planning.md, "Validation"); the tip now pairs with its declared
     edge only."""
-    run = run_task(task_plan, "mujoco", 0.1)
-    assert run.whole.outcome is Outcome.AGREED, run.whole.reasons
-    assert all(v.plan is not None and v.plan.claim_fraction >= 0.95 for v in run.verdicts)
-
-
-def test_the_segment_by_segment_runner_is_kept(task_plan):
-    run = run_task_segments(task_plan, "pymunk", 0.1)
-    assert [v.outcome for v in run.verdicts] == [Outcome.AGREED] * 3
-    assert run.summary["segments"][0]["handoff_m"] == 0.0
+    run = validate_plan(task_plan, "mujoco", 0.1)
+    assert run.verdict.outcome is Outcome.AGREED, run.verdict.reasons
+    assert all(v.plan is not None and v.plan.claim_fraction >= 0.95 for v in verdicts(run))
 
 
 def test_segment_3_agrees_in_mujoco_at_the_top_of_the_interval(task_plan):
     """Segment 3 starts with the left tip at the acute vertex 3 (32 deg): MuJoCo showed the
     claim on 70 % of it while the tip's pair was the whole polygon (docs/planning.md)."""
-    from sim.hand_run import Schedule, run_schedule
     from sim.scene import preload_depth
 
     seg = task_plan.segments[2]
-    hand, q = seg.hand_model
-    verdict, rec, _, _ = run_schedule(hand, q, 0.2, Schedule.from_plan(seg, hand.n_contacts),
-                                      "mujoco")
+    hand, _ = seg.hand_model
+    run = validate_plan(seg, "mujoco", 0.2)  # the segment alone, as a one-segment plan
+    verdict, rec = run.verdict, run.recording
     assert verdict.outcome is Outcome.AGREED, verdict.reasons
     assert verdict.plan is not None and verdict.plan.claim_fraction >= 0.95
     # the start is the pre-load, not the 1.3 mm the neighbouring edge's box gave
@@ -86,10 +83,10 @@ def test_segment_3_agrees_in_mujoco_at_the_top_of_the_interval(task_plan):
 
 @pytest.mark.parametrize("engine", ["pymunk", "mujoco"])
 def test_the_negative_control_fails(task_plan, engine):
-    run = run_task(negative_control(task_plan), engine, 0.1)
-    assert run.whole.outcome is Outcome.DISAGREED
-    assert run.verdicts[0].outcome is Outcome.DISAGREED
-    assert "only 1 of 3 segments ran" in run.whole.reasons
+    run = validate_plan(negative_control(task_plan), engine, 0.1, expect="disagree")
+    assert run.verdict.outcome is Outcome.DISAGREED
+    assert verdicts(run)[0].outcome is Outcome.DISAGREED
+    assert run.summary.passed
 
 
 def test_validate_prints_a_verdict_per_segment(task_plan, tmp_path):
@@ -107,4 +104,4 @@ def test_validate_prints_a_verdict_per_segment(task_plan, tmp_path):
 
 def test_engines_are_checked(task_plan):
     with pytest.raises(InputError, match="engine"):
-        run_task(task_plan, "bullet", 0.1)
+        validate_plan(task_plan, "bullet", 0.1)

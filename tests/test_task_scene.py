@@ -1,4 +1,4 @@
-"""The one scene of a whole task (sim/task_scene.py): the union of the segments' contacts, the
+"""The one scene of a whole task (sim/schedule.py): the union of the segments' contacts, the
 joints' commands over the whole plan and the control switches at segment boundaries."""
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ import pytest
 
 from planner.plan.task_file import plan_hand_task
 from sim.scenes.hand import hand_scene
-from sim.task_scene import task_layout
+from sim.schedule import plan_layout as task_layout
 
 DATA = Path(__file__).resolve().parents[1] / "scenarios" / "data"
 
@@ -52,19 +52,19 @@ def test_joint_commands_follow_the_segments_and_switch_without_a_ramp(task_plan)
     cmds = lay.commands(ramp)
     for j in range(len(names)):
         for k, t0 in enumerate(lay.starts):
-            first = lay.schedules[k].joint_commands()[0, j]
+            first = lay.schedules[k].commands[0, j]
             # at a switch the new command holds from the boundary on (no ramp across)
             assert cmds[j](t0 + 1e-6, {}) == pytest.approx(first)
         # within a segment: held, ramped from the previous waypoint's value
         s0 = lay.schedules[0]
-        c0 = s0.joint_commands()[:, j]
+        c0 = s0.commands[:, j]
         t_mid = s0.times[1] + 0.5 * ramp
         assert cmds[j](t_mid, {}) == pytest.approx(0.5 * (c0[0] + c0[1]))
     # the unchanged plan: a joint keeping its control is ramped across the boundary
     same = task_layout(task_plan)
     c = same.commands(ramp)[0]
-    prev = same.schedules[0].joint_commands()[-2, 0]
-    new = same.schedules[1].joint_commands()[0, 0]
+    prev = same.schedules[0].commands[-2, 0]
+    new = same.schedules[1].commands[0, 0]
     assert c(same.starts[1] + 0.5 * ramp, {}) == pytest.approx(0.5 * (prev + new))
 
 

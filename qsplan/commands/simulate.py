@@ -1,7 +1,7 @@
 """``qsplan simulate SYSTEM.json --engine pymunk|mujoco [--mu ..] [--mu-kinetic ..]
 [--judge-mu ..] [--duration S] [--speed V] [--out DIR]``: simulate any system file and judge
-the run against the planner's prediction (:func:`sim.system_run.simulate_system`; a file with
-several workpieces through :func:`sim.multibody_run.simulate_multibody`, issue 17).
+the run against the planner's prediction (:func:`scenarios.runs.simulate_system`: the one
+pipeline of :mod:`sim.jobs`, for one workpiece or several, driven or static).
 
 Exit codes: 0 agreed, 1 disagreed or inconclusive, 2 bad input, 3 simulator fault. The
 simulators are imported lazily inside :func:`run`.
@@ -16,8 +16,7 @@ from typing import Any
 
 from planner.errors import InputError
 from qsplan.options import MU_MAX, parse_number, parse_numbers
-
-ENGINES = ("pymunk", "mujoco")
+from sim.settings import ENGINES
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -32,9 +31,11 @@ def register(sub: argparse._SubParsersAction) -> None:
             "as its links on their joints, in slow motion), run it in "
             "the chosen engine, classify the observed modes from the simulator's contact data "
             "and compare (docs/simulation.md). A file with several workpieces (`workpieces`) "
-            "runs the multi-body scene and is judged per contact and per body twist "
-            "(--mu, --judge-mu, --duration, --out; no --mu-kinetic, --speed or timeline). "
-            "Exit 0 agreed, 1 disagreed or inconclusive, 2 bad input, 3 simulator fault."
+            "is judged per contact and per body twist (no --mu-kinetic). A file with no "
+            "commanded motion is a static question: it is run without a drive and judged "
+            "'stays' (its predicted equilibria) against 'moves' (none predicted). The scene is "
+            "simulated at a size between 3 cm and 40 cm (a similar copy of a larger or smaller "
+            "one). Exit 0 agreed, 1 disagreed or inconclusive, 2 bad input, 3 simulator fault."
         ),
         epilog=("examples:\n  qsplan simulate scenarios/data/box_on_table_high.json "
                 "--engine pymunk --out out/box\n"
@@ -88,29 +89,20 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace, options: dict[str, Any], work: Path | None) -> int:
-    from planner.files.atomic import atomic_write_json
     from planner.files.system_file import load_system
-    from sim.compare import Outcome
-    from sim.system_run import simulate_system
+    from scenarios.runs import simulate_system, write_run
+    from sim.verdict import Outcome
 
     system = load_system(args.system)  # FileFormatError -> exit 2
-    if system.n_bodies > 1:
-        return _run_multibody(args, system, options, work)
-    res = simulate_system(system, args.engine, **options)
-    from sim.compare import Expect
-
-    expect = Expect.DISAGREE if res.summary["parameters"]["negative_control"] else Expect.AGREE
-    summary = {"scenario": f"simulate {Path(args.system).name}", "system": str(args.system),
-               "expect": expect.value, **res.summary, "passed": res.verdict.held(expect)}
+    if system.n_bodies > 1 and options["mu_kinetic"] is not None:
+        raise InputError(f"--mu-kinetic: expected no value for a system of several workpieces "
+                         f"({system.n_bodies} in {args.system}), got {options['mu_kinetic']}")
+    res = simulate_system(system, args.engine, name=f"simulate {Path(args.system).name}",
+                          source=str(args.system), **options)
+    summary = res.summary.to_dict()
     if work is not None:
-        if not args.no_render and len(res.recording.times):
-            from sim.render import timeline_plot
-
-            summary["files"] = {"timeline": str(timeline_plot(
-                res.recording, res.observed, res.predicted, work / "timeline.png"))}
-        atomic_write_json(work / "summary.json", summary)
-    keys = ("engine", "status", "agreement", "judged_steps", "reason")
-    line = {k: summary[k] for k in keys}
+        summary = write_run(res, work, render=not args.no_render)
+    line = {k: summary[k] for k in ("engine", "status", "agreement", "judged_steps", "reason")}
     line["predicted"] = summary["predicted"]["labels"]
     line["observed"] = summary["observed"]["counts"]
     print(json.dumps(line, default=str))
@@ -118,43 +110,3 @@ def _run(args: argparse.Namespace, options: dict[str, Any], work: Path | None) -
     if outcome is Outcome.FAULT:
         return 3
     return 0 if outcome is Outcome.AGREED else 1
-
-
-def _run_multibody(args: argparse.Namespace, system: Any, options: dict[str, Any],
-                   work: Path | None) -> int:
-    """``qsplan simulate`` on a system of several workpieces (issue 17): the run of
-    :func:`sim.multibody_run.simulate_multibody`, summary.json and the exit code."""
-    from planner.files.atomic import atomic_write_json
-    from sim.compare import Expect, Outcome
-    from sim.multibody_run import simulate_multibody
-
-    for key, flag in (("mu_kinetic", "--mu-kinetic"), ("speed", "--speed")):
-        if options[key] is not None:
-            raise InputError(f"{flag}: expected no value for a system of several workpieces "
-                             f"({system.n_bodies} in {args.system}), got {options[key]}")
-    res = simulate_multibody(system, args.engine, mu=options["mu"],
-                             judge_mu=options["judge_mu"], duration=options["duration"])
-    negative = options["judge_mu"] is not None and options["judge_mu"] != options["mu"]
-    expect = Expect.DISAGREE if negative else Expect.AGREE
-    verdict = res.verdict
-    summary = {
-        "scenario": f"simulate {Path(args.system).name}", "system": str(args.system),
-        "engine": args.engine, "expect": expect.value, **verdict.to_dict(),
-        "passed": verdict.held(expect),
-        "parameters": {"n_bodies": system.n_bodies, "mu": options["mu"],
-                       "judge_mu": options["judge_mu"], "duration": options["duration"],
-                       "negative_control": negative},
-        "predicted": {"labels": res.predicted},
-        "observed": {"counts": dict(verdict.observed_counts),
-                     "body_twists_over_drive": res.twists.tolist(),
-                     "jammed_at_s": res.recording.jammed_at},
-    }
-    if work is not None:
-        atomic_write_json(work / "summary.json", summary)
-    line = {k: summary[k] for k in ("engine", "status", "agreement", "judged_steps", "reason")}
-    line["predicted"] = res.predicted
-    line["observed"] = summary["observed"]["counts"]
-    print(json.dumps(line, default=str))
-    if verdict.outcome is Outcome.FAULT:
-        return 3
-    return 0 if verdict.outcome is Outcome.AGREED else 1

@@ -11,11 +11,12 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import Any
 
 from planner.errors import InputError
 from planner.model.validation import FrictionValue
 from qsplan.options import MU_MAX, fmt, parse_number
-from sim.backends import ENGINES
+from sim.settings import ENGINES
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -105,30 +106,40 @@ def run(args: argparse.Namespace) -> int:
 
 def _run(args: argparse.Namespace, path: Path, mus: list[FrictionValue] | None,
          work: Path | None) -> int:
-    """Validate the plan at ``path``; outputs go to ``work`` (the staging folder of --out)."""
+    """Validate the plan at ``path``; outputs go to ``work`` (the staging folder of --out).
+    A version-1 plan is a task of one segment: both run through
+    :func:`scenarios.runs.validate_plan`."""
     from planner.files.reader import read_json
     from planner.plan.plan_file import load_plan
-    from planner.plan.task_file import TASK_PLAN_VERSION
+    from planner.plan.task_file import TASK_PLAN_VERSION, load_task_plan
+    from scenarios.runs import validate_plan, write_run
+    from sim.verdict import Outcome
 
     head = read_json(path, "plan file")
-    if isinstance(head, dict) and head.get("version") == TASK_PLAN_VERSION:
-        return _run_task(args, path, mus, work)
-    plan = load_plan(path)  # FileFormatError (a ValueError) -> exit 2 in cli.main
+    task = isinstance(head, dict) and head.get("version") == TASK_PLAN_VERSION
+    # FileFormatError (a ValueError) -> exit 2 in cli.main
+    plan: Any = load_task_plan(path) if task else load_plan(path)
     mus = _mu_values(mus, plan.validate_mu)
-    check_contacts(mus, len(plan.mu_intervals))
-    from sim.compare import Outcome
-    from sim.hand_run import run_plan
-
+    check_contacts(mus, len((plan.segments[0] if task else plan).mu_intervals))
+    n_seg = len(plan.segments) if task else 1
     statuses = []
     for mu in mus:
-        out = None
-        if work is not None:
-            out = work if len(mus) == 1 else work / f"mu_{mu_text(mu).replace('/', '-')}"
-        res = run_plan(plan, args.engine, mu, out, render=not args.no_render)
+        res = validate_plan(plan, args.engine, mu, name=f"validate {path.name} mu={mu_text(mu)}",
+                            source=str(path))
         v = res.verdict
         statuses.append(v.outcome)
-        wall = f"[{res.summary['settings']['wall_time_s']:.1f} s]"
-        if v.plan is not None:
+        wall = f"[{res.summary.wall_time_s:.1f} s]"
+        if n_seg > 1:
+            print(f"{args.engine} mu={mu_text(mu)}: {v.outcome.value.upper()} (whole task, "
+                  f"{len(res.judgement.segments)} of {n_seg} segments run) {wall}")
+            for sv in res.judgement.segments:
+                pm = sv.verdict.plan
+                extra = (f"claim observed {pm.claim_fraction:.1%}, final position "
+                         f"{pm.final_error_of_travel:.2%} of its travel" if pm is not None else
+                         sv.verdict.reason)
+                print(f"  segment {sv.index + 1} {sv.claim}: {sv.verdict.outcome.value} "
+                      f"({extra})")
+        elif v.plan is not None:
             pm = v.plan
             print(f"{args.engine} mu={mu_text(mu)}: {v.outcome.value.upper()}  "
                   f"claim {pm.claim.label!r} observed {pm.claim_fraction:.1%} (predicted modes "
@@ -139,6 +150,9 @@ def _run(args: argparse.Namespace, path: Path, mus: list[FrictionValue] | None,
         if v.outcome is not Outcome.AGREED:
             for r in v.reasons:
                 print(f"    {r}")
+        if work is not None:
+            out = work if len(mus) == 1 else work / f"mu_{mu_text(mu).replace('/', '-')}"
+            write_run(res, out, render=not args.no_render and n_seg == 1)
     return _exit_code(statuses)
 
 
@@ -156,43 +170,8 @@ def _mu_values(mus: list[FrictionValue] | None, validate_mu: tuple[FrictionValue
 
 def _exit_code(statuses: list) -> int:
     """3 on a simulator fault, 1 when a run did not agree, else 0."""
-    from sim.compare import Outcome
+    from sim.verdict import Outcome
 
     if any(s is Outcome.FAULT for s in statuses):
         return 3
     return 0 if all(s is Outcome.AGREED for s in statuses) else 1
-
-
-def _run_task(args: argparse.Namespace, path: Path, mus: list[FrictionValue] | None,
-              work: Path | None) -> int:
-    """A version-2 plan: one continuous simulation of the whole task (:mod:`sim.task_run`),
-    a verdict per segment and for the whole."""
-    from planner.files.atomic import atomic_write_json
-    from planner.plan.task_file import load_task_plan
-
-    plan = load_task_plan(path)
-    mus = _mu_values(mus, plan.validate_mu)
-    check_contacts(mus, len(plan.segments[0].mu_intervals))
-    from sim.compare import Outcome
-    from sim.task_run import run_task
-
-    statuses = []
-    for mu in mus:
-        res = run_task(plan, args.engine, mu)
-        statuses.append(res.whole.outcome)
-        print(f"{args.engine} mu={mu_text(mu)}: {res.whole.outcome.value.upper()} (whole task, "
-              f"{len(res.verdicts)} of {len(plan.segments)} segments run)")
-        for row, v in zip(res.summary["segments"], res.verdicts):
-            pm = v.plan
-            extra = (f"claim observed {pm.claim_fraction:.1%}, final position "
-                     f"{pm.final_error_of_travel:.2%} of its travel" if pm is not None else
-                     v.reason)
-            print(f"  segment {row['segment']} {row['claim']}: {v.outcome.value} ({extra})")
-        if res.whole.outcome is not Outcome.AGREED:
-            for r in res.whole.reasons:
-                print(f"    {r}")
-        if work is not None:
-            out = work if len(mus) == 1 else work / f"mu_{mu_text(mu).replace('/', '-')}"
-            out.mkdir(parents=True, exist_ok=True)
-            atomic_write_json(out / "summary.json", res.summary)
-    return _exit_code(statuses)

@@ -20,10 +20,10 @@ degree of freedom on every dynamic body (noslip does nothing in a strictly plana
 * Loads: ``xfrc_applied`` (force at the body COM and a torque about z).
 * Contact impedance per pair role (:mod:`sim.backends.roles`, decided after the first
   ``mj_forward``): ``squeeze`` pairs keep ``solref``/``solimp`` (with ``squeeze_d0`` set:
-  ``solimp = (squeeze_d0, solimp[0], load width)``, :mod:`sim.backends.mujoco_squeeze`, and
+  ``solimp = (squeeze_d0, solimp[0], load width)``, :mod:`sim.backends.mujoco_impedance`, and
   ``squeeze_solref``), ``support`` pairs get ``support_solimp`` and ``support_solref``,
   ``carry`` pairs ``carry_solref``; a scene without ``squeeze`` pairs gets ``carry_impratio``,
-  else one with ``support`` pairs ``support_impratio`` (:mod:`sim.backends.mujoco_roles`).
+  else one with ``support`` pairs ``support_impratio`` (:mod:`sim.backends.mujoco_impedance`).
 
 Forces are read with ``mj_contactForce`` in the contact frame and projected to the world;
 velocities of contact points with ``mj_jac``.
@@ -36,9 +36,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from sim.backends import CARRY_IMPRATIO, CARRY_SOLREF, HEAVY_RATIO, SUPPORT_SOLIMP
-from sim.backends.mujoco_roles import apply_role_impedance
-from sim.backends.mujoco_squeeze import scene_load
+from sim.backends.mujoco_impedance import apply_role_impedance, scene_load
 from sim.backends.roles import contact_roles
 from sim.backends.switching import replace_joint, switch_joint
 from sim.scene import (
@@ -53,6 +51,7 @@ from sim.scene import (
     Polygon,
     Scene,
 )
+from sim.settings import CARRY_IMPRATIO, CARRY_SOLREF, HEAVY_RATIO, SUPPORT_SOLIMP
 
 
 class MujocoBackend:
@@ -76,7 +75,7 @@ class MujocoBackend:
         #: driven-body mass over the heaviest dynamic body's (:data:`HEAVY_RATIO`)
         self.heavy_ratio = heavy_ratio
         #: solimp d0 of every ``squeeze`` pair, rising to ``solimp[0]`` (the stiff default) over
-        #: the load width (:mod:`sim.backends.mujoco_squeeze`); ``None``: ``solimp`` unchanged
+        #: the load width (:mod:`sim.backends.mujoco_impedance`); ``None``: ``solimp`` unchanged
         self.squeeze_d0 = squeeze_d0
         #: solref of the ``squeeze`` pairs that get ``squeeze_d0``; ``None``: ``solref``
         self.squeeze_solref = squeeze_solref
@@ -242,7 +241,7 @@ class MujocoBackend:
 
     def _set_roles(self) -> None:
         """Decide every pair's role (:mod:`sim.backends.roles`) and set its contact impedance
-        (:func:`sim.backends.mujoco_roles.apply_role_impedance`)."""
+        (:func:`sim.backends.mujoco_impedance.apply_role_impedance`)."""
         self.roles = contact_roles(self.scene, self._read_contacts(), self.state())
         self.squeeze_widths = apply_role_impedance(self.model, self.data, self.roles,
                                                    self._subpairs, scene_load(self.scene), self)

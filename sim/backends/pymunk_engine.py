@@ -331,6 +331,11 @@ class PymunkBackend:
     def set_friction(self, pair: str, mu: float) -> None:
         self._mu[pair] = float(mu)
 
+    def health(self) -> str | None:
+        """pymunk raises no numerical alarm of its own (non-finite states and exceptions its
+        callbacks swallow are caught by the run loop, :class:`sim.run.EngineWatch`)."""
+        return None
+
     # -- control switching (a whole task: segments with other control partitions) ----------
     def set_control(self, joint: str, control: Control) -> None:
         """Switch revolute joint ``joint`` to ``control`` from the next step on: velocity

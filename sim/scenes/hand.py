@@ -58,6 +58,7 @@ from sim.scene import (
     Shape,
     preload_depth,
 )
+from sim.scenes.shapes import polygon_inertia
 
 #: Radius [m] of the circles standing for sharp workpiece vertices.
 VERTEX_RADIUS = 5e-4
@@ -85,18 +86,6 @@ def joint_bodies(hand: Hand) -> tuple[str, ...]:
                  for j in range(f.n_joints))
 
 
-def polygon_inertia(vertices: np.ndarray, mass: float, com: np.ndarray) -> float:
-    """Rotational inertia [kg m^2] about ``com`` of a uniform polygon ``vertices (V, 2)`` [m]
-    (counter-clockwise) of total ``mass`` [kg]."""
-    v = np.asarray(vertices, dtype=float) - np.asarray(com, dtype=float)
-    a, b = v, np.roll(v, -1, axis=0)
-    cross = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
-    area = 0.5 * float(np.sum(cross))
-    second = float(np.sum(cross * (np.sum(a * a, axis=1) + np.sum(a * b, axis=1)
-                                   + np.sum(b * b, axis=1)))) / 12.0
-    return mass * second / area
-
-
 def _rot(phi: float) -> np.ndarray:
     c, s = np.cos(phi), np.sin(phi)
     return np.array([[c, -s], [s, c]])
@@ -120,7 +109,6 @@ def hand_scene(
     controls: Sequence[str | Control],
     commands: Sequence[Command],
     *,
-    mass_scale: float = 1.0,
     vertex_radius: float = VERTEX_RADIUS,
     overlap: float | None = None,
     site_configs: Sequence[np.ndarray] | None = None,
@@ -133,7 +121,7 @@ def hand_scene(
     (n_theta,) ``"velocity"``/``"effort"`` per joint (one per finger for single-link fingers);
     ``commands`` (n_theta,) ``command(t, states)`` returning the joint rate [rad/s or m/s] or
     effort [N m or N] (counter-clockwise / along the slide positive, relative to the previous
-    link). ``mass_scale``: factor on the workpiece and link masses (dynamics only).
+    link).
     ``overlap`` [m]: every contact starts this far into its feature (default
     :func:`sim.scene.preload_depth`: half of pymunk's collision slop, SIM-NOTES: resting
     contacts that start exactly touching flicker, and a computed gap of +1e-17 m is no
@@ -150,8 +138,6 @@ def hand_scene(
     """
     n_j, n_c = hand.n_joints, hand.n_contacts
     mu_arr = as_friction(mu, n_c)
-    if not (np.isfinite(mass_scale) and mass_scale > 0):
-        raise InputError(f"mass_scale: expected a finite number > 0, got {mass_scale}")
     if len(controls) != n_j or len(commands) != n_j:
         per = "finger" if n_j == hand.n_fingers else "joint"
         raise InputError(f"controls/commands: expected {n_j} each (one per {per}), got "
@@ -203,7 +189,7 @@ def hand_scene(
             shapes.append(Capsule((float(a[0]), float(a[1])), (float(b[0]), float(b[1])),
                                   vertex_radius))
     com = np.asarray(hand.com, dtype=float)
-    mass = hand.mass * mass_scale
+    mass = hand.mass
     work = Body(name="workpiece", shapes=tuple(shapes), mass=mass,
                 com=(float(com[0]), float(com[1])),
                 inertia=polygon_inertia(V, mass, com), pose=pose0)
@@ -233,7 +219,7 @@ def hand_scene(
                 fshapes.append(Circle((link.length + float(push[0]), float(push[1])),
                                       link.radius))
             name = finger_body(hand, k, j)
-            lm = link.mass * mass_scale
+            lm = link.mass
             bodies.append(Body(name=name, shapes=tuple(fshapes), mass=lm,
                                com=(0.5 * link.length, 0.0),
                                inertia=lm * (link.length ** 2 + link.width ** 2) / 12.0,

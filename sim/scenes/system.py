@@ -1,35 +1,39 @@
-"""A physical scene for ANY :class:`~planner.model.system.System` given by contact velocities or
-by a chain (issue 14).
+"""A physical scene for any :class:`~planner.model.system.System`: one or several workpieces,
+fingertips driven at their contact velocities or a chain of links, fixed environment surfaces and
+contacts between workpieces.
 
-What is built (all in the world frame of the system file, metres, no rescaling):
+What is built (in the world frame of the system file; :mod:`sim.similarity` scales it):
 
-* **workpiece**: the convex polygon of ``System.workpiece`` (mass and centre of mass from the
-  file) when given; otherwise the polygon bounded by the contact tangent lines
-  (:func:`sim.scenes.paper.workpiece_polygon`) with its centre of mass at the world origin (the
-  paper's origin is the centre of gravity, Sec. 4) and a default mass;
-* **environment contacts** (``"environment": true``): a *fixed flat surface* along the contact's
-  tangent ``t_i = rot90(n_i)`` (not a peg): a static slab with rounded ends (a capsule of radius
-  ``ENV_THICKNESS / 2`` times the scene size) whose flat top is the contact's tangent line. It
-  reaches ``ENV_REACH`` times the size past the contact on any side where the workpiece does
-  not lie, and only ``ENV_INSET`` times the size under the workpiece, so a workpiece vertex at
-  the contact (a box corner on a table) can lift off or pivot there. It touches the workpiece's
-  own feature at the contact (:func:`contact_feature`: a small circle at a vertex, a capsule on
-  an edge), not the whole polygon (MuJoCo's per-edge boxes reach past an acute vertex).
-  Rounded ends rather than a box: MuJoCo's box-box contact of a flat workpiece edge on a box
-  slab stuck and slipped (the box on a table, pushed, moved in jumps of up to 20x the drive
-  speed); on the capsule it slides at the drive speed, as in pymunk;
+* **workpieces** (:func:`workpiece_names`: ``workpiece`` for one body, ``work0 ..`` for
+  several): the convex polygons of ``System.workpiece`` / ``System.workpieces`` with their mass
+  and centre of mass; for one workpiece without geometry, the polygon bounded by the contact
+  tangent lines (:func:`sim.scenes.shapes.workpiece_polygon`) with its centre of mass at the
+  world origin (the paper's origin is the centre of gravity, Sec. 4) and
+  :data:`DEFAULT_MASS`. Body frame = world frame at the start, so a recorded twist is the
+  planner's ``qdot`` block of that body (docs/conventions.md);
+* **environment contacts** (``"environment": true``): a fixed flat surface along the contact's
+  tangent (:func:`sim.scenes.shapes.environment_surface`): a static capsule whose flat top is
+  the tangent line, reaching far past the contact where the workpiece does not lie and only a
+  little under it, so a corner resting on it can lift off or pivot. Rounded ends rather than a
+  box: MuJoCo's box-box contact of a flat edge on a box slab stuck and slipped (a pushed box
+  moved in jumps of up to 20x the drive speed); on the capsule it slides at the drive speed.
+  Near an acute vertex of its workpiece it touches that workpiece's own feature
+  (:func:`sim.scenes.shapes.contact_feature`);
 * **manipulator contacts**: small driven fingertip circles touching at ``r_i`` and moving with
   the commanded contact velocity ``J_i thetadot = v_in n_i + v_it t_i`` (eq. 5) times
-  ``speed_scale`` (slow motion; positive scaling leaves the quasistatic mode set unchanged);
-  for a chain manipulator (``System.chain``) the chain's links instead, each a body on its
-  joint (:func:`chain_links`: capsules from the joint to its contacts and child joints, joints
-  velocity-controlled at ``speed_scale`` times their rate or effort-controlled);
-* **load**: ``g_obj`` (eq. 2, given about the world origin) applied as a force through the
+  ``speed_scale`` (slow motion); for a chain manipulator (``System.chain``) the chain's links
+  instead (:func:`chain_links`);
+* **contacts between two workpieces** ``(a_i, b_i)`` (normal into ``a_i``): a small circle
+  (a *foot*) fixed to body ``b_i`` whose rim touches body ``a_i``'s polygon at ``r_i``. Only
+  declared pairs collide (``only_pairs``), so the two polygons never touch: the foot is the
+  contact, and the engine reading of the pair (``body_a`` = ``b_i``, ``body_b`` = ``a_i``) has
+  the planner's signs (normal into ``a_i``, force on ``a_i``, slip of ``a_i`` minus ``b_i``,
+  eq. 5);
+* **loads**: each body's ``g_obj`` block (eq. 2, about the world origin) as a force through its
   centre of mass ``c`` plus the moment ``m_z - (c_x f_y - c_y f_x)`` -- the same wrench;
-* **pre-load**: every contact starts overlapped by ``PRELOAD * size`` [m] (a known, scene-scaled
-  depth; SIM-NOTES: bodies that start exactly touching flip a coin on rounding).
+* **pre-load**: every contact starts overlapped by ``PRELOAD * size`` [m].
 
-``size`` (the scene's ``length_scale``) is the largest distance of a polygon vertex from the
+``size`` (the scene's ``length_scale``) is the largest distance of a workpiece vertex from its
 centre of mass.
 """
 
@@ -39,7 +43,7 @@ import numpy as np
 
 from planner.errors import InputError
 from planner.model.system import System
-from planner.model.workpiece import point_in_convex_polygon, polygon_area_centroid
+from planner.model.workpiece import point_in_convex_polygon
 from sim.scene import (
     Body,
     BodyKind,
@@ -55,105 +59,59 @@ from sim.scene import (
     Scene,
     Shape,
 )
-from sim.scenes.paper import constant_twist, workpiece_polygon
+from sim.scenes.shapes import (
+    FINGER_RADIUS,
+    PRELOAD,
+    constant_twist,
+    contact_feature,
+    environment_surface,
+    near_acute_vertex,
+    polygon_inertia,
+    workpiece_polygon,
+)
 
-#: Initial overlap of every contact, as a fraction of the scene size [-].
-PRELOAD = 5e-5
-#: Fingertip radius as a fraction of the scene size [-].
-FINGER_RADIUS = 0.04
-#: How far an environment surface reaches beyond the workpiece / under it, fractions of size.
-ENV_REACH = 0.5
-ENV_INSET = 0.05
-#: Thickness (capsule diameter) of an environment surface, fraction of size.
-ENV_THICKNESS = 0.1
 #: Mass [kg] of a derived workpiece (no ``workpiece`` key in the file).
 DEFAULT_MASS = 0.1
-#: Radius of a contact's workpiece feature (vertex circle, edge capsule), fraction of size.
-FEATURE_RADIUS = 0.005
+#: Mass of every chain link as a fraction of the workpiece mass [-] (the hands' ratio, 0.05 kg
+#: fingers on a 0.1 kg workpiece; masses change only the dynamics).
+LINK_MASS_OF_WORKPIECE = 0.5
 
 
-def near_acute_vertex(r: np.ndarray, poly: np.ndarray, size: float) -> bool:
-    """True when the contact at ``r`` sits at, or on an edge ending at, a vertex of interior
-    angle below 90 deg -- where MuJoCo's per-edge boxes reach past the polygon
-    (:func:`contact_feature`); elsewhere the polygon is exact in both engines."""
-    tol = 1e-6 * size
-    prv, nxt = np.roll(poly, 1, axis=0), np.roll(poly, -1, axis=0)
-    u, w = prv - poly, nxt - poly
-    acute = np.einsum("ij,ij->i", u, w) > 1e-9 * np.linalg.norm(u, axis=1) * np.linalg.norm(
-        w, axis=1)  # cos(theta) > 0
-    edges = nxt - poly
-    length = np.linalg.norm(edges, axis=1)
-    along = np.einsum("ij,ij->i", r - poly, edges) / length
-    d = r - poly
-    off = np.abs(edges[:, 0] * d[:, 1] - edges[:, 1] * d[:, 0]) / length
-    on = (off <= tol) & (along >= -tol) & (along <= length + tol)  # r on edge k -> k+1
-    return bool(np.any(on & (acute | np.roll(acute, -1))))
+def workpiece_names(n_bodies: int) -> tuple[str, ...]:
+    """Scene names of the workpieces in the system's order: ``("workpiece",)`` for one body,
+    ``("work0", "work1", ..)`` for several."""
+    return ("workpiece",) if n_bodies == 1 else tuple(f"work{a}" for a in range(n_bodies))
 
 
-def contact_feature(r: np.ndarray, n: np.ndarray, poly: np.ndarray, size: float) -> Shape:
-    """The workpiece's side of a contact at ``r`` (2,) with inward normal ``n`` (workpiece
-    frame = world frame at the start), instead of the whole polygon: a circle of radius
-    ``FEATURE_RADIUS * size`` whose surface touches the vertex where the contact sits at a
-    polygon vertex (centre ``v + rho n``), else a capsule of that radius along the polygon
-    edge through ``r`` whose inward normal is ``n``, its surface on the edge line.
-
-    Why not the polygon: MuJoCo builds a polygon as one thin box per edge, and at a vertex of
-    interior angle ``theta < 90 deg`` an edge's box reaches past the neighbouring edge by
-    ``h cos theta`` (``h`` the box's thickness): a triangle on a table rested on a box corner
-    1.5 mm below its vertex and turned (docs/simulation.md, "A contact's workpiece feature").
-    The hand scenes pair their tips and vertices the same way (:mod:`sim.scenes.hand`)."""
-    rho = FEATURE_RADIUS * size
-    tol = 1e-6 * size
-    n = np.asarray(n, dtype=float) / float(np.linalg.norm(n))
-    d = np.linalg.norm(poly - r, axis=1)
-    k = int(np.argmin(d))
-    nxt = np.roll(poly, -1, axis=0)
-    edges = nxt - poly
-    length = np.linalg.norm(edges, axis=1)
-    inward = np.stack([-edges[:, 1], edges[:, 0]], axis=1) / length[:, None]
-    along = np.einsum("ij,ij->i", r - poly, edges) / length
-    off = np.abs(np.einsum("ij,ij->i", r - poly, inward))
-    on_edge = (off <= tol) & (along >= -tol) & (along <= length + tol)
-    same = np.linalg.norm(inward - n, axis=1) <= 1e-6
-    cand = np.flatnonzero(on_edge & same)
-    if d[k] > tol and len(cand):
-        e = int(cand[0])
-        a, b = poly[e] + rho * n, nxt[e] + rho * n
-        return Capsule((float(a[0]), float(a[1])), (float(b[0]), float(b[1])), rho)
-    if d[k] <= tol:
-        c = poly[k] + rho * n
-        return Circle((float(c[0]), float(c[1])), rho)
-    raise InputError(f"contact at {r.tolist()}: expected a polygon vertex or a point on an edge "
-                     f"with inward normal {n.tolist()}, got neither")
+def system_geometry(system: System) -> tuple[list[np.ndarray], list[np.ndarray], list[float],
+                                             bool]:
+    """Per workpiece its polygon (V, 2) [m], centre of mass (2,) [m] and mass [kg], and whether
+    the (single) workpiece was derived from the contacts (module docstring)."""
+    if system.workpieces:
+        geoms = system.workpieces
+    elif system.workpiece is not None and system.n_bodies == 1:
+        geoms = (system.workpiece,)
+    elif system.n_bodies == 1:
+        pts = np.asarray(system.points, dtype=float)
+        reach = float(np.max(np.linalg.norm(pts, axis=1)))
+        if not reach > 0:
+            raise InputError("simulate: expected contact points away from the origin to "
+                             "derive a workpiece, got all at the origin")
+        poly = workpiece_polygon(pts, np.asarray(system.normals, dtype=float), 1.25 * reach)
+        return [poly], [np.zeros(2)], [DEFAULT_MASS], True
+    else:
+        raise InputError(f"simulate: expected scene geometry (polygon and mass) for every one "
+                         f"of the {system.n_bodies} workpieces, got none")
+    return ([np.asarray(g.polygon, dtype=float) for g in geoms],
+            [np.asarray(g.com, dtype=float) for g in geoms], [float(g.mass) for g in geoms],
+            False)
 
 
-def _polygon_inertia(poly: np.ndarray, com: np.ndarray, mass: float) -> float:
-    """Polar moment of inertia [kg m^2] about ``com`` of a uniform polygon of ``mass``."""
-    p = poly - com
-    x, y = p[:, 0], p[:, 1]
-    x1, y1 = np.roll(x, -1), np.roll(y, -1)
-    cr = x * y1 - x1 * y
-    area = 0.5 * float(np.sum(cr))
-    j = float(np.sum(cr * (x * x + x * x1 + x1 * x1 + y * y + y * y1 + y1 * y1))) / 12.0
-    # the area centroid may differ from com: parallel axis handled by integrating about com
-    return mass * j / area
-
-
-def environment_surface(r: np.ndarray, n: np.ndarray, poly: np.ndarray, size: float
-                        ) -> Capsule:
-    """The fixed surface of an environment contact at ``r`` (2,) [m] with inward normal ``n``:
-    a capsule whose flat top lies on the tangent line through ``r`` shifted ``PRELOAD * size``
-    into the workpiece, spanning the tangent interval described in the module docstring, of
-    radius ``ENV_THICKNESS * size / 2`` on the side away from the workpiece (world frame)."""
-    t = np.array([-n[1], n[0]])
-    along = (poly - r) @ t
-    tol = 1e-9 * size
-    lo = -ENV_REACH * size if along.min() >= -tol else -ENV_INSET * size
-    hi = ENV_REACH * size if along.max() <= tol else ENV_INSET * size
-    radius = 0.5 * ENV_THICKNESS * size
-    axis = r + PRELOAD * size * n - radius * n
-    a, b = axis + lo * t, axis + hi * t
-    return Capsule((float(a[0]), float(a[1])), (float(b[0]), float(b[1])), radius)
+def system_size(system: System) -> float:
+    """The scene size [m] of ``system``: the largest distance of a workpiece vertex from its
+    centre of mass."""
+    polys, coms, _, _ = system_geometry(system)
+    return max(float(np.max(np.linalg.norm(p - c, axis=1))) for p, c in zip(polys, coms))
 
 
 def system_scene(system: System, *, speed_scale: float = 1.0,
@@ -163,7 +121,8 @@ def system_scene(system: System, *, speed_scale: float = 1.0,
     ``speed_scale`` [-] multiplies every commanded contact velocity / velocity-joint rate;
     ``mu_kinetic`` (n_c,) optional kinetic coefficients (static = ``system.mu``). Raises
     :class:`InputError` for a manipulator given only as a Jacobian (no geometry), a contact off
-    the workpiece boundary or a chain link that would cut into the workpiece.
+    the boundary of the body its normal points into, or a chain link that would cut into the
+    workpiece.
     """
     if not system.virtual_joints and system.chain is None:
         raise InputError("simulate: expected a system given by contact velocities "
@@ -171,107 +130,95 @@ def system_scene(system: System, *, speed_scale: float = 1.0,
                          "got a bare Jacobian: it has no link geometry to build")
     if not (np.isfinite(speed_scale) and speed_scale > 0):
         raise InputError(f"speed scale: expected a finite number > 0, got {speed_scale}")
-    if system.n_bodies > 1:
-        raise InputError(f"simulate: expected one workpiece, got {system.n_bodies}; several "
-                         "workpieces are built by sim.scenes.multibody.multibody_scene and "
-                         "judged by sim.multibody_run.simulate_multibody")
+    if system.chain is not None and system.n_bodies > 1:
+        raise InputError(f"simulate: expected one workpiece for a chain manipulator, got "
+                         f"{system.n_bodies}")
+    polys, coms, masses, derived = system_geometry(system)
+    names = workpiece_names(system.n_bodies)
+    size = max(float(np.max(np.linalg.norm(p - c, axis=1))) for p, c in zip(polys, coms))
     pts = np.asarray(system.points, dtype=float)
     nrm = np.asarray(system.normals, dtype=float)
     tng = np.stack([-nrm[:, 1], nrm[:, 0]], axis=1)
     n_c = len(pts)
     env = system.environment or (False,) * n_c
-    geom = system.workpiece
-    if geom is not None:
-        poly = np.asarray(geom.polygon, dtype=float)
-        com = np.asarray(geom.com, dtype=float)
-        mass = float(geom.mass)
-        derived = False
-    else:
-        reach = float(np.max(np.linalg.norm(pts, axis=1)))
-        if not reach > 0:
-            raise InputError("simulate: expected contact points away from the origin to "
-                             "derive a workpiece, got all at the origin")
-        poly = workpiece_polygon(pts, nrm, 1.25 * reach)
-        com = np.zeros(2)
-        mass = DEFAULT_MASS
-        derived = True
-    size = float(np.max(np.linalg.norm(poly - com, axis=1)))
-    for i, r in enumerate(pts):
-        gap = float(np.min((poly - r) @ nrm[i]))  # 0 when the tangent line supports the polygon
-        if abs(gap) > 1e-6 * size or not point_in_convex_polygon(r, poly):
-            raise InputError(f"contact {i + 1}: expected a point on the workpiece boundary "
+    for i, (a, _) in enumerate(system.contact_bodies):
+        gap = float(np.min((polys[a] - pts[i]) @ nrm[i]))  # 0 when the tangent line supports it
+        if abs(gap) > 1e-6 * size or not point_in_convex_polygon(pts[i], polys[a]):
+            where = "the workpiece" if system.n_bodies == 1 else f"workpiece {a}"
+            raise InputError(f"contact {i + 1}: expected a point on the boundary of {where} "
                              f"with the polygon on the side of its normal, got point "
-                             f"{r.tolist()} (polygon reaches {gap:.3g} m along the normal)")
-    _, centroid = polygon_area_centroid(poly)
-    inertia = _polygon_inertia(poly, com, mass)
-    # body frame = world frame at the start: the recorded pose is then the workpiece point at
-    # the world origin, whose velocity is the planner's qdot (docs/conventions.md)
-    # environment contacts touch their own feature (contact_feature); fingers and links the
-    # polygon (index 0), exact in pymunk and, away from an acute vertex, in MuJoCo
-    env_ids = [i for i in range(n_c) if env[i] and near_acute_vertex(pts[i], poly, size)]
-    features = [contact_feature(pts[i], nrm[i], poly, size) for i in env_ids]
-    feature_of = {i: 1 + k for k, i in enumerate(env_ids)}
-    work = Body("workpiece", (Polygon(tuple(map(tuple, poly.tolist()))), *features),
-                mass=mass, com=(float(com[0]), float(com[1])), inertia=inertia,
-                pose=(0.0, 0.0, 0.0))
+                             f"{pts[i].tolist()} (polygon reaches {gap:.3g} m along the normal)")
+    shapes: list[list[Shape]] = [[Polygon(tuple(map(tuple, p.tolist())))] for p in polys]
+    # environment contacts near an acute vertex touch their own feature (contact_feature);
+    # fingers and links the polygon (index 0), exact in pymunk and, away from an acute vertex,
+    # in MuJoCo
+    feature_of: dict[int, int] = {}
+    for i, (a, b) in enumerate(system.contact_bodies):
+        if b < 0 and env[i] and near_acute_vertex(pts[i], polys[a], size):
+            feature_of[i] = len(shapes[a])
+            shapes[a].append(contact_feature(pts[i], nrm[i], polys[a], size))
     radius = FINGER_RADIUS * size
-    bodies = [work]
-    pairs = []
+    extra: list[Body] = []
+    pairs: list[ContactPair] = []
     joints: tuple[Joint, ...] = ()
     sites: dict[int, tuple[str, int]] = {}
     if system.virtual_joints:
         vel = np.asarray(system.joint_inputs, dtype=float).reshape(-1, 2) * speed_scale
     else:
-        links, joints, sites = chain_links(system, poly, size, speed_scale)
-        bodies.extend(links)
+        links, joints, sites = chain_links(system, polys[0], size, speed_scale)
+        extra.extend(links)
         vel = np.zeros((n_c, 2))
-    for i in range(n_c):
-        name = f"env{i + 1}" if env[i] else f"finger{i + 1}"
+    for i, (a, b) in enumerate(system.contact_bodies):
+        muk = None if mu_kinetic is None else float(mu_kinetic[i])
+        centre = pts[i] - (radius - PRELOAD * size) * nrm[i]
+        if b >= 0:  # a foot on body b touching body a
+            shapes[b].append(Circle((float(centre[0]), float(centre[1])), radius))
+            pairs.append(ContactPair(f"c{i + 1}", names[b], names[a], float(system.mu[i]),
+                                     muk, shape_a=len(shapes[b]) - 1, shape_b=0))
+            continue
         if i in sites:
-            name, shape = sites[i]
-            muk = None if mu_kinetic is None else float(mu_kinetic[i])
-            pairs.append(ContactPair(f"c{i + 1}", name, "workpiece", shape_a=shape,
-                                     mu_static=float(system.mu[i]), mu_kinetic=muk))
+            body, shape = sites[i]
+            pairs.append(ContactPair(f"c{i + 1}", body, names[a], float(system.mu[i]), muk,
+                                     shape_a=shape))
             continue
         if env[i]:
-            bodies.append(Body(name, (environment_surface(pts[i], nrm[i], poly, size),),
-                               kind=BodyKind.STATIC))
+            body = f"env{i + 1}"
+            extra.append(Body(body, (environment_surface(pts[i], nrm[i], polys[a], size),),
+                              kind=BodyKind.STATIC))
         else:
-            v_world = vel[i, 0] * nrm[i] + vel[i, 1] * tng[i]
-            centre = pts[i] - (radius - PRELOAD * size) * nrm[i]
-            bodies.append(Body(name, (Circle((0.0, 0.0), radius),),
-                               pose=(float(centre[0]), float(centre[1]), 0.0),
-                               kind=BodyKind.DRIVEN,
-                               twist=constant_twist((float(v_world[0]), float(v_world[1]), 0.0))))
-        muk = None if mu_kinetic is None else float(mu_kinetic[i])
-        pairs.append(ContactPair(f"c{i + 1}", name, "workpiece", shape_b=feature_of.get(i, 0),
-                                 mu_static=float(system.mu[i]), mu_kinetic=muk))
-    g = np.asarray(system.g_obj, dtype=float)
-    moment = float(g[2] - (com[0] * g[1] - com[1] * g[0]))
-    span = 4.0 * size
-    cx, cy = float(com[0]), float(com[1])
+            body = f"finger{i + 1}"
+            v = vel[i, 0] * nrm[i] + vel[i, 1] * tng[i]
+            extra.append(Body(body, (Circle((0.0, 0.0), radius),),
+                              pose=(float(centre[0]), float(centre[1]), 0.0),
+                              kind=BodyKind.DRIVEN,
+                              twist=constant_twist((float(v[0]), float(v[1]), 0.0))))
+        pairs.append(ContactPair(f"c{i + 1}", body, names[a], float(system.mu[i]), muk,
+                                 shape_b=feature_of.get(i, 0)))
+    works = [Body(names[a], tuple(shapes[a]), mass=masses[a],
+                  com=(float(coms[a][0]), float(coms[a][1])),
+                  inertia=polygon_inertia(polys[a], masses[a], coms[a]), pose=(0.0, 0.0, 0.0))
+             for a in range(len(polys))]
+    loads = []
+    g = np.asarray(system.g_obj, dtype=float).reshape(-1, 3)
+    for a, c in enumerate(coms):
+        loads.append(Load(names[a], (float(g[a, 0]), float(g[a, 1])),
+                          float(g[a, 2] - (c[0] * g[a, 1] - c[1] * g[a, 0]))))
+    # the bounds cover every body (a chain's base may be far from a small workpiece)
+    reach = np.vstack([*polys, *(np.array(b.pose[:2])[None] for b in extra)])
+    lo, hi = reach.min(axis=0) - 3.0 * size, reach.max(axis=0) + 3.0 * size
     fastest = commanded_contact_speed(system) * speed_scale
     return Scene(
-        bodies=tuple(bodies),
-        pairs=tuple(pairs),
-        joints=joints,
-        loads=(Load("workpiece", (float(g[0]), float(g[1])), moment),),
-        bounds=(cx - span, cy - span, cx + span, cy + span),
-        length_scale=size,
-        only_pairs=True,
-        meta={"polygon": poly.tolist(), "com": com.tolist(), "mass": mass,
-              "derived_workpiece": derived, "area_centroid": centroid.tolist(),
-              "finger_radius": radius, "preload_m": PRELOAD * size,
-              "environment": list(env), "drive_speed": fastest},
+        bodies=tuple(works + extra), pairs=tuple(pairs), joints=joints, loads=tuple(loads),
+        bounds=(float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])),
+        length_scale=size, only_pairs=True,
+        meta={"workpieces": list(names), "polygons": [p.tolist() for p in polys],
+              "coms": [c.tolist() for c in coms], "masses": masses,
+              "derived_workpiece": derived, "finger_radius": radius,
+              "preload_m": PRELOAD * size, "environment": list(env), "drive_speed": fastest},
     )
 
 
-# ---- chain manipulators (issue 14: "chain manipulators are built as their links") ----------
-#: Mass of every chain link as a fraction of the workpiece mass [-] (the hands' ratio, 0.05 kg
-#: fingers on a 0.1 kg workpiece; masses change only the dynamics).
-LINK_MASS_OF_WORKPIECE = 0.5
-
-
+# ---- chain manipulators --------------------------------------------------------------------
 def commanded_contact_speed(system: System) -> float:
     """Fastest commanded manipulator contact-point speed [m/s]: ``max_i |J_i thetadot|`` with
     the velocity-controlled joints at their commands and the others at rest (eqs. 3, 5; for

@@ -1,7 +1,9 @@
 """Record the short simulator traces that tests/test_sim_flicker.py classifies.
 
-Run from the repository root: ``PYTHONPATH=. python tests/data/record_sim_traces.py``. Each
-trace is one paper-example run (the settings of ``scenarios/paper_sims.py``) cut to the
+Run from the repository root: ``PYTHONPATH=.:tests python tests/data/record_sim_traces.py``.
+Each trace is one paper-example run (at :data:`RECORDED_WITH`: the scale, speed, mass, time step
+and backend defaults the traces were recorded with -- they are recorded data of real flicker
+and jams for the classifier's tests, not the pipeline's settings) cut to the
 ``[start, stop]`` seconds listed below and stored as float32 arrays in
 ``tests/data/sim_trace_<name>.npz``: ``times`` (T,), per contact ``vt``, ``fn``, ``ft``,
 ``depth`` (T, P) and ``present`` (T, P), the workpiece ``poses`` (T, 3), and ``meta`` (a JSON
@@ -15,14 +17,20 @@ import json
 from pathlib import Path
 
 import numpy as np
+from sim_helpers import example_scene
 
 from planner.files.system_file import load_system
-from scenarios.paper_sims import DATA, ENGINE_SETTINGS
+from scenarios.registry import DATA_DIR as DATA
 from sim.backends import make_backend
 from sim.run import RunSettings, run_scene
-from sim.scenes.paper import example_scene, scaled_system
 
 HERE = Path(__file__).resolve().parent
+#: Per engine: time step [s], creep floor [m/s], drive speed [m/s], workpiece mass [kg] and
+#: settling time [s] of the recordings (MuJoCo with the backend's default settings).
+RECORDED_WITH = {
+    "pymunk": {"dt": 1e-3, "creep": 1e-9, "speed": 2e-3, "mass": 0.1, "settle": 0.2},
+    "mujoco": {"dt": 1e-3, "creep": 1e-8, "speed": 5e-4, "mass": 0.01, "settle": 1.5},
+}
 #: name -> (engine, data, scale, mu, start [s], stop [s])
 TRACES = {
     # Example 4.1 inside the 3S region at high mu_2: MuJoCo's contacts flicker
@@ -41,11 +49,10 @@ TRACES = {
 
 def record(name: str) -> Path:
     engine, data, scale, mu, start, stop = TRACES[name]
-    es = ENGINE_SETTINGS[engine]
+    es = RECORDED_WITH[engine]
     speed = float(es["speed"])
     base = load_system(DATA / f"{data}.json")
-    scaled = scaled_system(base, scale, speed)
-    scene = example_scene(scaled.with_mu(mu), speed=speed, mass=float(es["mass"]))
+    scene = example_scene(data, scale, speed, mu, mass=float(es["mass"]))
     load = float(np.linalg.norm(base.g_obj[:2]))
     rec = run_scene(scene, make_backend(engine), RunSettings(
         duration=stop, dt=float(es["dt"]), slip_speed=0.05 * speed,

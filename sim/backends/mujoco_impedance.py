@@ -1,14 +1,16 @@
 """MuJoCo contact impedance per pair role (:mod:`sim.backends.roles`; measured in
 docs/simulation.md, "MuJoCo: contact roles", "MuJoCo: the sliding lift-off" and "MuJoCo: sliding
-supports"): which ``solimp``/``solref`` each pair of a built model gets and the model-wide
-``impratio``."""
+supports"): which ``solimp``/``solref`` each pair of a built model gets, the model-wide
+``impratio``, and the soft squeeze impedance's load width (the scene's load, MuJoCo's inverse
+effective mass of a pair's contacts)."""
 
 from __future__ import annotations
 
 from collections.abc import Mapping
 from typing import Any
 
-from sim.backends.mujoco_squeeze import contact_diag_a, load_width
+import numpy as np
+
 from sim.backends.roles import CARRY, SQUEEZE, SUPPORT
 
 
@@ -17,7 +19,7 @@ def apply_role_impedance(m: Any, d: Any, roles: Mapping[str, str],
                          ) -> dict[str, float]:
     """Set the impedance of every model pair of ``m`` (``subpairs``: scene pair -> model pair
     indices) by its scene pair's role, and ``m.opt.impratio``; return the load width given to
-    each soft ``squeeze`` pair (:func:`sim.backends.mujoco_squeeze.load_width`).
+    each soft ``squeeze`` pair (:func:`load_width`).
 
     ``opts`` carries the backend's options (:class:`sim.backends.mujoco_engine.MujocoBackend`):
     ``squeeze`` pairs get ``solimp = (squeeze_d0, solimp[0], load width)`` and
@@ -25,7 +27,7 @@ def apply_role_impedance(m: Any, d: Any, roles: Mapping[str, str],
     ``support_solref`` (each when set); ``carry`` pairs ``carry_solref``. ``impratio``:
     ``carry_impratio`` in a scene with ``carry`` pairs and no ``squeeze`` pair, else
     ``support_impratio`` (when set) in a scene with ``support`` pairs, else unchanged.
-    ``load`` [N] is the scene's (:func:`sim.backends.mujoco_squeeze.scene_load`)."""
+    ``load`` [N] is the scene's (:func:`scene_load`)."""
     widths: dict[str, float] = {}
     for name, role in roles.items():
         # one load width per scene pair, from its touching contacts (the finger's MuJoCo
@@ -62,3 +64,38 @@ def apply_role_impedance(m: Any, d: Any, roles: Mapping[str, str],
     elif SUPPORT in kinds and opts.support_impratio is not None:
         m.opt.impratio = opts.support_impratio
     return widths
+
+
+def scene_load(scene: Any) -> float:
+    """The load [N] of a :class:`sim.scene.Scene`: the largest in-plane force of its loads (the
+    weight or external wrench that keeps the contacts closed; 0 without loads)."""
+    return max((float(np.hypot(*ld.force)) for ld in scene.loads), default=0.0)
+
+
+def load_width(load: float, d0: float, d_width: float, solref: tuple[float, float],
+               diag_a: float) -> float:
+    """Penetration [m] at which a contact of impedance ``d0`` carries ``load`` [N] at rest: the
+    width over which a ``squeeze`` pair's impedance rises from ``d0`` to ``d_width``.
+
+    MuJoCo (``engine_core_constraint.c``): a resting contact carries ``f_n = K imp |pos| /
+    R_n`` with ``R_n = (1 - imp) / imp x diagA`` and, for ``solref = (timeconst, dampratio)``,
+    ``K = 1 / (d_width timeconst dampratio)^2``; solved for ``|pos|`` at ``imp = d0``. Below it
+    the contact is soft (``d0``: a lightly loaded sliding contact keeps enough penetration
+    against the cone's lift, :data:`sim.settings.SQUEEZE_D0`), beyond it ``d_width`` (a squeeze
+    of many times the load is as stiff as before). ``diag_a`` [1/kg] is MuJoCo's ``efc_diagA``
+    of the contact (its inverse effective mass, from the bodies' masses)."""
+    timeconst, dampratio = solref
+    k = 1.0 / (d_width * timeconst * dampratio) ** 2
+    return load * (1.0 - d0) / d0 * diag_a / (k * d0)
+
+
+def contact_diag_a(model: Any, data: Any, pair: int) -> float:
+    """MuJoCo's ``efc_diagA`` (inverse effective mass along the normal) of model pair ``pair``'s
+    contacts in ``data``, the largest; 0 when the pair has none."""
+    geoms = {int(model.pair_geom1[pair]), int(model.pair_geom2[pair])}
+    out = 0.0
+    for c in range(data.ncon):
+        con = data.contact[c]
+        if con.efc_address >= 0 and {int(con.geom[0]), int(con.geom[1])} == geoms:
+            out = max(out, float(data.efc_diagA[con.efc_address]))
+    return out

@@ -26,8 +26,6 @@ from dataclasses import dataclass, replace
 from enum import Enum
 from typing import Any, Final, Literal
 
-import numpy as np
-
 from planner.errors import InputError
 from planner.model.modes import Mode
 from sim.run import Fault, FaultKind
@@ -41,11 +39,13 @@ ObservedMode = Mode | Literal["JAM"]
 MODE_FRACTION_REQUIRED = 0.95
 #: Hand plans: final workpiece position error allowed, as a fraction of the predicted travel.
 POSE_TOLERANCE_OF_TRAVEL = 0.02
-#: Observed mean workpiece twist vs the predicted mode's ``qdot``: largest relative error
-#: ``|q_obs - q_pred|_L / |q_pred|_L`` (docs/simulation.md, "Twist and forces").
+#: Observed mean workpiece twist vs the predicted mode's ``qdot``: largest error
+#: ``|q_obs - q_pred|_L / max(|q_pred|_L, drive speed)`` (:func:`sim.classify.twist_error`;
+#: docs/simulation.md, "Judging a run"): 10 % of the predicted twist, or of the drive speed
+#: where the workpiece is predicted to move slower (twice the classifier's slip threshold).
 TWIST_TOLERANCE = 0.1
-#: Observed mean contact forces vs the certificate of a force-determinate mode: largest
-#: ``|c_obs,i - c_pred,i| / |load|`` over the contacts (docs/simulation.md).
+#: Observed mean contact forces vs the nearest member of the predicted mode's certificate
+#: family: largest ``|c_obs - c|`` component over the run's force scale (docs/simulation.md).
 FORCE_TOLERANCE = 0.1
 #: Forces are judged only while the workpiece is within this fraction of its size (``L``-norm
 #: of the pose change) of the configuration the certificate is for.
@@ -134,21 +134,22 @@ class PlanMeasures:
 class MotionMeasures:
     """Observed workpiece motion and contact forces against a predicted mode's certificate.
 
-    ``twist_observed`` (3,) [m/s, m/s, rad/s] mean twist of the workpiece frame's origin over
-    the first judged steps (:func:`compare_motion`); ``reference``: the predicted mode compared
-    with (the most observed one that was predicted, else the closest in twist);
-    ``twist_predicted`` its ``qdot``;
-    ``twist_error``: relative error (:data:`TWIST_TOLERANCE`); ``twist_cosine``: cosine of the
+    ``twist_observed`` (3 n_b,) [m/s, m/s, rad/s] mean twist of each workpiece frame's origin
+    over the first judged steps (:mod:`sim.judge`); ``reference``: the predicted mode compared
+    with (the most observed one consistent with the run, else the closest in twist);
+    ``twist_predicted`` its ``qdot`` at the run's speed; ``twist_error``: error relative to
+    ``max(|qdot|, drive speed)`` (:data:`TWIST_TOLERANCE`); ``twist_cosine``: cosine of the
     angle between the two (rotation weighted by ``length_scale``); ``twist_size_ratio``:
-    observed / predicted size; ``force_error``: largest ``|c_obs,i - c_pred,i| / |load|``
-    over the contacts where the reference mode is force-determinate (None otherwise);
+    observed / predicted size; ``force_error``: largest component of ``c_obs - c`` over the
+    force scale, ``c`` the nearest member of the reference mode's certificate family (its
+    certificate when force-determinate; None when no step was in the mode);
     ``forces_observed`` (n_c, 2) [N] mean ``(c_in, c_it)`` over the steps in the reference
     mode.
     """
 
-    twist_observed: tuple[float, float, float]
+    twist_observed: tuple[float, ...]
     reference: str | None = None
-    twist_predicted: tuple[float, float, float] | None = None
+    twist_predicted: tuple[float, ...] | None = None
     twist_error: float | None = None
     twist_cosine: float | None = None
     twist_size_ratio: float | None = None
@@ -234,94 +235,3 @@ def fault_verdict(fault: Fault, before: Verdict | None = None) -> Verdict:
         return replace(before, reasons=before.reasons + (
             f"the run left the plan, then ended: {fault.reason}",), fault=fault)
     return Verdict(Outcome.FAULT, (fault.reason,), fault=fault)
-
-
-def compare_modes(observed: Sequence[ObservedMode], predicted: Sequence[ObservedMode],
-                  required: float = MODE_FRACTION_REQUIRED) -> Verdict:
-    """Fraction of the judged steps ``observed`` whose mode is in ``predicted`` (``[JAM]`` for
-    a predicted jam): ``agreed`` when ``>= required``. No judged step is ``inconclusive``."""
-    counts = count_labels(observed)
-    if not observed:
-        return Verdict(Outcome.INCONCLUSIVE, ("no step could be judged (the run ended before "
-                                              "the settling time)",))
-    pred = set(predicted)
-    agree = float(np.mean([o in pred for o in observed]))
-    outcome = Outcome.AGREED if agree >= required else Outcome.DISAGREED
-    return Verdict(outcome, (f"{agree:.1%} of {len(observed)} judged steps in the predicted "
-                             f"set (required {required:.0%})",),
-                   agreement=agree, judged_steps=len(observed), observed_counts=counts)
-
-
-def _poses(name: str, value: np.ndarray, n: int) -> np.ndarray:
-    arr = np.asarray(value, dtype=float)
-    if arr.shape != (n, 3):
-        raise InputError(f"{name}: expected shape ({n}, 3) (x, y, theta per waypoint), "
-                         f"got {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise InputError(f"{name}: expected finite numbers, got NaN or inf")
-    return arr
-
-
-def compare_plan(
-    claim: Mode,
-    observed: Sequence[ObservedMode],
-    predicted: Sequence[frozenset[ObservedMode]],
-    predicted_poses: np.ndarray,
-    simulated_poses: np.ndarray,
-    *,
-    interval: Sequence[int] | np.ndarray | None = None,
-    mode_fraction: float = MODE_FRACTION_REQUIRED,
-    pose_tolerance: float = POSE_TOLERANCE_OF_TRAVEL,
-) -> Verdict:
-    """Observed modes and poses of a hand plan run against its claim, predictions and poses.
-
-    ``observed`` (m,) judged steps; ``predicted`` (m,) the predicted mode set of each step's
-    waypoint interval; ``interval`` (m,) that interval's index (default: all 0);
-    ``predicted_poses``, ``simulated_poses`` (n, 3) ``(x, y, theta)`` [m, m, rad] at the n
-    waypoints. ``agreed`` when the claim holds on ``>= mode_fraction`` of the judged steps and
-    the final position is within ``pose_tolerance`` of the travel.
-    """
-    m = len(observed)
-    if m == 0:
-        raise InputError("observed: expected at least one judged step, got none")
-    if len(predicted) != m:
-        raise InputError(f"predicted: expected {m} mode sets (one per step), got {len(predicted)}")
-    n = len(np.asarray(predicted_poses, dtype=float))
-    if n < 2:
-        raise InputError(f"predicted_poses: expected at least 2 waypoints, got {n}")
-    pred = _poses("predicted_poses", predicted_poses, n)
-    simu = _poses("simulated_poses", simulated_poses, n)
-    idx = np.zeros(m, dtype=int) if interval is None else np.asarray(interval, dtype=int)
-    if idx.shape != (m,):
-        raise InputError(f"interval: expected {m} indices, got shape {idx.shape}")
-    travel = float(np.sum(np.linalg.norm(np.diff(pred[:, :2], axis=0), axis=1)))
-    if travel <= 0.0:
-        raise InputError("predicted_poses: expected a segment with positive travel, got 0")
-    claim_frac = float(np.mean([o == claim for o in observed]))
-    pred_frac = float(np.mean([o in p for o, p in zip(observed, predicted)]))
-    errs = np.linalg.norm(simu[:, :2] - pred[:, :2], axis=1)
-    counts = count_labels(observed)
-    per_wp = []
-    for k in range(int(idx.max()) + 1):
-        here = count_labels([o for o, j in zip(observed, idx) if j == k])
-        per_wp.append(max(here, key=lambda kv: kv[1])[0] if here else "")
-    reasons = []
-    if claim_frac < mode_fraction:
-        others = sorted(((c, lab) for lab, c in counts if lab != claim.label), reverse=True)
-        top = (f"; most observed instead: {others[0][1]!r} ({others[0][0] / m:.1%})"
-               if others else "")
-        reasons.append(f"claimed mode {claim.label!r} observed on {claim_frac:.1%} of the "
-                       f"segment, required {mode_fraction:.0%}{top}")
-    err = float(errs[-1])
-    if err / travel > pose_tolerance:
-        reasons.append(f"final position off by {err:.4g} m = {err / travel:.1%} of travel "
-                       f"{travel:.4g} m, allowed {pose_tolerance:.0%}")
-    measures = PlanMeasures(claim, claim_frac, pred_frac, err, travel,
-                            float(abs(simu[-1, 2] - pred[-1, 2])), float(errs.max() / travel),
-                            tuple(per_wp))
-    if not reasons:
-        reasons.append(f"{claim_frac:.1%} of the segment in the claimed mode, final position "
-                       f"{err / travel:.2%} of travel from the prediction")
-    return Verdict(Outcome.DISAGREED if claim_frac < mode_fraction or err / travel >
-                   pose_tolerance else Outcome.AGREED, tuple(reasons), agreement=claim_frac,
-                   judged_steps=m, observed_counts=counts, plan=measures)

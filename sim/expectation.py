@@ -1,0 +1,150 @@
+"""What a run is judged against (:func:`sim.judge.judge`): one of three expectations, all built
+by the caller from the planner's results -- the simulator never predicts.
+
+:class:`ModeSet`
+    a system's feasible modes with their certificates (``qsplan simulate``: any system file,
+    the paper's examples, several workpieces); an empty set is a predicted jam;
+:class:`PlanSchedule`
+    a plan's segments: per segment the claimed mode, the predicted mode set of every waypoint
+    interval and the predicted workpiece poses (``qsplan validate``; one segment or a whole
+    task);
+:class:`Switches`
+    the ruler's predicted switch positions and sliding fingers (Sec. 5.1).
+
+Units: every length in an expectation is in the *user's* metres and every time in the *run's*
+seconds (slow motion included): the pipeline judges the recording after mapping it back from
+the simulated scene's scale (:mod:`sim.similarity`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from planner.model.modes import Mode
+from planner.model.system import System
+from planner.predict.stages import FeasibleMode
+from sim.verdict import ObservedMode, Verdict
+
+
+@dataclass(frozen=True, eq=False)
+class ModeSet:
+    """The planner's feasible modes of a system at the judged friction.
+
+    ``modes``: the feasible modes with their certificates (empty: a predicted jam);
+    ``system``: the judged system (its friction), used to re-check an observation against a
+    mode's whole certificate family (:mod:`planner.predict.family`); ``velocity_factor`` [-]:
+    a certificate's ``qdot`` times this is the twist the run should show (the slow-motion
+    factor of the drive); ``bodies``: the scene names of the workpieces, in the system's order
+    (``qdot`` blocks); ``drive`` [m/s] the fastest commanded contact speed of the run;
+    ``length`` [m] the scene size (weights rotation in twist errors); ``force_scale`` [N] the
+    unit of force errors (the larger of the load and the largest certified total normal force
+    at the simulated friction). ``static``: nothing is driven (a static question): the modes
+    are the predicted static equilibria, and an empty set predicts that the workpiece moves
+    (no equilibrium holds), not a jam."""
+
+    modes: tuple[FeasibleMode, ...]
+    system: System | None
+    velocity_factor: float
+    bodies: tuple[str, ...]
+    drive: float
+    length: float
+    force_scale: float
+    static: bool = False
+
+    @property
+    def labels(self) -> list[str]:
+        """The predicted labels (``["JAM"]`` for a predicted jam, ``["MOVES"]`` for a static
+        system without equilibrium)."""
+        return [m.label for m in self.modes] or (["MOVES"] if self.static else ["JAM"])
+
+    def twists(self) -> list[np.ndarray]:
+        """The twist ``(3 n_b,)`` each predicted mode should show in the run."""
+        return [np.asarray(m.qdot, dtype=float) * self.velocity_factor for m in self.modes]
+
+
+@dataclass(frozen=True, eq=False)
+class SegmentExpectation:
+    """One segment of a plan run.
+
+    ``claim``: the mode the plan guarantees; ``start`` [s] the segment's start on the run's
+    clock; ``times`` (n,) [s] its waypoints from 0; ``predicted`` (n,) the predicted mode set
+    of each waypoint interval; ``poses`` (n, 3) the predicted workpiece pose at each waypoint;
+    ``planned_start`` (3,) the pose the plan starts the segment from; ``pairs``: the recording's
+    pair columns of the segment's contacts (its mode labels index them 1..); ``gained``: the
+    positions in ``pairs`` of contacts the segment gains at its start (judged once they touch);
+    ``travel`` [m] the predicted path length; ``drive`` [m/s] its fastest commanded contact
+    speed and ``slip_speed`` [m/s] the classifier's slip threshold for it."""
+
+    claim: Mode
+    start: float
+    times: np.ndarray
+    predicted: tuple[frozenset[ObservedMode], ...]
+    poses: np.ndarray
+    planned_start: np.ndarray
+    pairs: tuple[int, ...]
+    gained: tuple[int, ...]
+    travel: float
+    drive: float = 0.0
+    slip_speed: float = 0.0
+
+
+@dataclass(frozen=True, eq=False)
+class PlanSchedule:
+    """A plan's segments in run order (one for a single-segment plan); ``travel`` [m] of the
+    whole task; ``goal`` (3,) the final predicted pose; ``length`` [m] the hand's size."""
+
+    segments: tuple[SegmentExpectation, ...]
+    travel: float
+    goal: np.ndarray
+    length: float
+
+
+@dataclass(frozen=True, eq=False)
+class Switches:
+    """The ruler's predicted switch positions [m] (sliding finger's distance to the rod's
+    centre of mass) and which finger (0 left, 1 right) slid before each; the first
+    ``required`` must be observed within ``tolerance`` (relative)."""
+
+    positions: tuple[float, ...]
+    sliders: tuple[int, ...]
+    required: int
+    tolerance: float
+
+
+Expectation = ModeSet | PlanSchedule | Switches
+
+
+@dataclass(frozen=True, eq=False)
+class SegmentVerdict:
+    """The verdict of one segment of a plan run and what it measured: ``start`` [s],
+    ``duration`` [s], ``start_offset`` [m] (how far the workpiece really was from the planned
+    start), ``gained_delay`` [s] (until the contacts it gains touched; None: never)."""
+
+    index: int
+    claim: str
+    start: float
+    duration: float
+    start_offset: float
+    gained_delay: float | None
+    contacts: tuple[str, ...]
+    verdict: Verdict
+
+    def to_dict(self) -> dict[str, object]:
+        return {"segment": self.index + 1, "claim": self.claim, "start_s": self.start,
+                "duration_s": self.duration, "start_offset_m": self.start_offset,
+                "gained_contact_delay_s": self.gained_delay, "contacts": list(self.contacts),
+                **self.verdict.to_dict()}
+
+
+@dataclass(frozen=True, eq=False)
+class Judgement:
+    """What the judge returns: the ``verdict``, the ``observed`` mode of every recorded step
+    (over the recording's pairs; for drawing) and, for a plan, one :class:`SegmentVerdict`
+    per segment reached. ``details``: measured quantities for the summary."""
+
+    verdict: Verdict
+    observed: tuple[ObservedMode, ...]
+    segments: tuple[SegmentVerdict, ...] = ()
+    details: dict[str, object] | None = None

@@ -1,0 +1,318 @@
+"""The one judge: a recording against an expectation (:mod:`sim.expectation`) gives the one
+:class:`~sim.verdict.Verdict` (:func:`judge`).
+
+Observations come from the simulator's own contact data and body poses only
+(:mod:`sim.classify`); the expectation from the planner. A :class:`~sim.expectation.ModeSet` is
+judged here, a :class:`~sim.expectation.PlanSchedule` by :mod:`sim.judge_plan`, a
+:class:`~sim.expectation.Switches` by :mod:`sim.judge_switches`.
+
+A system run (:func:`judge_modes`; tolerances derived in docs/simulation.md, "Judging a run"):
+
+1. **modes** -- every judged step (after the settling time) whose observed mode is *consistent*
+   with a predicted mode counts; ``agreed`` needs :data:`~sim.verdict.MODE_FRACTION_REQUIRED`
+   of them. An observed mode is consistent with a predicted one when every contact shows the
+   predicted token, except that (a) at a contact whose judged friction is zero, rolling and
+   sliding are one closed state (their force constraints coincide, ``c_t = 0``; the slip is the
+   workpiece's motion, judged by the twist), and (b) a contact observed carrying no load
+   (``B``) where the mode has it closed is consistent when the mode's certificate family holds
+   a member with zero normal force at all such contacts at once (a force-indeterminate mode,
+   :func:`planner.predict.family.admits_unloaded`): the run then shows one of the mode's
+   certificates, not another mode;
+2. **twist** -- the workpieces' mean twist over the first ``early`` seconds of judged steps
+   against the reference mode's ``qdot`` (the most observed consistent mode), error
+   ``max_b |q_obs,b - q_pred,b|_L / max(|q_pred|_L, drive)`` within
+   :data:`~sim.verdict.TWIST_TOLERANCE` (:func:`sim.classify.twist_error`; absolute where the
+   predicted twist is slower than the drive: a workpiece predicted to stay);
+3. **forces** -- the mean contact forces of the steps in the reference mode against the
+   nearest member of its certificate family (the certificate itself when it is
+   force-determinate, :func:`planner.predict.family.nearest_certificate`) within
+   :data:`~sim.verdict.FORCE_TOLERANCE` of the force scale, while the workpiece is within
+   :data:`~sim.verdict.FORCE_DRIFT_LIMIT` of its size of the certificate's configuration;
+4. **engine limits** -- a force miss while the contacts flicker, or a mode miss while the
+   workpiece moves as predicted and kept contacts go missing (stick-slip, chatter), is
+   ``inconclusive`` with the measured cause, never ``disagreed``;
+5. **faults** -- a run that faulted is a ``fault`` unless its steps before the fault already
+   disagreed (:func:`sim.verdict.fault_verdict`); a predicted jam whose drive pushed the
+   bodies into each other (a penetration fault) agrees.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import replace
+
+import numpy as np
+
+from planner.model.modes import BREAK
+from planner.predict.family import admits_unloaded, nearest_certificate
+from planner.predict.stages import FeasibleMode
+from sim.classify import (
+    Thresholds,
+    flicker_fraction,
+    judged_mask,
+    observed_modes,
+    twist_error,
+)
+from sim.expectation import Expectation, Judgement, ModeSet, PlanSchedule, Switches
+from sim.run import FaultKind, Recording
+from sim.verdict import (
+    FORCE_DRIFT_LIMIT,
+    FORCE_TOLERANCE,
+    JAM,
+    MODE_FRACTION_REQUIRED,
+    TWIST_TOLERANCE,
+    MotionMeasures,
+    ObservedMode,
+    Outcome,
+    Verdict,
+    count_labels,
+    fault_verdict,
+)
+
+#: A ``disagreed`` mode comparison is ``inconclusive`` when the workpiece's mean twist is within
+#: :data:`~sim.verdict.TWIST_TOLERANCE` of a predicted one while contacts the nearest mode keeps
+#: closed are missing on more than this fraction of the judged steps: a resting contact is never
+#: missing in a sound run (pymunk runs of the shipped systems miss none), so the engine is
+#: stick-slipping or chattering (docs/simulation.md, "Judging a run").
+LOST_FRACTION = 0.01
+
+
+def judge(rec: Recording, expectation: Expectation, th: Thresholds) -> Judgement:
+    """Judge ``rec`` against ``expectation`` with thresholds ``th`` (module docstring)."""
+    if isinstance(expectation, ModeSet):
+        verdict, observed = judge_modes(rec, expectation, th)
+        return Judgement(verdict, tuple(observed))
+    if isinstance(expectation, PlanSchedule):
+        from sim.judge_plan import judge_plan
+
+        return judge_plan(rec, expectation, th)
+    if isinstance(expectation, Switches):
+        from sim.judge_switches import judge_switches
+
+        return judge_switches(rec, expectation, th)
+    raise TypeError(f"expectation: expected ModeSet, PlanSchedule or Switches, got "
+                    f"{type(expectation).__name__}")
+
+
+# ---- consistency of an observed mode with a predicted one ---------------------------------------
+class ModeMatcher:
+    """Which predicted modes an observed mode is consistent with (module docstring, 1),
+    cached per observed label."""
+
+    def __init__(self, expectation: ModeSet) -> None:
+        self.exp = expectation
+        mu = (np.asarray(expectation.system.mu, dtype=float) if expectation.system is not None
+              else None)
+        self.frictionless = (mu == 0.0) if mu is not None else None
+        self._cache: dict[str, tuple[int, ...]] = {}
+
+    def matches(self, observed: ObservedMode) -> tuple[int, ...]:
+        """Indices of the predicted modes ``observed`` is consistent with (``JAM``: none)."""
+        if isinstance(observed, str):
+            return ()
+        key = observed.label
+        if key not in self._cache:
+            self._cache[key] = tuple(k for k, m in enumerate(self.exp.modes)
+                                     if self._consistent(observed.tokens, m))
+        return self._cache[key]
+
+    def _consistent(self, obs: tuple[str, ...], mode: FeasibleMode) -> bool:
+        pred = mode.mode.tokens
+        if len(obs) != len(pred):
+            return False
+        unloaded = []
+        for i, (o, p) in enumerate(zip(obs, pred)):
+            if o == p:
+                continue
+            if (self.frictionless is not None and self.frictionless[i] and o != "B"
+                    and p != "B"):
+                continue  # rolling and sliding are one closed state at zero friction
+            if o == "B" and mode.mode.codes[i] != BREAK:
+                unloaded.append(i)
+                continue
+            return False
+        if not unloaded:
+            return True
+        return self.exp.system is not None and admits_unloaded(self.exp.system, mode.mode,
+                                                               unloaded)
+
+
+# ---- a system run ---------------------------------------------------------------------------
+def judge_modes(rec: Recording, exp: ModeSet, th: Thresholds
+                ) -> tuple[Verdict, list[ObservedMode]]:
+    """Classify ``rec`` and judge it against the predicted modes (module docstring). Returns
+    ``(verdict, observed mode per recorded step)``."""
+    observed = observed_modes(rec, th, exp.twists(), exp.bodies)
+    if exp.static and not exp.modes:
+        return judge_moves(rec, exp, th), observed
+    if rec.fault is not None:
+        if not exp.modes and rec.fault.kind is FaultKind.PENETRATION:
+            return Verdict(Outcome.AGREED, (
+                f"predicted jam; the drive pushed the bodies into each other: "
+                f"{rec.fault.reason}",), agreement=1.0, fault=rec.fault), observed
+        # what the run showed up to one window before the fault (its blow-up excluded): a
+        # disagreement there means the run had left the prediction
+        before, _ = judge_modes(rec.until(rec.fault.time - th.window), exp, th)
+        return fault_verdict(rec.fault, before), observed
+    mask = judged_mask(rec, th)
+    judged = [o for o, k in zip(observed, mask) if k]
+    if not judged:
+        return Verdict(Outcome.INCONCLUSIVE, ("no step could be judged (the run ended before "
+                                              "the settling time)",)), observed
+    matcher = ModeMatcher(exp)
+    hits = [bool(matcher.matches(o)) if exp.modes else o == JAM for o in judged]
+    agreement = float(np.mean(hits))
+    counts = count_labels(judged)
+    outcome = Outcome.AGREED if agreement >= MODE_FRACTION_REQUIRED else Outcome.DISAGREED
+    reasons = [f"{agreement:.1%} of {len(judged)} judged steps show a predicted mode "
+               f"(required {MODE_FRACTION_REQUIRED:.0%})"]
+    base = Verdict(outcome, tuple(reasons), agreement=agreement, judged_steps=len(judged),
+                   observed_counts=counts)
+    if not exp.modes or len(judged) < 2:
+        return base, observed
+    verdict = _motion(rec, exp, th, judged, mask, matcher, base)
+    if verdict.outcome is Outcome.DISAGREED and agreement < MODE_FRACTION_REQUIRED:
+        verdict = _engine_cannot_tell(verdict, rec, exp, th, mask)
+    return verdict, observed
+
+
+def judge_moves(rec: Recording, exp: ModeSet, th: Thresholds) -> Verdict:
+    """A static system without a predicted equilibrium: ``agreed`` when a workpiece moves
+    faster than :data:`~sim.verdict.TWIST_TOLERANCE` of the drive speed (the speed the
+    classifier resolves, :class:`sim.expectation.ModeSet`), measured over the judged steps, or
+    over all steps when it left the scene or ran into something before the settling time."""
+    run = rec.until(rec.fault.time) if rec.fault is not None else rec
+    if rec.fault is not None and rec.fault.kind not in (FaultKind.LEFT_SCENE,
+                                                        FaultKind.PENETRATION):
+        return fault_verdict(rec.fault)
+    mask = judged_mask(run, th)
+    if mask.sum() < 2:
+        mask = np.ones(len(run.times), dtype=bool)
+    if mask.sum() < 2:
+        return Verdict(Outcome.INCONCLUSIVE, ("no step could be judged",))
+    idx = [run.body_names.index(b) for b in exp.bodies]
+    pose = run.poses[mask][:, idx].copy()
+    pose[:, :, 2] = np.unwrap(pose[:, :, 2], axis=0)
+    dt = float(run.times[mask][-1] - run.times[mask][0])
+    q = (pose[-1] - pose[0]) / dt  # (n_b, 3) mean twist
+    speed = float(np.max(np.linalg.norm(q * np.array([1.0, 1.0, th.length_scale]), axis=1)))
+    moved = speed > TWIST_TOLERANCE * exp.drive
+    how = (f"a workpiece moved at {speed:.3g} m/s (mean over {dt:.3g} s)"
+           + (f", then {rec.fault.reason}" if rec.fault is not None else ""))
+    if moved:
+        return Verdict(Outcome.AGREED, (f"no static equilibrium predicted; {how}",),
+                       agreement=1.0, judged_steps=int(mask.sum()), fault=rec.fault)
+    return Verdict(Outcome.DISAGREED, (
+        f"no static equilibrium predicted, but the workpieces stayed: {how}, below "
+        f"{TWIST_TOLERANCE:.0%} of the reference speed {exp.drive:.3g} m/s",),
+        judged_steps=int(mask.sum()))
+
+
+def _early_twist(times: np.ndarray, poses: np.ndarray, early: float) -> tuple[np.ndarray, int]:
+    """Mean twist ``(3 n_b,)`` over the first ``early`` seconds of ``poses`` (T, n_b, 3) (from
+    the poses at the ends of that stretch; all steps when shorter) and the stretch's last
+    index."""
+    pose = poses.copy()
+    pose[:, :, 2] = np.unwrap(pose[:, :, 2], axis=0)
+    first = times <= float(times[0]) + early + 1e-12
+    k1 = int(np.flatnonzero(first)[-1])
+    if k1 == 0:
+        k1 = len(times) - 1
+    q = (pose[k1] - pose[0]) / float(times[k1] - times[0])
+    return q.reshape(-1), k1
+
+
+def _motion(rec: Recording, exp: ModeSet, th: Thresholds, judged: Sequence[ObservedMode],
+            mask: np.ndarray, matcher: ModeMatcher, base: Verdict) -> Verdict:
+    """Twist and forces of the judged steps against the reference mode (module docstring,
+    2-4)."""
+    idx = [rec.body_names.index(b) for b in exp.bodies]
+    times = rec.times[mask]
+    poses = rec.poses[mask][:, idx]
+    q_obs, k1 = _early_twist(times, poses, th.early)
+    factor = exp.velocity_factor
+    steps_of = np.zeros(len(exp.modes), dtype=int)
+    for o in judged:
+        for k in matcher.matches(o):
+            steps_of[k] += 1
+    errors = [float(twist_error(q_obs, m.qdot * factor, th.length_scale, exp.drive))
+              for m in exp.modes]
+    ref_k = int(np.argmax(steps_of)) if steps_of.max() > 0 else int(np.argmin(errors))
+    ref = exp.modes[ref_k]
+    q_ref = np.asarray(ref.qdot, dtype=float) * factor
+    e_twist = errors[ref_k]
+    w = np.tile([1.0, 1.0, th.length_scale], len(idx))
+    a, b = q_obs * w, q_ref * w
+    na, nb = float(np.linalg.norm(a)), float(np.linalg.norm(b))
+    cosine = float(a @ b / (na * nb)) if na > 0 and nb > 0 else None
+    outcome = base.outcome
+    reasons = list(base.reasons)
+    reasons.append(f"workpiece twist {np.round(q_obs, 8).tolist()} vs {ref.label}'s "
+                   f"{np.round(q_ref, 8).tolist()}: error {e_twist:.1%} of "
+                   f"max(|qdot|, drive) (allowed {TWIST_TOLERANCE:.0%})")
+    if outcome is Outcome.AGREED and not e_twist <= TWIST_TOLERANCE:
+        outcome = Outcome.DISAGREED
+    # forces: the steps in the reference mode within the early stretch
+    in_ref = np.array([ref_k in matcher.matches(o) for o in judged], dtype=bool)
+    in_ref[k1 + 1:] = False
+    f_err = None
+    forces: tuple[tuple[float, float], ...] = ()
+    if in_ref.any() and (exp.system is not None or not ref.force_indeterminate):
+        fn = np.where(rec.present, rec.normal_force, 0.0)[mask][in_ref].mean(axis=0)
+        ft = np.where(rec.present, rec.tangent_force, 0.0)[mask][in_ref].mean(axis=0)
+        c_obs = np.stack([fn, ft], axis=1)
+        forces = tuple((float(c[0]), float(c[1])) for c in c_obs)
+        fit = (nearest_certificate(exp.system, ref.mode, c_obs) if exp.system is not None
+               else None)
+        distance = (fit.distance if fit is not None else
+                    float(np.max(np.abs(c_obs - np.asarray(ref.contact_forces)))))
+        f_err = distance / exp.force_scale
+        drift = float(np.max(np.linalg.norm(((poses[k1] - rec.poses[0][idx])
+                                             * np.array([1.0, 1.0, th.length_scale])),
+                                            axis=1))) / th.length_scale
+        family = " (nearest member of its certificate family)" if ref.force_indeterminate else ""
+        reasons.append(f"contact forces off the certificate{family} by up to {f_err:.1%} of the "
+                       f"force scale {exp.force_scale:.3g} N (allowed {FORCE_TOLERANCE:.0%})")
+        if drift > FORCE_DRIFT_LIMIT:
+            reasons.append(f"forces not judged: the workpiece had moved {drift:.1%} of its "
+                           f"size from the configuration of the certificate (limit "
+                           f"{FORCE_DRIFT_LIMIT:.0%})")
+        elif outcome is Outcome.AGREED and not f_err <= FORCE_TOLERANCE:
+            flicker = flicker_fraction(rec, th, mask)
+            if flicker > 1.0 - MODE_FRACTION_REQUIRED:
+                outcome = Outcome.INCONCLUSIVE
+                reasons.append(f"forces not judged: the contacts flicker (per-step labels "
+                               f"differ from the window label on {flicker:.0%} of the steps)")
+            else:
+                outcome = Outcome.DISAGREED
+    motion = MotionMeasures(tuple(float(x) for x in q_obs), ref.label,
+                            tuple(float(x) for x in q_ref), e_twist, cosine,
+                            na / nb if nb > 0 else None, f_err, forces)
+    return replace(base, outcome=outcome, reasons=tuple(reasons), motion=motion)
+
+
+def _engine_cannot_tell(verdict: Verdict, rec: Recording, exp: ModeSet, th: Thresholds,
+                        mask: np.ndarray) -> Verdict:
+    """A mode miss is ``inconclusive`` when the workpiece's mean twist over the judged steps
+    (least-squares slope of the recorded poses) is within the twist tolerance of a predicted
+    mode while contacts that mode keeps closed are missing on more than
+    :data:`LOST_FRACTION` of the judged steps (stick-slip or chatter)."""
+    if mask.sum() < 3:
+        return verdict
+    idx = [rec.body_names.index(b) for b in exp.bodies]
+    pose = rec.poses[mask][:, idx].copy()
+    pose[:, :, 2] = np.unwrap(pose[:, :, 2], axis=0)
+    slope = np.polyfit(rec.times[mask], pose.reshape(len(pose), -1), 1)[0]
+    errors = [float(twist_error(slope, m.qdot * exp.velocity_factor, th.length_scale,
+                                exp.drive)) for m in exp.modes]
+    nearest = exp.modes[int(np.argmin(errors))]
+    kept = np.array([c != BREAK for c in nearest.mode.codes], dtype=bool)
+    if not kept.any():
+        return verdict
+    lost = float(np.mean(~rec.present[mask][:, kept]))
+    if min(errors) > TWIST_TOLERANCE or lost <= LOST_FRACTION:
+        return verdict
+    return replace(verdict, outcome=Outcome.INCONCLUSIVE, reasons=verdict.reasons + (
+        f"the workpiece's mean twist is within {min(errors):.1%} of {nearest.label}'s but "
+        f"contacts are missing on {lost:.1%} of the judged steps (stick-slip or chatter): "
+        "this engine cannot resolve the contact modes here",))
