@@ -21,7 +21,7 @@ from planner.files.reader import read_json
 SCHEMA_DIR = Path(__file__).resolve().parent / "schemas"
 
 #: The formats that have a schema.
-SCHEMA_KINDS = ("system", "hand", "plan")
+SCHEMA_KINDS = ("system", "hand", "plan", "run-summary")
 
 
 def schema_path(kind: str) -> Path:
