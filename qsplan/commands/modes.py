@@ -16,6 +16,7 @@ from qsplan.options import (
     check_int,
     fmt,
     fmt_list,
+    input_warnings,
     parse_numbers,
 )
 
@@ -74,8 +75,9 @@ def run(args: argparse.Namespace) -> int:
         given = "--dask" if args.dask is not None else f"--workers {args.workers}"
         raise InputError(f"--workers/--dask: expected together with --search, got {given} "
                          "without --search")
+    with input_warnings("modes"):
+        system = load_system(args.system)
     mu_list = parse_mu(args.mu)
-    system = load_system(args.system)
     mu: float | list[float] | None = mu_list
     if mu_list is not None and len(mu_list) == 1:
         mu = mu_list[0]
