@@ -220,7 +220,7 @@ def mu_grid(
     if index.size:
         parts = []
         for a in range(0, mu.shape[0], MU_CHUNK):
-            fs = force_stage(system, cand, index, kin.xi[index], mu[a:a + MU_CHUNK])
+            fs = force_stage(system, cand, index, kin.xi[index], mu[a:a + MU_CHUNK], tol=tol)
             parts.append(fs.nonsingular & (fs.margin >= -tol))
         feas = np.concatenate(parts)
     else:
