@@ -29,15 +29,13 @@ import numpy as np
 
 from planner.errors import InputError
 from planner.friction.closed_form import ClosedFormRegion, closed_form_region
+from planner.friction.regions import JAM, SLIPS
 from planner.model.modes import Mode, enumerate_modes
 from planner.model.system import System
 from planner.model.validation import as_friction
 from planner.predict.indeterminate import DEFAULT_MAX_ROW_SUBSETS, row_subset_count
 from planner.predict.stages import DEFAULT_TOL, force_stage, kinematic_stage
 
-JAM = "jam"
-#: Name of the empty mode set of an undriven system (no static equilibrium: the load moves it).
-SLIPS = "slips"
 #: Friction vectors per batched force-stage call: keeps the ``(L, m, k, q)`` working set of
 #: :func:`planner.predict.stages.force_stage` small (2-4x faster than one call over 160 000
 #: vectors, measured with benchmarks/muspace_bench.py).
@@ -50,18 +48,6 @@ def mode_set_name(labels: list[str] | tuple[str, ...], driven: bool = True) -> s
     """Name of a mode set: labels joined by ``" | "``; when empty ``"jam"`` (something is
     driven: it jams) or ``"slips"`` (nothing is driven: no static equilibrium holds)."""
     return " | ".join(labels) if labels else (JAM if driven else SLIPS)
-
-
-def region_words(name: str, driven: bool = True) -> str:
-    """What happens in a region, in words: ``jams``, ``slips``, ``stays (R1 R2)`` or
-    ``moves: S+1 R2`` (several modes: ``ambiguous: ...``)."""
-    if name == JAM:
-        return "jams: no mode is feasible"
-    if name == SLIPS:
-        return "slips: no static equilibrium, the load moves it"
-    if not driven:
-        return f"stays: {name}"
-    return f"{'ambiguous' if ' | ' in name else 'moves'}: {name}"
 
 
 @dataclass(frozen=True, eq=False)
@@ -218,7 +204,7 @@ def _check_vary(vary: tuple[int, ...], n_c: int) -> tuple[int, ...]:
 
 def mu_grid(
     system: System,
-    vary: tuple[int, ...],
+    vary: tuple[int | tuple[int, ...], ...],
     base_mu: Any,
     mu_range: tuple[float, float] = (0.0, 1.0),
     n: int = 100,
@@ -245,17 +231,17 @@ def mu_grid(
     """
     n_c = system.n_contacts
     groups = axis_groups(vary, n_c)
-    vary = tuple(g[0] for g in groups)
+    firsts = tuple(g[0] for g in groups)
     if all(len(g) == 1 for g in groups) and not names:
         groups = ()
     base = as_friction(base_mu, n_c, "base_mu")
     _check_range(*mu_range)
     if n < 1:
         raise InputError(f"n: expected >= 1 grid points per axis, got {n}")
-    axes = tuple(np.linspace(mu_range[0], mu_range[1], n) for _ in vary)
+    axes = tuple(np.linspace(mu_range[0], mu_range[1], n) for _ in firsts)
     cand = enumerate_modes(n_c, system.dof)
     kin = kinematic_stage(system, cand, tol=tol)
-    grid = MuGrid(vary, axes, base, (), np.zeros((n ** len(vary), 0), bool), groups,
+    grid = MuGrid(firsts, axes, base, (), np.zeros((n ** len(firsts), 0), bool), groups,
                   tuple(names), kin.velocity_scale != 0.0)
     mu = grid.points()
     index = np.flatnonzero(kin.ok)
@@ -278,7 +264,7 @@ def mu_grid(
         labels = labels + extra_labels
         feas = np.concatenate([feas, extra], axis=1)
     keep = np.any(feas, axis=0)
-    return MuGrid(vary, axes, base, tuple(lab for lab, k in zip(labels, keep) if k),
+    return MuGrid(firsts, axes, base, tuple(lab for lab, k in zip(labels, keep) if k),
                   feas[:, keep], grid.groups, grid.names, grid.driven)
 
 
@@ -422,7 +408,7 @@ class MuSpaceMap:
 
 def muspace_map(
     system: System,
-    vary: tuple[int, ...],
+    vary: tuple[int | tuple[int, ...], ...],
     base_mu: Any = None,
     mu_range: tuple[float, float] = (0.0, 1.0),
     n: int = 100,

@@ -63,7 +63,7 @@ class Feature(NamedTuple):
     the point's ``distance`` from the boundary [m] and the nearest boundary point ``foot``."""
 
     kind: str
-    index: int
+    index: int  # type: ignore[assignment]  # the field shadows tuple.index
     distance: float
     foot: np.ndarray
 

@@ -263,6 +263,7 @@ def resolve(layout: Layout) -> Resolved:
             raise InputError(f"{where}: expected at most one of 'surface', 'finger', 'other' or "
                              f"'environment', got {named}")
         V = polys[a]
+        Vb = polys[b] if b != MANIPULATOR else None
         p, kind, idx, label = _point_and_feature(c, V, where)
         face = part.line_normal() if part is not None else None
         if face is not None and V is not None:
@@ -281,13 +282,13 @@ def resolve(layout: Layout) -> Resolved:
             n = inward_normals(V)[idx]
         elif face is not None:
             n = face
-        elif b != MANIPULATOR and polys[b] is not None:
-            fb = locate(p, polys[b])
+        elif Vb is not None:
+            fb = locate(p, Vb)
             if fb.kind != "edge":
                 raise InputError(f"{where}: a vertex of {body_name(a, n_b)} on a vertex of "
                                  f"workpiece {b} has no normal from the geometry; give a "
                                  "'normal' or place the contact on an edge")
-            n = -inward_normals(polys[b])[fb.index]
+            n = -inward_normals(Vb)[fb.index]
         else:
             what = (f"{part.kind} {part.name!r} is a tip (no 'edge')" if part is not None
                     else "nothing flat touches it")
@@ -297,8 +298,8 @@ def resolve(layout: Layout) -> Resolved:
         body = body_name(a, n_b)
         if V is not None:
             check_on_body(p, n, V, where, body)
-        if b != MANIPULATOR and polys[b] is not None:
-            check_on_body(p, n, polys[b], where, f"workpiece {b}", outward=True)
+        if Vb is not None:
+            check_on_body(p, n, Vb, where, f"workpiece {b}", outward=True)
         if face is not None and part is not None:
             _check_on_face(p, n, face, part, where, size_of(V) if V is not None else 1.0)
         motion = part.motion if part is not None else None

@@ -21,7 +21,8 @@ import numpy as np
 from planner.errors import InputError
 from planner.files.atomic import save_figure
 from planner.friction.closed_form import ClosedFormRegion
-from planner.friction.muspace import JAM, SLIPS, MuGrid, region_words
+from planner.friction.muspace import MuGrid
+from planner.friction.regions import JAM, SLIPS, region_words
 
 if TYPE_CHECKING:
     from matplotlib.artist import Artist

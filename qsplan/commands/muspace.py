@@ -9,7 +9,8 @@ from typing import Any
 from planner.errors import InputError
 from planner.files.atomic import atomic_write_json
 from planner.files.system_file import load_system
-from planner.friction.muspace import muspace_map, region_words
+from planner.friction.muspace import muspace_map
+from planner.friction.regions import region_words
 from qsplan.options import (
     MU_MAX,
     check_budget,
