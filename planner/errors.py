@@ -21,3 +21,8 @@ class FileFormatError(InputError):
 
 class DegenerateError(QsplanError):
     """The configuration is degenerate for the requested operation (e.g. singular)."""
+
+
+class GeometryWarning(UserWarning):
+    """The input is usable but probably not what was meant (e.g. a weight written by hand
+    without its moment about the origin); the message says what and how to fix it."""

@@ -7,9 +7,12 @@ what was expected and quotes what came (the CLI maps it to exit 2).
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
-from collections.abc import Sequence
+import sys
+import warnings
+from collections.abc import Iterator, Sequence
 
 from planner.errors import InputError
 
@@ -131,3 +134,21 @@ def fmt(x: float, spec: str = "g") -> str:
 def fmt_list(values: Sequence[float], spec: str = ".4g") -> str:
     """``[a, b, c]`` formatted with :func:`fmt`."""
     return "[" + ", ".join(fmt(v, spec) for v in values) + "]"
+
+
+@contextlib.contextmanager
+def input_warnings(command: str) -> Iterator[None]:
+    """Print every :class:`planner.errors.GeometryWarning` raised inside as one line on stderr,
+    ``qsplan COMMAND: warning: ...`` (the input is used as given; the message says the fix)."""
+    from planner.errors import GeometryWarning
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", GeometryWarning)
+        yield
+    seen = set()
+    for w in caught:
+        if issubclass(w.category, GeometryWarning) and str(w.message) not in seen:
+            seen.add(str(w.message))
+            print(f"qsplan {command}: warning: {w.message}", file=sys.stderr)
+        elif not issubclass(w.category, GeometryWarning):
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)

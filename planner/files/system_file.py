@@ -39,13 +39,14 @@ from __future__ import annotations
 
 import dataclasses
 import os
+import warnings
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from planner.errors import FileFormatError, InputError
+from planner.errors import FileFormatError, GeometryWarning, InputError
 from planner.files.atomic import atomic_write_json
 from planner.files.fields import (
     FREE_KEYS,
@@ -56,6 +57,7 @@ from planner.files.fields import (
     short,
     type_name,
 )
+from planner.files.geometry_file import GEOMETRY_KEYS, geometry_system, is_geometry_first
 from planner.files.multibody_file import (
     BODY_KEYS,
     contact_bodies_to_dict,
@@ -66,6 +68,7 @@ from planner.files.multibody_file import (
 )
 from planner.files.reader import parse_json, read_json
 from planner.model.chain_geometry import ChainGeometry
+from planner.model.features import size_of, weight_moment_warning
 from planner.model.kinematics import chain_from_dict
 from planner.model.system import JointControl, System
 from planner.model.workpiece import WorkpieceGeometry
@@ -75,7 +78,7 @@ SYSTEM_FORMAT = "qsplan-system"
 SYSTEM_VERSION = 1
 
 _TOP = ("format", "version", "contacts", "wrench_matrix", "mu", "environment",
-        "external_wrench", "manipulator", "workpiece", "workpieces")
+        "external_wrench", "manipulator", "workpiece", "workpieces", *GEOMETRY_KEYS)
 _FORMS = ("contact_velocities", "jacobian", "chain")
 _FORM_KEYS = {
     "contact_velocities": ("contact_velocities", "joint_loads"),
@@ -122,7 +125,9 @@ def system_from_dict(data: Any, source: str = "system") -> System:
 def _system(data: Any) -> System:
     if not isinstance(data, Mapping):
         raise FileFormatError(f"expected a JSON object at top level, got {type_name(data)}")
-    check_keys(data, "top level", required=("manipulator",), optional=_TOP, free=FREE_KEYS)
+    geometry = is_geometry_first(data)
+    check_keys(data, "top level", required=() if geometry else ("manipulator",), optional=_TOP,
+               free=FREE_KEYS)
     fmt, ver = data.get("format", SYSTEM_FORMAT), data.get("version", SYSTEM_VERSION)
     if fmt != SYSTEM_FORMAT or ver != SYSTEM_VERSION or isinstance(ver, bool):
         raise FileFormatError(
@@ -131,11 +136,32 @@ def _system(data: Any) -> System:
         )
     if ("contacts" in data) == ("wrench_matrix" in data):
         raise FileFormatError("expected exactly one of 'contacts' or 'wrench_matrix'")
-    if not isinstance(data["manipulator"], Mapping):
+    if geometry:
+        return geometry_system(data, _workpiece, _manipulator_kwargs)
+    system = _legacy_system(data)
+    _warn_weight_without_moment(system)
+    return system
+
+
+def _warn_weight_without_moment(system: System) -> None:
+    """:class:`GeometryWarning` for every workpiece whose external wrench looks like its weight
+    but misses the weight's moment (:func:`planner.model.features.weight_moment_warning`)."""
+    wps = system.workpieces or ((system.workpiece,) if system.workpiece is not None else ())
+    for a, w in enumerate(wps):
+        where = "workpiece" if len(wps) == 1 else f"workpieces[{a}]"
+        text = weight_moment_warning(system.g_obj[3 * a:3 * a + 3], w.mass, w.com, where,
+                                     size_of(w.polygon))
+        if text:
+            warnings.warn(text, GeometryWarning, stacklevel=4)
+
+
+def _manipulator_form(manip_raw: Any) -> str:
+    """The form of a ``manipulator`` object (checked: exactly one form, known keys)."""
+    if not isinstance(manip_raw, Mapping):
         raise FileFormatError(
-            f"expected a 'manipulator' object, got {type_name(data['manipulator'])}"
+            f"expected a 'manipulator' object, got {type_name(manip_raw)}"
         )
-    manip = data["manipulator"]
+    manip = manip_raw
     forms = [k for k in _FORMS if k in manip]
     if len(forms) != 1:
         raise FileFormatError(
@@ -152,6 +178,32 @@ def _system(data: Any) -> System:
     for j, spec in enumerate(manip.get("joints") or []):
         if isinstance(spec, Mapping):
             check_keys(spec, f"joint {j + 1}", optional=("velocity", "effort"), free=FREE_KEYS)
+    return form
+
+
+def _manipulator_kwargs(manip: Any, pts: Any, nrm: Any, off_chain: list[bool]
+                        ) -> tuple[dict[str, Any], ChainGeometry | None]:
+    """Keyword arguments of :meth:`System.from_contacts` for a ``manipulator`` object at the
+    contacts ``pts``, ``nrm`` (and the chain geometry of the chain form)."""
+    form = _manipulator_form(manip)
+    kwargs: dict[str, Any] = {}
+    if "joint_loads" in manip:
+        kwargs["joint_loads"] = _numbers(manip["joint_loads"], "manipulator.joint_loads")
+    if form == "contact_velocities":
+        kwargs["contact_velocities"] = _numbers(manip[form], "contact_velocities")
+        return kwargs, None
+    kwargs["joints"] = manip.get("joints")
+    if form == "jacobian":
+        kwargs["jacobian"] = _numbers(manip[form], "jacobian")
+        return kwargs, None
+    kwargs["jacobian"], geom = _chain_jacobian(manip, pts, nrm, off_chain)
+    return kwargs, geom
+
+
+def _legacy_system(data: Mapping[str, Any]) -> System:
+    """A system file in the explicit form (points, normals, a hand-written load)."""
+    manip = data["manipulator"]
+    form = _manipulator_form(manip)
     kwargs: dict[str, Any] = {
         "external_wrench": _numbers(data.get("external_wrench", [0.0, 0.0, 0.0]),
                                     "external_wrench"),

@@ -29,13 +29,13 @@ import numpy as np
 
 from planner.errors import InputError
 from planner.friction.closed_form import ClosedFormRegion, closed_form_region
+from planner.friction.regions import JAM, SLIPS
 from planner.model.modes import Mode, enumerate_modes
 from planner.model.system import System
 from planner.model.validation import as_friction
 from planner.predict.indeterminate import DEFAULT_MAX_ROW_SUBSETS, row_subset_count
 from planner.predict.stages import DEFAULT_TOL, force_stage, kinematic_stage
 
-JAM = "jam"
 #: Friction vectors per batched force-stage call: keeps the ``(L, m, k, q)`` working set of
 #: :func:`planner.predict.stages.force_stage` small (2-4x faster than one call over 160 000
 #: vectors, measured with benchmarks/muspace_bench.py).
@@ -44,9 +44,10 @@ FORMAT = "qsplan-muspace"
 VERSION = 1
 
 
-def mode_set_name(labels: list[str] | tuple[str, ...]) -> str:
-    """Name of a mode set: labels joined by ``" | "``, or ``"jam"`` when empty."""
-    return " | ".join(labels) if labels else JAM
+def mode_set_name(labels: list[str] | tuple[str, ...], driven: bool = True) -> str:
+    """Name of a mode set: labels joined by ``" | "``; when empty ``"jam"`` (something is
+    driven: it jams) or ``"slips"`` (nothing is driven: no static equilibrium holds)."""
+    return " | ".join(labels) if labels else (JAM if driven else SLIPS)
 
 
 @dataclass(frozen=True, eq=False)
@@ -67,6 +68,18 @@ class MuGrid:
     base_mu: np.ndarray
     labels: tuple[str, ...]
     feasible: np.ndarray
+    groups: tuple[tuple[int, ...], ...] = ()
+    names: tuple[str, ...] = ()
+    driven: bool = True
+
+    @property
+    def axis_contacts(self) -> tuple[tuple[int, ...], ...]:
+        """The contacts (0-based) each axis sets: its friction group, or ``vary[j]`` alone."""
+        return self.groups or tuple((i,) for i in self.vary)
+
+    def axis_name(self, j: int) -> str:
+        """Axis label: ``mu_<i>`` (1-based contact) or ``mu(<group>)``."""
+        return f"mu({self.names[j]})" if self.names else f"mu_{self.vary[j] + 1}"
 
     @property
     def shape(self) -> tuple[int, ...]:
@@ -76,15 +89,15 @@ class MuGrid:
         """All grid points as friction vectors, ``(L, n_c)`` (C order over the axes)."""
         mesh = np.meshgrid(*self.axes, indexing="ij")
         mu = np.tile(self.base_mu, (mesh[0].size, 1))
-        for j, i in enumerate(self.vary):
-            mu[:, i] = mesh[j].ravel()
+        for j, members in enumerate(self.axis_contacts):
+            mu[:, list(members)] = mesh[j].ravel()[:, None]
         return mu
 
     def mode_sets(self) -> np.ndarray:
         """Mode-set label per grid point, shape ``self.shape``; ``"jam"`` where none holds."""
         out = np.empty(self.feasible.shape[0], dtype=object)
         for i, row in enumerate(self.feasible):
-            out[i] = mode_set_name([lab for lab, f in zip(self.labels, row) if f])
+            out[i] = mode_set_name([lab for lab, f in zip(self.labels, row) if f], self.driven)
         return out.reshape(self.shape)
 
     def region_fractions(self) -> dict[str, float]:
@@ -101,11 +114,15 @@ class MuGrid:
         if not 0 <= index < self.shape[axis]:
             raise InputError(f"slice: expected index in 0..{self.shape[axis] - 1}, got {index}")
         base = self.base_mu.copy()
-        base[self.vary[axis]] = self.axes[axis][index]
+        base[list(self.axis_contacts[axis])] = self.axes[axis][index]
         feas = np.take(self.feasible.reshape(*self.shape, -1), index, axis=axis)
-        return MuGrid(self.vary[:axis] + self.vary[axis + 1:],
-                      self.axes[:axis] + self.axes[axis + 1:], base, self.labels,
-                      feas.reshape(-1, len(self.labels)))
+
+        def drop(t: tuple[Any, ...]) -> tuple[Any, ...]:
+            return t[:axis] + t[axis + 1:]
+
+        return MuGrid(drop(self.vary), drop(self.axes), base, self.labels,
+                      feas.reshape(-1, len(self.labels)), drop(self.groups), drop(self.names),
+                      self.driven)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON form (compact labelled grid).
@@ -126,9 +143,13 @@ class MuGrid:
             "axes": [a.tolist() for a in self.axes],
             "base_mu": self.base_mu.tolist(),
             "labels": list(self.labels),
-            "mode_sets": [mode_set_name([self.labels[j] for j in m]) for m in members],
+            "mode_sets": [mode_set_name([self.labels[j] for j in m], self.driven)
+                          for m in members],
             "set_members": members,
             "cells": cells,
+            **({"groups": [{"name": n, "contacts": [i + 1 for i in g]}
+                           for n, g in zip(self.names, self.groups)]} if self.groups else {}),
+            **({} if self.driven else {"driven": False}),
         }
 
     @staticmethod
@@ -148,6 +169,10 @@ class MuGrid:
                 base_mu=np.asarray(d["base_mu"], float),
                 labels=labels,
                 feasible=table[idx.reshape(-1)],
+                groups=tuple(tuple(int(i) - 1 for i in g["contacts"])
+                             for g in d.get("groups", ())),
+                names=tuple(str(g["name"]) for g in d.get("groups", ())),
+                driven=bool(d.get("driven", True)),
             )
         except (KeyError, TypeError, ValueError, IndexError) as exc:
             raise InputError(f"mu grid: expected keys vary, axes, base_mu, labels, set_members, "
@@ -179,13 +204,14 @@ def _check_vary(vary: tuple[int, ...], n_c: int) -> tuple[int, ...]:
 
 def mu_grid(
     system: System,
-    vary: tuple[int, ...],
+    vary: tuple[int | tuple[int, ...], ...],
     base_mu: Any,
     mu_range: tuple[float, float] = (0.0, 1.0),
     n: int = 100,
     *,
     tol: float = DEFAULT_TOL,
     indeterminate: bool | None = None,
+    names: tuple[str, ...] = (),
 ) -> MuGrid:
     """Label an ``n^len(vary)`` grid of the coefficients ``vary`` (0-based) by the general test
     (eqs. 26-28; kinematic stage once, force stage batched over all grid points).
@@ -193,7 +219,9 @@ def mu_grid(
     Parameters
     ----------
     system : System
-    vary : 0-based contact indices (1, 2 or 3 of them) whose coefficient spans ``mu_range``.
+    vary : 0-based contact indices (1, 2 or 3 of them) whose coefficient spans ``mu_range``;
+        an entry may be a tuple of indices, a friction group whose contacts share the axis
+        (``names`` then names the axes).
     base_mu : (n_c,) values of all coefficients; entries in ``vary`` are overwritten.
     mu_range : (min, max), ``0 <= min <= max``.
     n : grid points per axis (``n**3`` points for three varied coefficients).
@@ -202,16 +230,20 @@ def mu_grid(
         ``C(2 n_c, 3 + |tau_I|)`` is within its row-subset budget).
     """
     n_c = system.n_contacts
-    vary = _check_vary(vary, n_c)
+    groups = axis_groups(vary, n_c)
+    firsts = tuple(g[0] for g in groups)
+    if all(len(g) == 1 for g in groups) and not names:
+        groups = ()
     base = as_friction(base_mu, n_c, "base_mu")
     _check_range(*mu_range)
     if n < 1:
         raise InputError(f"n: expected >= 1 grid points per axis, got {n}")
-    axes = tuple(np.linspace(mu_range[0], mu_range[1], n) for _ in vary)
-    grid = MuGrid(vary, axes, base, (), np.zeros((n ** len(vary), 0), bool))
-    mu = grid.points()
+    axes = tuple(np.linspace(mu_range[0], mu_range[1], n) for _ in firsts)
     cand = enumerate_modes(n_c, system.dof)
     kin = kinematic_stage(system, cand, tol=tol)
+    grid = MuGrid(firsts, axes, base, (), np.zeros((n ** len(firsts), 0), bool), groups,
+                  tuple(names), kin.velocity_scale != 0.0)
+    mu = grid.points()
     index = np.flatnonzero(kin.ok)
     labels = tuple(
         Mode(tuple(int(c) for c in cand.codes[i]), tuple(int(x) for x in kin.xi[i])).label
@@ -220,7 +252,7 @@ def mu_grid(
     if index.size:
         parts = []
         for a in range(0, mu.shape[0], MU_CHUNK):
-            fs = force_stage(system, cand, index, kin.xi[index], mu[a:a + MU_CHUNK])
+            fs = force_stage(system, cand, index, kin.xi[index], mu[a:a + MU_CHUNK], tol=tol)
             parts.append(fs.nonsingular & (fs.margin >= -tol))
         feas = np.concatenate(parts)
     else:
@@ -232,33 +264,58 @@ def mu_grid(
         labels = labels + extra_labels
         feas = np.concatenate([feas, extra], axis=1)
     keep = np.any(feas, axis=0)
-    return MuGrid(vary, axes, base, tuple(lab for lab, k in zip(labels, keep) if k),
-                  feas[:, keep])
+    return MuGrid(firsts, axes, base, tuple(lab for lab, k in zip(labels, keep) if k),
+                  feas[:, keep], grid.groups, grid.names, grid.driven)
+
+
+def axis_groups(vary: Any, n_c: int) -> tuple[tuple[int, ...], ...]:
+    """The contacts of each varied axis: an index, or a tuple of indices (a friction group);
+    checked: 1 to 3 axes, indices in range, no contact on two axes."""
+    groups = tuple(tuple(int(i) for i in v) if isinstance(v, (tuple, list)) else (int(v),)
+                   for v in vary)
+    flat = [i for g in groups for i in g]
+    if any(not g for g in groups) or len(set(flat)) != len(flat) or not 1 <= len(groups) <= 3:
+        raise InputError(f"vary: expected 1 to 3 distinct contacts (or groups of them), got "
+                         f"{[[i + 1 for i in g] for g in groups]}")
+    _check_vary(tuple(g[0] for g in groups), n_c)
+    for i in flat:
+        if not 0 <= i < n_c:
+            raise InputError(f"vary: expected contact index in 1..{n_c}, got {i + 1}")
+    return groups
 
 
 def _indeterminate_grid(system: System, grid: MuGrid, mu: np.ndarray, tol: float
                         ) -> tuple[tuple[str, ...], np.ndarray]:
     """Force-indeterminate modes (relaxed utility, Sec. 3.2) on the grid, as in
     :func:`planner.predict.feasibility.feasible_modes`, by two linear programs per mode and grid
-    line of the first varied coefficient (:mod:`planner.friction.relaxed_map`: the feasible
-    coefficients of a line form an interval), not one per point."""
-    from planner.friction.relaxed_map import relaxed_mode_on_lines
+    line of a varied coefficient of one contact (:mod:`planner.friction.relaxed_map`: the
+    feasible coefficients of a line form an interval), not one per point.  When every axis is a
+    friction group of several contacts the interval argument does not hold and every point gets
+    its own linear program (:func:`planner.friction.relaxed_map.relaxed_mode_at_points`)."""
+    from planner.friction.relaxed_map import relaxed_mode_at_points, relaxed_mode_on_lines
     from planner.predict.indeterminate import indeterminate_kinematics
 
     kins = indeterminate_kinematics(system, tol=tol)
     if not kins:
         return (), np.zeros((mu.shape[0], 0), bool)
     shape = tuple(len(a) for a in grid.axes)
-    pts = mu.reshape(*shape, -1)
-    rests = list(np.ndindex(*shape[1:])) if len(shape) > 1 else [()]
-    others = np.array([pts[(0,) + tuple(rest)] for rest in rests])
+    single = [j for j, g in enumerate(grid.axis_contacts) if len(g) == 1]
     out = np.zeros((mu.shape[0], len(kins)), bool)
+    if not single:
+        for m, kin in enumerate(kins):
+            out[:, m] = relaxed_mode_at_points(system, kin, mu, tol)
+        return tuple(k.mode.label for k in kins), out
+    ax = single[0]
+    pts = np.moveaxis(mu.reshape(*shape, -1), ax, 0)
+    moved = pts.shape[:-1]
+    rests = list(np.ndindex(*moved[1:])) if len(moved) > 1 else [()]
+    others = np.array([pts[(0,) + tuple(rest)] for rest in rests])
     for m, kin in enumerate(kins):
-        lines = relaxed_mode_on_lines(system, kin, grid.axes[0], others, grid.vary[0], tol)
-        col = np.zeros(shape, bool)
+        lines = relaxed_mode_on_lines(system, kin, grid.axes[ax], others, grid.vary[ax], tol)
+        col = np.zeros(moved, bool)
         for li, rest in enumerate(rests):
             col[(slice(None),) + tuple(rest)] = lines[li]
-        out[:, m] = col.reshape(-1)
+        out[:, m] = np.moveaxis(col, 0, ax).reshape(-1)
     return tuple(k.mode.label for k in kins), out
 
 
@@ -309,7 +366,7 @@ class MuSpaceMap:
                 picks = np.unique(np.linspace(0, n3 - 1, max(1, min(count, n3))).round())
                 for k in picks.astype(int):
                     panels.append(g.slice(2, int(k)))
-                    titles.append(f"mu_{g.vary[2] + 1}={g.axes[2][k]:.3g}")
+                    titles.append(f"{g.axis_name(2)}={g.axes[2][k]:.3g}")
             else:
                 raise InputError(f"panels: expected 2-D or 3-D grids, got {len(g.vary)}-D")
         return panels, titles
@@ -351,14 +408,16 @@ class MuSpaceMap:
 
 def muspace_map(
     system: System,
-    vary: tuple[int, ...],
+    vary: tuple[int | tuple[int, ...], ...],
     base_mu: Any = None,
     mu_range: tuple[float, float] = (0.0, 1.0),
     n: int = 100,
     *,
-    sliced: int | None = None,
+    sliced: int | tuple[int, ...] | None = None,
     slice_values: tuple[float, ...] = (),
     tol: float = DEFAULT_TOL,
+    names: tuple[str, ...] = (),
+    slice_name: str = "",
 ) -> MuSpaceMap:
     """Decompose a box of friction space (Figs. 3, 6): one grid over ``vary`` (0-based, 1-3
     contacts) or, with ``sliced``, one 2-D grid per value of that coefficient.
@@ -366,25 +425,26 @@ def muspace_map(
     ``base_mu (n_c,)`` defaults to ``system.mu``.  A coefficient may not be both varied and
     sliced."""
     n_c = system.n_contacts
-    vary = _check_vary(vary, n_c)
+    flat = [i for g in axis_groups(vary, n_c) for i in g]
     base = as_friction(system.mu if base_mu is None else base_mu, n_c, "base_mu")
     grids, titles = [], []
     if sliced is None:
-        grids.append(mu_grid(system, vary, base, mu_range, n, tol=tol))
+        grids.append(mu_grid(system, vary, base, mu_range, n, tol=tol, names=names))
         titles.append("")
     else:
-        sliced = int(sliced)
-        if not 0 <= sliced < n_c:
-            raise InputError(f"slice: expected contact index in 1..{n_c}, got {sliced + 1}")
-        if sliced in vary:
-            raise InputError(f"slice: expected a contact not in vary, got {sliced + 1}")
+        cut = list(sliced) if isinstance(sliced, (tuple, list)) else [int(sliced)]
+        for c in cut:
+            if not 0 <= c < n_c:
+                raise InputError(f"slice: expected contact index in 1..{n_c}, got {c + 1}")
+            if c in flat:
+                raise InputError(f"slice: expected a contact not in vary, got {c + 1}")
         if not slice_values:
             raise InputError("slice: expected at least one value, got none")
         for v in slice_values:
             if not np.isfinite(v) or v < 0:
                 raise InputError(f"slice: expected finite mu >= 0, got {list(slice_values)}")
             mu = base.copy()
-            mu[sliced] = v
-            grids.append(mu_grid(system, vary, mu, mu_range, n, tol=tol))
-            titles.append(f"mu_{sliced + 1}={v:g}")
+            mu[cut] = v
+            grids.append(mu_grid(system, vary, mu, mu_range, n, tol=tol, names=names))
+            titles.append(f"mu({slice_name})={v:g}" if slice_name else f"mu_{cut[0] + 1}={v:g}")
     return MuSpaceMap(n_c, tuple(grids), tuple(titles), closed_form_regions(system, tol=tol))

@@ -116,6 +116,13 @@ def relaxed_mode_on_lines(
     return out
 
 
+def relaxed_mode_at_points(system: System, kin: IndeterminateKinematics, mu: np.ndarray,
+                           tol: float) -> np.ndarray:
+    """Feasibility ``(L,)`` of one relaxed mode at friction vectors ``mu (L, n_c)``, one linear
+    program each (:func:`planner.predict.indeterminate.force_lp`)."""
+    return np.array([_point(system, kin, m, tol) for m in mu], dtype=bool)
+
+
 def _point(system: System, kin: IndeterminateKinematics, mu: np.ndarray, tol: float) -> bool:
     res = force_lp(system, kin.rows, kin.sliding, kin.contact, kin.codes, kin.xi, mu,
                    DEFAULT_SINGULAR_TOL)

@@ -6,6 +6,7 @@ or an effort ``tau_j`` (in ``tau_I``, eq. 26).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from enum import Enum
 from functools import lru_cache
 from typing import Any
@@ -13,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from planner.errors import InputError
-from planner.model.validation import as_array, describe_value
+from planner.model.validation import as_array, describe_value, is_numeric
 
 
 class JointControl(str, Enum):
@@ -64,3 +65,61 @@ def parse_joint(spec: Any, index: int) -> tuple[JointControl, float]:
     if not np.isfinite(val):
         raise InputError(f"joint {index + 1}: expected a finite '{key}', got {str(value)[:40]}")
     return (JointControl.VELOCITY if has_v else JointControl.EFFORT), val
+
+
+def manipulator_matrices(
+    n_c: int, contact_velocities: Any, jacobian: Any, joints: Sequence[Any] | None,
+    joint_loads: Any,
+) -> tuple[np.ndarray, tuple[JointControl, ...], np.ndarray, np.ndarray, bool]:
+    """``(J (2 n_c, n_theta), control, joint_inputs, g_man, virtual)`` of a manipulator given
+    as ``contact_velocities`` ``(n_c, 2)`` (virtual joints, ``J = I``) or as ``jacobian``
+    ``(n_c, 2, n_theta)`` with one ``joints`` command per column (eqs. 3, 5)."""
+    if (contact_velocities is None) == (jacobian is None):
+        raise InputError(
+            "manipulator: expected exactly one of contact_velocities or jacobian"
+        )
+    if contact_velocities is not None:
+        if joints is not None:
+            raise InputError(
+                "manipulator: joints are given with a jacobian, not with contact_velocities"
+            )
+        u = as_array(contact_velocities, (n_c, 2), "contact_velocities")
+        J = np.eye(2 * n_c)
+        control = (JointControl.VELOCITY,) * (2 * n_c)
+        inputs = u.reshape(-1)
+        g_man = (
+            np.zeros(2 * n_c)
+            if joint_loads is None
+            else as_array(joint_loads, (2 * n_c,), "joint_loads")
+        )
+        virtual = True
+    else:
+        Jarr = np.asarray(jacobian, dtype=float) if is_numeric(jacobian) else None
+        if Jarr is None or Jarr.ndim != 3 or Jarr.shape[:2] != (n_c, 2):
+            got = None if Jarr is None else Jarr.shape
+            raise InputError(
+                f"jacobian: expected shape ({n_c}, 2, n_theta) (per contact a normal row "
+                f"and a tangent row), got {got}"
+            )
+        Jarr = as_array(Jarr, (n_c, 2, None), "jacobian")
+        n_t = Jarr.shape[2]
+        J = Jarr.reshape(2 * n_c, n_t)
+        if joints is None or len(joints) != n_t:
+            raise InputError(
+                f"joints: expected {n_t} joints (one per Jacobian column), "
+                f"got {0 if joints is None else len(joints)}"
+            )
+        control_list, input_list = [], []
+        for j, spec in enumerate(joints):
+            c, v = parse_joint(spec, j)
+            control_list.append(c)
+            input_list.append(v)
+        control = tuple(control_list)
+        inputs = np.array(input_list, dtype=float)
+        g_man = (
+            np.zeros(n_t)
+            if joint_loads is None
+            else as_array(joint_loads, (n_t,), "joint_loads")
+        )
+        virtual = False
+    return J, control, inputs, g_man, virtual

@@ -288,3 +288,20 @@ class Mode:
             codes.append(c)
             xis.append(x)
         return cls(tuple(codes), tuple(xis))
+
+
+def frictionless_duplicates_removed(boundary: tuple[Mode, ...], labels: set[str],
+                                    mu: np.ndarray) -> tuple[Mode, ...]:
+    """``boundary`` without the modes that differ from a feasible mode (``labels``) only by a
+    frictionless contact "sliding" at zero speed (``S`` with ``xi = 0`` for ``R``): with
+    ``mu_i = 0`` both carry no tangential force and move alike: no slip boundary exists."""
+    out = []
+    for b in boundary:
+        zero = [i for i, (c, x) in enumerate(zip(b.codes, b.xi)) if c == SLIDE and x == 0]
+        if zero and all(mu[i] == 0.0 for i in zero):
+            codes = tuple(ROLL if i in zero else c for i, c in enumerate(b.codes))
+            if Mode(codes, tuple(0 if i in zero else x for i, x in enumerate(b.xi))).label \
+                    in labels:
+                continue
+        out.append(b)
+    return tuple(out)

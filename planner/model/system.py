@@ -29,13 +29,21 @@ from planner.model.bodies import (
     multibody_wrench_matrix,
 )
 from planner.model.chain_geometry import ChainGeometry
+from planner.model.contact import Contact
 from planner.model.geometry import (
     check_wrench_matrix,
     contact_points_from_wrench,
     rot90,
     wrench_matrix,
 )
-from planner.model.joints import JointControl, joint_partition, parse_joint
+from planner.model.joints import JointControl, joint_partition, manipulator_matrices
+from planner.model.layout import (
+    FeatureContact,
+    Layout,
+    Surface,
+    check_contacts_on_bodies,
+    resolve,
+)
 from planner.model.validation import (
     as_array,
     as_friction,
@@ -45,37 +53,7 @@ from planner.model.validation import (
 )
 from planner.model.workpiece import WorkpieceGeometry, check_environment
 
-
-@dataclass(frozen=True)
-class Contact:
-    """One point contact given geometrically.
-
-    Parameters
-    ----------
-    point : (2,) [m]
-        Contact point ``r_i`` in the world frame.
-    normal : (2,)
-        Unit contact normal ``n_i`` pointing into the workpiece, world frame.
-    mu : float
-        Coulomb friction coefficient ``mu_i >= 0``.
-    """
-
-    point: tuple[float, float]
-    normal: tuple[float, float]
-    mu: float
-
-    def __post_init__(self) -> None:
-        p = as_array(self.point, (2,), "contact point")
-        n = unit_normal(self.normal, "contact normal")
-        mu = as_friction(self.mu, 1, "contact mu")[0]
-        object.__setattr__(self, "point", (float(p[0]), float(p[1])))
-        object.__setattr__(self, "normal", (float(n[0]), float(n[1])))
-        object.__setattr__(self, "mu", float(mu))
-
-    @property
-    def tangent(self) -> tuple[float, float]:
-        """``t_i = rot90(n_i)``, so that ``n_i x t_i = +1`` (eq. 1)."""
-        return (-self.normal[1], self.normal[0])
+__all__ = ["Contact", "JointControl", "System"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -122,6 +100,13 @@ class System:
     workpieces : tuple of WorkpieceGeometry
         Scene data of each body when ``n_b > 1`` (``()`` or one per body; with one body use
         ``workpiece``); changes no prediction.
+    friction_groups : tuple of (name, contact indices)
+        Named coefficients shared by several contacts (0-based indices; ``()``: none).
+    layout : planner.model.layout.Layout or None
+        The geometry-first description the system was computed from (:meth:`from_geometry`;
+        surfaces, fingers, gravity, features); scene data, changes no prediction.
+    contact_labels : tuple of str
+        Per contact, where it sits and what touches it (``()`` when not known).
     """
 
     W: np.ndarray
@@ -139,6 +124,9 @@ class System:
     chain: ChainGeometry | None = None
     contact_bodies: tuple[tuple[int, int], ...] = ()
     workpieces: tuple[WorkpieceGeometry, ...] = ()
+    friction_groups: tuple[tuple[str, tuple[int, ...]], ...] = ()
+    layout: Layout | None = None
+    contact_labels: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         for name in ("W", "mu", "g_obj", "J", "joint_inputs", "g_man", "points", "normals"):
@@ -309,10 +297,56 @@ class System:
                                    default=0)
             pairs = check_contact_bodies(raw, pts.shape[0], n_bodies)
             W = multibody_wrench_matrix(pts, nrm, pairs, n_bodies)
+        if workpiece is not None or workpieces:
+            check_contacts_on_bodies(pts, nrm, pairs, tuple(workpieces) or (workpiece,))
         return cls._assemble(
             W, mu_arr, external_wrench, contact_velocities, jacobian, joints, joint_loads,
             pts, nrm, workpiece, environment, pairs, tuple(workpieces),
         )
+
+    @classmethod
+    def from_geometry(
+        cls,
+        workpieces: WorkpieceGeometry | Sequence[WorkpieceGeometry | None] | None,
+        contacts: Sequence[FeatureContact],
+        *,
+        surfaces: Sequence[Surface] = (),
+        gravity: Any = None,
+        external_wrench: Any = None,
+        friction: dict[str, float] | None = None,
+        **manipulator: Any,
+    ) -> System:
+        """Build a system from its geometry (:mod:`planner.model.layout`): the weight and its
+        moment from ``gravity`` (m/s^2) and each workpiece's mass and centre of mass, contact
+        points and normals from features, contact velocities from the world-frame motion of the
+        ``surfaces`` and fingers they touch, coefficients from numbers or ``friction`` groups.
+
+        ``workpieces``: one :class:`WorkpieceGeometry` or one per body (None: a body without
+        geometry, its contacts then need ``point`` and ``normal``); ``external_wrench``:
+        ``(3,)`` or ``(n_b, 3)`` besides the weight.  ``manipulator``: ``jacobian``/``joints``/
+        ``joint_loads`` as in :meth:`from_contacts` instead of the surfaces' motion (no contact
+        may then touch a moving surface or finger).
+        """
+        wps = ((workpieces,) if isinstance(workpieces, WorkpieceGeometry) or workpieces is None
+               else tuple(workpieces))
+        ext = None if external_wrench is None else np.reshape(
+            as_array(external_wrench, (None,), "external_wrench")
+            if np.ndim(external_wrench) == 1 else np.asarray(external_wrench, float), (-1, 3))
+        layout = Layout(wps, tuple(contacts), tuple(surfaces), gravity, ext, dict(friction or {}))
+        r = resolve(layout)
+        if manipulator and any(r.moving):
+            raise InputError("manipulator: expected no moving surface or finger when the "
+                             "manipulator is given, got contacts "
+                             f"{[i + 1 for i, m in enumerate(r.moving) if m]} on moving ones")
+        kw: dict[str, Any] = manipulator or {"contact_velocities": r.contact_velocities}
+        multi = len(wps) > 1
+        system = cls.from_contacts(
+            points=r.points, normals=r.normals, mu=r.mu, external_wrench=r.g_obj,
+            environment=r.environment, bodies=r.bodies if multi else None,
+            n_bodies=len(wps) if multi else None, workpiece=None if multi else wps[0],
+            workpieces=tuple(w for w in wps if w is not None) if multi else (), **kw)
+        return dataclasses.replace(system, friction_groups=r.groups, layout=layout,
+                                   contact_labels=r.labels)
 
     @classmethod
     def from_wrench_matrix(
@@ -367,54 +401,8 @@ class System:
         elif g_raw is not None and g_raw.shape == (n_q // 3, 3):
             external_wrench = g_raw.reshape(-1)
         g_obj = as_array(external_wrench, (n_q,), "external_wrench")
-        if (contact_velocities is None) == (jacobian is None):
-            raise InputError(
-                "manipulator: expected exactly one of contact_velocities or jacobian"
-            )
-        if contact_velocities is not None:
-            if joints is not None:
-                raise InputError(
-                    "manipulator: joints are given with a jacobian, not with contact_velocities"
-                )
-            u = as_array(contact_velocities, (n_c, 2), "contact_velocities")
-            J = np.eye(2 * n_c)
-            control = (JointControl.VELOCITY,) * (2 * n_c)
-            inputs = u.reshape(-1)
-            g_man = (
-                np.zeros(2 * n_c)
-                if joint_loads is None
-                else as_array(joint_loads, (2 * n_c,), "joint_loads")
-            )
-            virtual = True
-        else:
-            Jarr = np.asarray(jacobian, dtype=float) if is_numeric(jacobian) else None
-            if Jarr is None or Jarr.ndim != 3 or Jarr.shape[:2] != (n_c, 2):
-                got = None if Jarr is None else Jarr.shape
-                raise InputError(
-                    f"jacobian: expected shape ({n_c}, 2, n_theta) (per contact a normal row "
-                    f"and a tangent row), got {got}"
-                )
-            Jarr = as_array(Jarr, (n_c, 2, None), "jacobian")
-            n_t = Jarr.shape[2]
-            J = Jarr.reshape(2 * n_c, n_t)
-            if joints is None or len(joints) != n_t:
-                raise InputError(
-                    f"joints: expected {n_t} joints (one per Jacobian column), "
-                    f"got {0 if joints is None else len(joints)}"
-                )
-            control_list, input_list = [], []
-            for j, spec in enumerate(joints):
-                c, v = parse_joint(spec, j)
-                control_list.append(c)
-                input_list.append(v)
-            control = tuple(control_list)
-            inputs = np.array(input_list, dtype=float)
-            g_man = (
-                np.zeros(n_t)
-                if joint_loads is None
-                else as_array(joint_loads, (n_t,), "joint_loads")
-            )
-            virtual = False
+        J, control, inputs, g_man, virtual = manipulator_matrices(
+            n_c, contact_velocities, jacobian, joints, joint_loads)
         return cls(
             W=W, mu=mu, g_obj=g_obj, J=J, control=control, joint_inputs=inputs, g_man=g_man,
             points=points, normals=normals, virtual_joints=virtual, workpiece=workpiece,

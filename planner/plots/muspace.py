@@ -2,10 +2,12 @@
 imported lazily with the Agg backend.
 
 Each panel is one 2-D slice: the fill is the labelled grid of the general test (one colour and
-legend entry per mode set, ``jam`` dark grey); region boundaries of 3S / RS modes are drawn from
-the closed-form inequalities (eqs. 35-36, 40-41): the zero contour of ``min_k sign(D) P_k`` per
-mode, evaluated on a fine grid (``boundary_n`` per axis) of the exact polynomials, not from pixel
-edges.  Modes without a closed form (compliant systems) get dashed boundaries from the grid.
+legend entry per mode set, named by what happens: ``jams`` dark grey, ``slips`` (undriven, no
+static equilibrium) red, ``stays`` (undriven, at rest), ``moves``, ``ambiguous``); region
+boundaries of 3S / RS modes are drawn from the closed-form inequalities (eqs. 35-36, 40-41):
+the zero contour of ``min_k sign(D) P_k`` per mode, evaluated on a fine grid (``boundary_n``
+per axis) of the exact polynomials, not from pixel edges.  Modes without a closed form
+(compliant systems) get dashed boundaries from the grid.
 """
 
 from __future__ import annotations
@@ -19,7 +21,8 @@ import numpy as np
 from planner.errors import InputError
 from planner.files.atomic import save_figure
 from planner.friction.closed_form import ClosedFormRegion
-from planner.friction.muspace import JAM, MuGrid
+from planner.friction.muspace import MuGrid
+from planner.friction.regions import JAM, SLIPS, region_words
 
 if TYPE_CHECKING:
     from matplotlib.artist import Artist
@@ -70,13 +73,16 @@ def plot_slices(
     from matplotlib.patches import Patch
 
     sets = [g.mode_sets() for g in grids]
-    names = sorted({s for m in sets for s in m.ravel()}, key=lambda s: (s == JAM, s))
+    names = sorted({s for m in sets for s in m.ravel()}, key=lambda s: (s in (JAM, SLIPS), s))
+    driven = all(g.driven for g in grids)
     cmap = plt.get_cmap("tab10" if len(names) <= 10 else "tab20")
     colour: dict[str, Any] = {}
     k = 0
     for s in names:
         if s == JAM:
             colour[s] = (0.25, 0.25, 0.25, 1.0)
+        elif s == SLIPS:
+            colour[s] = (0.85, 0.55, 0.55, 1.0)
         else:
             colour[s] = cmap(k % cmap.N)
             k += 1
@@ -91,7 +97,8 @@ def plot_slices(
              for i, lab in enumerate(shown)}
     # earlier modes drawn wider so that shared boundary curves stay visible under later ones
     width = {lab: max(1.2, 3.2 - 0.6 * i) for i, lab in enumerate(shown)}
-    handles: list[Artist] = [Patch(color=colour[s], label=f"fill: {s}") for s in names]
+    handles: list[Artist] = [Patch(color=colour[s], label=region_words(s, driven))
+                             for s in names]
     handles += [Line2D([], [], color=style[lab][0], linestyle=cast(Any, style[lab][1]), linewidth=2,
                        label=f"boundary of {lab}" + (" (closed form, eqs. 35-36/40-41)"
                                                      if lab in with_closed_form
@@ -114,8 +121,8 @@ def plot_slices(
         fy = np.linspace(y0, y1, boundary_n)
         X, Y = np.meshgrid(fx, fy)  # (ny, nx) as contour expects
         mu = np.tile(g.base_mu, (X.size, 1))
-        mu[:, g.vary[0]] = X.ravel()
-        mu[:, g.vary[1]] = Y.ravel()
+        mu[:, list(g.axis_contacts[0])] = X.ravel()[:, None]
+        mu[:, list(g.axis_contacts[1])] = Y.ravel()[:, None]
         for lab in shown:  # widest first, so narrower curves stay visible on top
             if lab not in g.labels:
                 continue
@@ -134,8 +141,8 @@ def plot_slices(
                                linewidths=1.0)
         ax.set_xlim(x0, x1)
         ax.set_ylim(y0, y1)
-        ax.set_xlabel(f"mu_{g.vary[0] + 1}")
-        ax.set_ylabel(f"mu_{g.vary[1] + 1}")
+        ax.set_xlabel(g.axis_name(0))
+        ax.set_ylabel(g.axis_name(1))
         ax.set_title(title)
         if decorate is not None:
             decorate(ax, p)

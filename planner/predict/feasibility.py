@@ -40,6 +40,7 @@ from planner.model.modes import (
     candidate_count,
     candidates_from_codes,
     enumerate_modes,
+    frictionless_duplicates_removed,
     iter_candidate_codes,
 )
 from planner.model.system import System
@@ -65,11 +66,9 @@ from planner.predict.stages import (
     kinematic_stage,
 )
 
-#: Elements of the per-chunk velocity array ``(chunk, 2 n_c)`` of the exhaustive enumeration:
-#: above this many candidates they are streamed in chunks (memory bounded at any ``n_c``).
+#: Elements of the per-chunk velocity array ``(chunk, 2 n_c)``: more candidates are streamed.
 STREAM_ELEMENTS = 1 << 22
-#: Largest eq. (49) count :func:`feasible_modes` enumerates; larger requests are refused with
-#: a pointer to :func:`planner.predict.search.search_modes`.
+#: Largest eq. (49) count :func:`feasible_modes` enumerates (larger: use search_modes).
 MAX_EXHAUSTIVE_CANDIDATES = 200_000_000
 #: ``Prediction.limits`` entry when the relaxed-utility pass was switched off.
 INDETERMINATE_OFF = "force-indeterminate (relaxed-utility) modes not searched (indeterminate=False)"
@@ -81,19 +80,17 @@ def stream_chunk(n_contacts: int) -> int:
 
 
 class Status(str, Enum):
-    """Outcome of a prediction (Sections 4.1, 4.3).
-
-    ``UNIQUE``: one feasible mode. ``AMBIGUOUS``: several (Sec. 4.3). ``JAMMED``: none (the
-    "Jam" regions of Fig. 3). ``AT_REST``: every commanded joint velocity is zero, so no
-    contact can slide or break; the listed modes (all rolling, ``qdot = 0``) are the static
-    equilibria that hold. ``NO_CANDIDATES``: the utility conditions admit no mode at all
-    (``n_c < (3 + |tau_I|) / 2``, Sec. 4.7).
+    """Outcome of a prediction (Secs. 4.1, 4.3); each documented in docs/conventions.md,
+    "Statuses": ``UNIQUE`` one feasible mode, ``AMBIGUOUS`` several, ``JAMMED`` none while
+    driven, ``AT_REST`` undriven with a static equilibrium, ``MOVING`` undriven without one (the
+    load accelerates it, :attr:`Prediction.unbalanced`), ``NO_CANDIDATES`` no mode (Sec. 4.7).
     """
 
     UNIQUE = "unique"
     AMBIGUOUS = "ambiguous"
     JAMMED = "jammed"
     AT_REST = "at_rest"
+    MOVING = "moving"
     NO_CANDIDATES = "no_candidates"
 
 
@@ -105,6 +102,8 @@ class Prediction:
     ``limits`` lists every class of candidates that was not searched (empty: the prediction
     is complete; otherwise ``reason`` says so too), ``method`` how the determinate candidates
     were enumerated (``exhaustive``, ``exhaustive, streamed in N chunks`` or ``search``).
+    ``unbalanced`` ``(3 n_b,)`` [N, N, N m]: with status ``moving``, the load no contact force
+    within the friction cones balances (:mod:`planner.predict.unbalanced`); else None.
     """
 
     status: Status
@@ -118,6 +117,7 @@ class Prediction:
     reason: str = ""
     limits: tuple[str, ...] = ()
     method: str = "exhaustive"
+    unbalanced: np.ndarray | None = None
 
     @property
     def complete(self) -> bool:
@@ -157,9 +157,10 @@ class Prediction:
             "complete": self.complete,
             "limits": list(self.limits),
             "method": self.method,
+            **({} if self.unbalanced is None else {"unbalanced_load": self.unbalanced.tolist()}),
         }
-# Public entry point.
-# ---------------------------------------------------------------------------------------------
+
+
 def feasible_modes(
     system: System,
     mu: Any = None,
@@ -191,8 +192,7 @@ def feasible_modes(
     Returns
     -------
     Prediction
-        ``status`` is ``unique`` (one feasible mode), ``ambiguous`` (several, Section 4.3)
-        or ``jammed`` (none); ``limits`` is empty when nothing was skipped.  More than
+        ``status`` (:class:`Status`); ``limits`` is empty when nothing was skipped.  More than
         :data:`STREAM_ELEMENTS` ``/ 2 n_c`` candidates are streamed in chunks (``method``
         says so); more than :data:`MAX_EXHAUSTIVE_CANDIDATES` are refused (InputError).
     """
@@ -256,8 +256,7 @@ class RelaxedCodes:
         self.limit = ""
 
     def add(self, kin: KinematicStage) -> None:
-        """Read the modes off the nonsingular candidates of one kinematic stage (the singular
-        ones' velocities are NaN: no row of theirs counts as vanishing)."""
+        """Read the modes off one kinematic stage (singular candidates' NaN rows never vanish)."""
         self.add_velocities(kin.v)
 
     def add_velocities(self, v: np.ndarray) -> None:
@@ -304,7 +303,7 @@ def predict_candidates(
     """
     kin = kinematic_stage(system, cand, tol=tol, singular_tol=singular_tol)
     idx = kin.ok.nonzero()[0]
-    fs = force_stage(system, cand, idx, kin.xi.take(idx, axis=0), mu_arr,
+    fs = force_stage(system, cand, idx, kin.xi.take(idx, axis=0), mu_arr, tol=tol,
                      singular_tol=singular_tol)
     f_ok = fs.nonsingular[0]
     kin_margin = kin.margin.take(idx)
@@ -401,19 +400,26 @@ def finish_prediction(
                                               singular_tol=singular_tol, kinematics=kinematics))
     n_feasible = len(modes) + len(extra)
     n_cand = candidate_count(system.n_contacts, system.dof)
+    boundary = frictionless_duplicates_removed(boundary, {m.label for m in modes + extra}, mu_arr)
+    unbalanced = None
     if n_cand == 0:
         status = Status.NO_CANDIDATES
         reason = (
             f"the utility conditions (29)-(32) admit no mode: {system.n_contacts} contact(s) "
             f"cannot supply 2 n_R + n_S = {system.dof} kinematic constraints"
         )
-    elif velocity_scale == 0.0:
+    elif velocity_scale == 0.0 and n_feasible:
         status = Status.AT_REST
-        reason = (
-            "every commanded joint velocity is zero: nothing slides or breaks; "
-            + (f"{n_feasible} static equilibrium mode(s) hold" if n_feasible else
-               "no static equilibrium holds")
-        )
+        reason = (f"every commanded joint velocity is zero: nothing slides or breaks; "
+                  f"{n_feasible} static equilibrium mode(s) hold")
+    elif velocity_scale == 0.0:
+        from planner.predict.unbalanced import describe_motion, unbalanced_load
+
+        status = Status.MOVING
+        unbalanced = unbalanced_load(system, mu_arr)
+        reason = ("nothing is driven and no static equilibrium holds: the load moves it "
+                  "(accelerating; the quasistatic modes do not apply): "
+                  + describe_motion(system, unbalanced))
     elif n_feasible == 0:
         status = Status.JAMMED
         reason = "no candidate mode is feasible" + (
@@ -439,4 +445,6 @@ def finish_prediction(
         reason=reason,
         limits=tuple(limits),
         method=method,
+        unbalanced=unbalanced,
     )
+

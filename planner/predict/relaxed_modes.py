@@ -221,11 +221,18 @@ def force_lp(
     f_scale = max(float(np.max(np.abs(rhs / rs))), 1e-300)
     # Variables [c_A (scaled), s]; maximise s s.t. B c - s >= 0, Q c = rhs, |c| <= C, s <= f.
     bound = 1e3 * f_scale / max(float(np.min(np.linalg.svd(Qs, compute_uv=False))), 1e-12)
+    # A rolling frictionless contact: c_t = 0 is an equality (fixed variable), not a cone whose
+    # zero slack would pin the margin at 0 (it has no slip boundary).
+    fixed = np.array([r % 2 == 1 and codes[contact[j]] == ROLL and mu[contact[j]] == 0.0
+                      for j, r in enumerate(rows)], dtype=bool)
+    if np.any(fixed):
+        B = B[np.any(B[:, ~fixed] != 0, axis=1)]
     A_ub = np.hstack([-B, np.ones((B.shape[0], 1))])
     res = linprog(
         c=np.r_[np.zeros(k_rows), -1.0], A_ub=A_ub, b_ub=np.zeros(B.shape[0]),
         A_eq=np.hstack([Qs, np.zeros((Qs.shape[0], 1))]), b_eq=rhs / rs,
-        bounds=[(-bound, bound)] * k_rows + [(None, f_scale)], method="highs",
+        bounds=[(0.0, 0.0) if f else (-bound, bound) for f in fixed] + [(None, f_scale)],
+        method="highs",
     )
     if res.status != 0:
         return None

@@ -266,12 +266,15 @@ def force_stage(
     mu: np.ndarray,
     *,
     singular_tol: float = DEFAULT_SINGULAR_TOL,
+    tol: float = DEFAULT_TOL,
 ) -> ForceStage:
     """Solve eq. (26) and test eq. (28) for candidates ``index`` at friction vectors ``mu``.
 
     ``xi`` is ``(len(index), n_c)``: the kinematic stage's sliding directions
     (:attr:`KinematicStage.xi`: ``sgn v_t`` at sliding contacts, 0 at the others); ``mu`` is
-    ``(n_c,)`` or ``(L, n_c)``.
+    ``(n_c,)`` or ``(L, n_c)``.  A rolling contact with ``mu_i = 0`` has the equality
+    ``c_it = 0`` instead of a cone (no slip boundary exists): it holds when ``|c_it| <= tol``
+    times the mode's largest force and then takes no part in the margin.
     """
     mu2 = np.asarray(mu, dtype=float)
     if mu2.ndim != 2:
@@ -324,10 +327,14 @@ def force_stage(
     # A rolling contact also needs c_n >= 0 (implied by the cone only when mu > 0).
     cone = mu_p * fn
     cone -= np.abs(ft)
-    slack = np.where(is_r, np.minimum(cone, fn), np.where(is_s, fn, np.inf))
     if k and n_c:
         # Largest applicable force; 0 -> _TINY (all forces 0: the slacks are 0 or inf).
         f_scale = np.maximum.reduce(np.abs(c_A), axis=1)
+        frictionless = is_r & (mu_p == 0.0)
+        if np.any(frictionless):  # c_t = 0 is an equality: no boundary, no margin
+            held = np.abs(ft) <= tol * np.maximum(f_scale, _TINY)[:, None]
+            cone = np.where(frictionless & held, np.inf, cone)
+        slack = np.where(is_r, np.minimum(cone, fn), np.where(is_s, fn, np.inf))
         margin = np.minimum.reduce(slack, axis=1)
         margin /= np.maximum(f_scale, _TINY, out=f_scale)
     else:

@@ -16,6 +16,7 @@ from qsplan.options import (
     check_int,
     fmt,
     fmt_list,
+    input_warnings,
     parse_numbers,
 )
 
@@ -27,14 +28,24 @@ def register(sub: argparse._SubParsersAction) -> None:
         description=(
             "Enumerate the candidate modes (eq. 49) of the system in SYSTEM.json and print every "
             "feasible one with its certificate: workpiece velocity qdot, joint velocities, "
-            "contact forces and joint efforts (eqs. 24-28). Exit 0 on success, 2 on bad input."
+            "contact forces and joint efforts (eqs. 24-28). Statuses: unique (one mode: it moves "
+            "so), ambiguous (several: the model cannot tell which), jammed (driven, no mode: the "
+            "commanded motion is impossible), at_rest (nothing driven, a static equilibrium "
+            "holds), moving (nothing driven, no equilibrium: the load accelerates it, which way "
+            "is printed), no_candidates (too few contacts); docs/conventions.md, 'Statuses'. "
+            "Exit 0 on success, 2 on bad input."
         ),
     )
     p.add_argument("system", help="system file (JSON; see docs/file-formats.md)")
     p.add_argument(
-        "--mu", help="friction coefficients, comma separated, one per contact (or one for all)"
+        "--mu", help="friction coefficients, comma separated, one per contact (or one for all), "
+                     "or GROUP=V,... for the file's friction groups"
     )
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    p.add_argument("--boundary", action="store_true",
+                   help="also list the boundary-tolerance modes: candidates that miss a strict "
+                        "kinematic constraint (a breaking contact separating, a sliding one "
+                        "slipping) by at most the tolerance; not feasible, counted by default")
     p.add_argument(
         "--indeterminate", action=argparse.BooleanOptionalAction, default=None,
         help="search the relaxed-utility (force-indeterminate) modes at any n_c, whatever the "
@@ -65,6 +76,28 @@ def parse_mu(text: str | None) -> list[float] | None:
     return parse_numbers(text, "--mu", lo=0.0, hi=MU_MAX)
 
 
+def mu_for(text: str | None, system: Any) -> Any:
+    """The friction of ``--mu``: one value for all, one per contact, or ``GROUP=V,...`` for
+    the system's friction groups (the other contacts keep the file's values)."""
+    if text is None:
+        return None
+    if "=" not in text:
+        values = parse_mu(text)
+        assert values is not None
+        return values[0] if len(values) == 1 else values
+    from planner.model.layout import group_mu
+
+    pairs = {}
+    for item in text.split(","):
+        name, _, value = item.partition("=")
+        pairs[name.strip()] = parse_numbers(value, f"--mu {name.strip()}", lo=0.0,
+                                            hi=MU_MAX)[0]
+    if not system.friction_groups:
+        raise InputError(f"--mu: expected numbers (the system file has no friction groups), "
+                         f"got {text!r}")
+    return group_mu(system.mu, system.friction_groups, pairs)
+
+
 def run(args: argparse.Namespace) -> int:
     from planner.files.system_file import load_system
     from planner.predict.feasibility import feasible_modes
@@ -74,11 +107,9 @@ def run(args: argparse.Namespace) -> int:
         given = "--dask" if args.dask is not None else f"--workers {args.workers}"
         raise InputError(f"--workers/--dask: expected together with --search, got {given} "
                          "without --search")
-    mu_list = parse_mu(args.mu)
-    system = load_system(args.system)
-    mu: float | list[float] | None = mu_list
-    if mu_list is not None and len(mu_list) == 1:
-        mu = mu_list[0]
+    with input_warnings("modes"):
+        system = load_system(args.system)
+    mu = mu_for(args.mu, system)
     indeterminate = args.indeterminate
     stats = None
     if args.search:
@@ -113,7 +144,7 @@ def run(args: argparse.Namespace) -> int:
         return 0
     if getattr(args, "quiet", False):
         return 0
-    print(format_prediction(pred))
+    print(format_prediction(pred, system, boundary=args.boundary))
     if stats is not None:
         print(f"\nsearch: tested {stats.tested} of {stats.candidates} candidates "
               f"(eq. 49), {stats.lp_solves} pruning LPs, {_engine_note(stats.engine)}")
@@ -139,20 +170,56 @@ def _rounding_noise_to_zero(values: Any, tol: float) -> np.ndarray:
     return np.where(np.abs(arr) <= tol * scale, 0.0, arr)
 
 
-def format_prediction(pred: Any) -> str:
+#: One sentence per status: what it means physically (docs/conventions.md, "Statuses").
+STATUS_WORDS = {
+    "unique": "one feasible mode: the system moves in it",
+    "ambiguous": "several feasible modes: the model cannot tell which one happens (Sec. 4.3)",
+    "jammed": "no feasible mode while driven: the commanded motion is impossible (a jam)",
+    "at_rest": "nothing is driven and a static equilibrium holds: it stays",
+    "moving": "nothing is driven and no static equilibrium holds: the load moves it",
+    "no_candidates": "too few contacts for any mode (eq. 49)",
+}
+
+
+def format_contacts(system: Any, mu: Any) -> list[str]:
+    """One line per contact: where it is, its frame, friction and manipulator velocity in the
+    contact frame (computed from world-frame motion for a geometry-first file)."""
+    labels = system.contact_labels or ("",) * system.n_contacts
+    group_of = {i: g for g, members in system.friction_groups for i in members}
+    lines = ["contacts (point, inward normal, mu; manipulator velocity (v_n, v_t) in the contact "
+             "frame):"]
+    for i in range(system.n_contacts):
+        mu_text = fmt(mu[i], ".3g") + (f" ({group_of[i]})" if i in group_of else "")
+        vel = ""
+        if system.virtual_joints:
+            v = system.joint_inputs[2 * i:2 * i + 2]
+            vel = "  fixed" if system.environment[i] else f"  v {fmt_list(v.tolist())}"
+        where = f"  {labels[i]}" if labels[i] else ""
+        lines.append(f"  {i + 1:>3}  point {fmt_list(system.points[i].tolist())}  normal "
+                     f"{fmt_list(system.normals[i].tolist())}  mu {mu_text}{vel}{where}")
+    return lines
+
+
+def format_prediction(pred: Any, system: Any = None, *, boundary: bool = False) -> str:
+
     """A readable table of a :class:`planner.predict.feasibility.Prediction` (numbers without
     ``-0`` or numpy type names; entries at rounding level, ``|x| <= tol * max|x|`` per column,
     printed as 0 -- ``--json`` keeps the raw values)."""
     lines = [
-        f"status: {pred.status.value}   candidates (eq. 49): {pred.candidates}   "
-        f"mu: {fmt_list(pred.mu)}",
+        f"status: {pred.status.value} -- {STATUS_WORDS.get(pred.status.value, '')}",
+        f"candidates (eq. 49): {pred.candidates}   mu: {fmt_list(pred.mu)}",
     ]
     if pred.reason:
         lines.append(f"reason: {pred.reason}")
+    if system is not None:
+        lines += format_contacts(system, pred.mu)
     for limit in getattr(pred, "limits", ()):
         lines.append(f"limit: {limit}")
     if not pred.all_modes:
         lines.append("no feasible mode" + (" (jammed)" if pred.status.value == "jammed" else ""))
+    if pred.all_modes:
+        lines.append("")
+        lines.append(f"feasible modes: {len(pred.all_modes)}")
     for m in pred.all_modes:
         flags = []
         if m.force_indeterminate:
@@ -177,6 +244,15 @@ def format_prediction(pred: Any) -> str:
         lines.append(f"  joint efforts:        {fmt_list(efforts.tolist())}")
     if pred.boundary_modes:
         lines.append("")
-        lines.append("within tolerance of a strict kinematic boundary (not counted): "
-                     + "; ".join(m.label for m in pred.boundary_modes))
+        n_b = len(pred.boundary_modes)
+        lines.append(f"boundary-tolerance modes: {n_b} (not feasible: each misses a strict "
+                     "kinematic constraint by at most the tolerance; "
+                     + ("listed below)" if boundary else "--boundary lists them)"))
+        if boundary:
+            lines += [f"  {signed_label(m)}" for m in pred.boundary_modes]
     return "\n".join(lines)
+
+
+def signed_label(mode: Any) -> str:
+    """A mode label in which a contact sliding at zero speed (no sign) reads ``S±``."""
+    return " ".join(f"{'S±' if tok == 'S' else tok}{i + 1}" for i, tok in enumerate(mode.tokens))
