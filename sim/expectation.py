@@ -39,8 +39,9 @@ class ModeSet:
     factor of the drive); ``bodies``: the scene names of the workpieces, in the system's order
     (``qdot`` blocks); ``drive`` [m/s] the fastest commanded contact speed of the run;
     ``length`` [m] the scene size (weights rotation in twist errors); ``force_scale`` [N] the
-    unit of force errors (the larger of the load and the largest certified total normal force
-    at the simulated friction). ``static``: nothing is driven (a static question): the modes
+    run's force scale for its jam rules (the larger of the load and the largest certified
+    total normal force at the simulated friction); ``load`` [N] the load (force errors are
+    judged relative to the larger of it and the compared certificate's total normal force). ``static``: nothing is driven (a static question): the modes
     are the predicted static equilibria, and an empty set predicts that the workpiece moves
     (no equilibrium holds), not a jam."""
 
@@ -52,6 +53,7 @@ class ModeSet:
     length: float
     force_scale: float
     static: bool = False
+    load: float = 0.0
 
     @property
     def labels(self) -> list[str]:

@@ -224,8 +224,10 @@ def job_for_system(system: System, engine: str, prediction: Any, *,
     ref = prediction if reference is None else reference
     scale_f = force_scale(ref.all_modes, load)
     jam_force = JAM_FORCE_OF_LOAD * scale_f
-    th = replace(Thresholds.for_drive(drive, scale_f, creep_floor=es.creep / s,
-                                      settle=es.settle, jam_force=jam_force, length_scale=size),
+    # the force floor of a "breaking" contact is a fraction of the load; force errors and the
+    # jam rules use the force scale (a near-wedge mode's forces are many times the load)
+    th = replace(Thresholds.for_drive(drive, load, creep_floor=es.creep / s, settle=es.settle,
+                                      jam_force=jam_force, length_scale=size),
                  load=scale_f, jam_depth_force=scale_f)
     run = RunSettings(duration=duration, dt=es.dt, slip_speed=SLIP_OF_DRIVE * drive,
                       penetration_tol=PENETRATION_OF_SIZE * size, jam_force=jam_force,
@@ -233,7 +235,7 @@ def job_for_system(system: System, engine: str, prediction: Any, *,
                       record_every=es.record_every)
     expectation = ModeSet(tuple(prediction.all_modes), judge_system or system, factor,
                           workpiece_names(system.n_bodies), drive, size, scale_f,
-                          static=static)
+                          static=static, load=load)
     params = {"mu": np.asarray(system.mu).tolist(),
               "mu_kinetic": None if mu_kinetic is None else np.asarray(mu_kinetic).tolist(),
               "judge_mu": np.asarray((judge_system or system).mu).tolist(),

@@ -26,7 +26,8 @@ A system run (:func:`judge_modes`; tolerances derived in docs/simulation.md, "Ju
 3. **forces** -- the mean contact forces of the steps in the reference mode against the
    nearest member of its certificate family (the certificate itself when it is
    force-determinate, :func:`planner.predict.family.nearest_certificate`) within
-   :data:`~sim.verdict.FORCE_TOLERANCE` of the force scale, while the workpiece is within
+   :data:`~sim.verdict.FORCE_TOLERANCE` of that member's total normal force (never less than
+   the load), while the workpiece is within
    :data:`~sim.verdict.FORCE_DRIFT_LIMIT` of its size of the certificate's configuration;
 4. **engine limits** -- a force miss while the contacts flicker, or a mode miss while the
    workpiece moves as predicted and kept contacts go missing (stick-slip, chatter), is
@@ -264,15 +265,19 @@ def _motion(rec: Recording, exp: ModeSet, th: Thresholds, judged: Sequence[Obser
         forces = tuple((float(c[0]), float(c[1])) for c in c_obs)
         fit = (nearest_certificate(exp.system, ref.mode, c_obs) if exp.system is not None
                else None)
+        cert = fit.forces if fit is not None else np.asarray(ref.contact_forces, dtype=float)
         distance = (fit.distance if fit is not None else
-                    float(np.max(np.abs(c_obs - np.asarray(ref.contact_forces)))))
-        f_err = distance / exp.force_scale
+                    float(np.max(np.abs(c_obs - cert))))
+        # relative to the compared certificate's own size (never below the load): a rival's
+        # large near-wedge forces must not loosen the check of a lightly loaded mode
+        scale_f = max(exp.load, float(np.sum(np.maximum(cert[:, 0], 0.0)))) or exp.force_scale
+        f_err = distance / scale_f
         drift = float(np.max(np.linalg.norm(((poses[k1] - rec.poses[0][idx])
                                              * np.array([1.0, 1.0, th.length_scale])),
                                             axis=1))) / th.length_scale
         family = " (nearest member of its certificate family)" if ref.force_indeterminate else ""
-        reasons.append(f"contact forces off the certificate{family} by up to {f_err:.1%} of the "
-                       f"force scale {exp.force_scale:.3g} N (allowed {FORCE_TOLERANCE:.0%})")
+        reasons.append(f"contact forces off the certificate{family} by up to {f_err:.1%} of its "
+                       f"force scale {scale_f:.3g} N (allowed {FORCE_TOLERANCE:.0%})")
         if drift > FORCE_DRIFT_LIMIT:
             reasons.append(f"forces not judged: the workpiece had moved {drift:.1%} of its "
                            f"size from the configuration of the certificate (limit "

@@ -41,9 +41,9 @@ def test_recorded_flicker_is_real(name):
 def test_window_classifier_sees_the_predicted_mode_through_mujoco_flicker(name):
     """Example 4.1 inside the 3S region at mu_2 >= 0.6 in MuJoCo: contact 3's raw labels cycle
     through S, R and B every few milliseconds. The per-step labels are in the predicted mode on
-    under a third of the steps; the window means on >= 95 %, and the workpiece twist follows
-    the predicted qdot within the tolerance. The forces cannot hold under the flicker: the
-    verdict is inconclusive and says why, never a pass."""
+    under a third of the steps; the window means on >= 95 %, the workpiece twist follows the
+    predicted qdot within the tolerance, and the mean forces are within the tolerance of the
+    certificate's total normal force (7 % and 4 %, MuJoCo's soft contacts about 10 % low)."""
     t = load_trace(name)
     th = t.thresholds()
     pred = t.prediction()
@@ -55,8 +55,23 @@ def test_window_classifier_sees_the_predicted_mode_through_mujoco_flicker(name):
     assert v.agreement >= 0.95 and v.judged_steps == int(mask.sum())
     assert v.motion is not None and v.motion.twist_error is not None
     assert v.motion.twist_error <= TWIST_TOLERANCE
-    assert v.outcome is Outcome.INCONCLUSIVE and "flicker" in v.reason
+    assert v.outcome is Outcome.AGREED and v.motion.force_error < 0.1
     assert JAM not in observed  # forces build up while the body moves as predicted: no jam
+
+
+@pytest.mark.parametrize(("name", "outcome"), [("mujoco_ex41_3s_flicker", Outcome.INCONCLUSIVE),
+                                               ("pymunk_ex41_3s", Outcome.DISAGREED)])
+def test_a_force_miss_under_flicker_is_inconclusive(name, outcome):
+    """The same runs judged against a system whose load is 1.3 x (every certificate's forces
+    30 % higher; modes and twist unchanged): the flickering MuJoCo run cannot judge forces --
+    ``inconclusive``, saying why -- while the clean pymunk run disagrees."""
+    t = load_trace(name)
+    system = t.system()
+    heavier = dataclasses.replace(system, g_obj=1.3 * np.asarray(system.g_obj))
+    v, _ = judge_modes(t.rec, t.expectation(t.prediction().all_modes, system=heavier),
+                       t.thresholds())
+    assert v.agreement >= 0.95 and v.outcome is outcome, v.reason
+    assert ("flicker" in v.reason) == (outcome is Outcome.INCONCLUSIVE)
 
 
 def test_jam_needs_a_workpiece_that_stops_following():
