@@ -41,9 +41,10 @@ class ModeSet:
     ``length`` [m] the scene size (weights rotation in twist errors); ``force_scale`` [N] the
     run's force scale for its jam rules (the larger of the load and the largest certified
     total normal force at the simulated friction); ``load`` [N] the load (force errors are
-    judged relative to the larger of it and the compared certificate's total normal force). ``static``: nothing is driven (a static question): the modes
-    are the predicted static equilibria, and an empty set predicts that the workpiece moves
-    (no equilibrium holds), not a jam."""
+    judged relative to the larger of it and the compared certificate's total normal force).
+    ``static``: nothing is driven (a static question): the modes are the predicted static
+    equilibria, and an empty set predicts that the workpiece moves (no equilibrium holds), not
+    a jam."""
 
     modes: tuple[FeasibleMode, ...]
     system: System | None

@@ -221,6 +221,7 @@ def job_for_system(system: System, engine: str, prediction: Any, *,
         raise InputError("simulate: expected a non-zero external wrench (the load that keeps "
                          "the contacts closed), got zero")
     scene = system_scene(system, speed_scale=factor, mu_kinetic=mu_kinetic)
+    es = with_mass_for_load(es, load, min(scene.meta["masses"]), size * s)
     ref = prediction if reference is None else reference
     scale_f = force_scale(ref.all_modes, load)
     jam_force = JAM_FORCE_OF_LOAD * scale_f
@@ -281,7 +282,7 @@ def job_for_plan(plan: Any, engine: str, mu: Any, *, hand: Hand | None = None, q
     squeeze = max(effort_force(hk, q, sk.controls, sk.commands)
                   for hk, q, sk in zip(lay.hands, lay.q_starts, lay.schedules))
     load = float(np.linalg.norm(h.load_force)) or 1e-3
-    es = with_mass_for_load(es, engine, max(load, squeeze), h.mass, size * s)
+    es = with_mass_for_load(es, max(load, squeeze), h.mass, size * s)
     mu_arr = as_friction(mu, h.n_contacts)
     first = lay.schedules[0]
     scene = hand_scene(h, lay.q0, mu_arr, first.controls, lay.commands(es.ramp),

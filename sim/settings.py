@@ -90,12 +90,16 @@ SQUEEZE_SOLREF = (0.002, 2.0)
 #: mean diagonal inertia, which loosened the workpiece's forces by 10-30 % of the force scale at
 #: 1e6 (docs/simulation.md, "MuJoCo: the driven bodies' mass").
 HEAVY_RATIO, SYSTEM_HEAVY_RATIO = 1e6, 1e4
-#: Load acceleration per size [1/s^2], ``|load| / (workpiece mass x size)``, of the scene the
-#: MuJoCo hand settings were measured on (the two-finger hand: 0.08 N on 0.1 kg, 86.8 mm). A
-#: hand scene above it gets its masses scaled up by the ratio so its soft contacts sink in the
-#: same fraction of its size (``(force / mass) x solref time constant^2``; docs/simulation.md,
-#: "Two-finger hand").
+#: MuJoCo's soft contacts sink in by about ``(contact force / mass) x solref time constant^2``,
+#: so the fraction of its size a scene's contacts sink in grows with its load acceleration per
+#: size ``|load| / (workpiece mass x size)`` [1/s^2] -- the "load" part of a scene's similarity
+#: (loads and efforts are explicit forces: the masses change only the dynamics, never the
+#: prediction). A scene above the largest value its settings were measured at gets its masses
+#: scaled up to it (:func:`with_mass_for_load`): the two-finger hand (0.08 N on 0.1 kg at
+#: 86.8 mm: 9.2; docs/simulation.md, "Two-finger hand") for hands, the campaign's boxes for
+#: system scenes (0.981 N on 0.1 kg at sizes from 0.035 m: 280).
 MUJOCO_REFERENCE_LOAD_PER_SIZE = 0.08 / (0.1 * 0.0868)
+SYSTEM_REFERENCE_LOAD_PER_SIZE = 0.981 / (0.1 * 0.035)
 
 
 @dataclass(frozen=True)
@@ -141,6 +145,7 @@ class EngineSettings:
     squeeze_d0: float | None = None
     squeeze_solref: tuple[float, float] | None = SQUEEZE_SOLREF
     heavy_ratio: float = HEAVY_RATIO
+    load_per_size: float | None = None
 
     def drive_speed(self, size: float) -> float:
         """Speed [m/s] of the fastest manipulator contact in a scene of ``size`` [m]."""
@@ -176,12 +181,13 @@ SETTINGS: dict[tuple[SceneKind, str], EngineSettings] = {
         dt=1e-3, creep=1e-8, settle=1.0, duration=2.5, start_ramp=0.5, rate=0.005,
         max_speed=5e-4, heavy_ratio=SYSTEM_HEAVY_RATIO, squeeze_d0=SQUEEZE_D0,
         squeeze_solref=SQUEEZE_SOLREF, support_solref=SUPPORT_SOLREF,
-        support_impratio=SUPPORT_IMPRATIO),
+        support_impratio=SUPPORT_IMPRATIO, load_per_size=SYSTEM_REFERENCE_LOAD_PER_SIZE),
     (SceneKind.HAND, "pymunk"): EngineSettings(
         dt=1e-3, creep=1e-9, settle=0.2, ramp=0.05, rate=0.05, max_speed=2e-3),
     (SceneKind.HAND, "mujoco"): EngineSettings(
         dt=1e-3, creep=1e-8, settle=0.3, ramp=0.05, rate=0.05, max_speed=1.5e-3,
-        mass_scale=0.1, solref=(0.01, 1.0), z_stiffness=1000.0),
+        mass_scale=0.1, solref=(0.01, 1.0), z_stiffness=1000.0,
+        load_per_size=MUJOCO_REFERENCE_LOAD_PER_SIZE),
     (SceneKind.RULER, "pymunk"): EngineSettings(
         dt=2e-3, creep=1e-9, settle=0.2, rate=0.003, max_speed=3e-4, record_every=5),
     (SceneKind.RULER, "mujoco"): EngineSettings(
@@ -219,14 +225,15 @@ def scene_scale(size: float) -> float:
     return lo / size if size < lo else hi / size if size > hi else 1.0
 
 
-def with_mass_for_load(settings: EngineSettings, engine: str, load: float, mass: float,
+def with_mass_for_load(settings: EngineSettings, load: float, mass: float,
                        size: float) -> EngineSettings:
-    """``settings`` with MuJoCo's masses scaled up so a hand scene's load acceleration per
-    size, ``load / (mass x size)`` [1/s^2], is no more than the reference's
-    (:data:`MUJOCO_REFERENCE_LOAD_PER_SIZE`); other engines and lighter loads unchanged.
-    ``load`` [N] is the larger of the external load and the squeeze the effort joints exert;
-    ``mass`` [kg] the workpiece's; ``size`` [m] the scene's."""
-    if engine != "mujoco" or not (mass > 0 and size > 0):
+    """``settings`` with the masses scaled up so the scene's load acceleration per size,
+    ``load / (mass x size)`` [1/s^2], is no more than ``settings.load_per_size`` (the largest
+    the settings were measured at; module constants above); unchanged without that rule or
+    below it. ``load`` [N]: the larger of the external load and the squeeze the effort joints
+    exert; ``mass`` [kg] the workpiece's; ``size`` [m] the simulated scene's."""
+    ref = settings.load_per_size
+    if ref is None or not (mass > 0 and size > 0):
         return settings
-    ratio = load / (mass * size) / MUJOCO_REFERENCE_LOAD_PER_SIZE
+    ratio = load / (mass * size) / ref
     return replace(settings, mass_scale=settings.mass_scale * ratio) if ratio > 1.0 else settings

@@ -187,8 +187,8 @@ def test_the_squeeze_force_stiffens_mujoco_hand_contacts():
     load = float(np.linalg.norm(hand.load_force))
 
     def settings(engine, force):
-        return with_mass_for_load(settings_for(SceneKind.HAND, engine), engine,
-                                  max(load, force), hand.mass, hand.length_scale)
+        return with_mass_for_load(settings_for(SceneKind.HAND, engine), max(load, force),
+                                  hand.mass, hand.length_scale)
 
     base, es = settings("mujoco", 0.0), settings("mujoco", f)
     assert es.mass_scale == pytest.approx(base.mass_scale * f / load)
