@@ -511,10 +511,9 @@ def fault_campaign(workdir: Path) -> Campaign:
     import test_sim_faults as tsf
 
     from sim.backends import make_backend
-    from sim.verdict import Outcome
     from sim.run import FaultKind, run_scene
     from sim.scene import Load
-    from sim.scenes.paper import FingertipSpec
+    from sim.verdict import Outcome
 
     c = Campaign("simulator fault suite")
     cases: list[tuple[str, str, Callable[[], Any], FaultKind | None]] = []
@@ -524,7 +523,7 @@ def fault_campaign(workdir: Path) -> Campaign:
                 tsf._scene(), loads=(Load("workpiece", (np.nan, -1.0), 0.0),)),
                 make_backend(e), tsf._settings()), FaultKind.NAN),
             (eng, "contact lost at start", lambda e=eng: run_scene(
-                tsf._scene(FingertipSpec(overlap=-1e-3)), make_backend(e), tsf._settings()),
+                tsf._scene(gap=1e-3), make_backend(e), tsf._settings()),
              FaultKind.CONTACT_LOST_AT_START),
             (eng, "body leaves the scene", lambda e=eng: run_scene(dataclasses.replace(
                 tsf._scene(), loads=(Load("workpiece", (-15.0, 50.0), 0.0),),

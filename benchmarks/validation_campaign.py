@@ -40,6 +40,7 @@ import numpy as np
 from planner.files.system_file import load_system
 from planner.model.modes import SLIDE
 from planner.model.system import System
+from planner.model.wedge import wedge_pairs as planner_wedge_pairs
 from planner.model.workpiece import WorkpieceGeometry
 from planner.predict.feasibility import feasible_modes
 from scenarios.registry import DATA_DIR
@@ -87,37 +88,13 @@ def near_velocity(system: System, mu: np.ndarray) -> bool:
 
 def wedge_pairs(system: System, mu: np.ndarray, turn: float = 0.0,
                 slide: np.ndarray | None = None) -> list[tuple[int, int]]:
-    """Contact pairs ``(i, j)`` (1-based) that can wedge the workpiece: the line between the
-    two contact points lies inside both friction cones (``u . n_i >= 1 / sqrt(1 + mu_i^2)``
-    and ``-u . n_j >= 1 / sqrt(1 + mu_j^2)``, ``u`` the unit vector from ``r_i`` to ``r_j``:
-    equal and opposite forces along it need no other contact -- a two-finger force-closure
-    grasp) while the commanded contact velocities bring the points together along it
-    (``(v_i - v_j) . u > 0``; an environment contact does not move). Squeezed like this, the
-    fingers can hold the workpiece with a force that grows with their approach: a jam that the
-    rigid quasistatic model (feasible modes with finite forces) does not list. ``turn`` [rad]
-    and ``slide`` (n_c,) [m] widen each cone's half-angle by how far the line can turn during
-    the run: the workpiece turns by up to ``turn`` and the contacts slide along its edges by
-    up to ``slide`` (the line turns by ``(slide_i + slide_j) / |r_j - r_i|``). A pair that
-    enters the wedge during the run wedges it then; measured: Example 4.1 at
-    mu = .98 .82 .54, 1.55 deg short of a wedge at contact 2 at the start (the workpiece turns
-    1.45 deg, contact 2 slides 6.4 mm at 0.31 m), forces grow from 34 N to 130 N in pymunk."""
-    pts = np.asarray(system.points, dtype=float)
-    nrm = np.asarray(system.normals, dtype=float)
-    tng = np.stack([-nrm[:, 1], nrm[:, 0]], axis=1)
-    vel = np.asarray(system.joint_inputs, dtype=float).reshape(-1, 2)
-    v = vel[:, :1] * nrm + vel[:, 1:] * tng
-    out = []
-    for i in range(len(pts)):
-        for j in range(i + 1, len(pts)):
-            d = pts[j] - pts[i]
-            u = d / np.linalg.norm(d)
-            widen = turn + (0.0 if slide is None else float(slide[i] + slide[j])
-                            / float(np.linalg.norm(d)))
-            if (u @ nrm[i] >= np.cos(min(np.arctan(mu[i]) + widen, np.pi / 2))
-                    and -u @ nrm[j] >= np.cos(min(np.arctan(mu[j]) + widen, np.pi / 2))
-                    and (v[i] - v[j]) @ u > 0):
-                out.append((i + 1, j + 1))
-    return out
+    """Contact pairs (1-based) that can wedge the workpiece over the run
+    (:func:`planner.model.wedge.wedge_pairs`, with the cones widened by how far the line between
+    the contacts can turn: ``turn`` of the workpiece, ``slide`` of the contacts). Measured:
+    Example 4.1 at mu = .98 .82 .54, 1.55 deg short of a wedge at contact 2 at the start (the
+    workpiece turns 1.45 deg, contact 2 slides 6.4 mm at 0.31 m), forces grow from 34 N to
+    130 N in pymunk."""
+    return planner_wedge_pairs(system, mu, turn, slide)
 
 
 def random_system(rng: np.random.Generator) -> tuple[System, np.ndarray]:

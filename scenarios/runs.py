@@ -174,10 +174,10 @@ def run_spec(scenario: Any, out_dir: str | Path, *, engine: str = "pymunk",
                      extra={"scenario": name, "reference": scenario.reference})
 
 
-_PLANS: dict[tuple[str, tuple[float, float], str], Any] = {}
+_PLANS: dict[tuple[str, tuple[float, ...], str], Any] = {}
 
 
-def _shipped_plan(source: str, mu: tuple[float, float], policy: str) -> Any:
+def _shipped_plan(source: str, mu: tuple[float, ...], policy: str) -> Any:
     """The plan of a shipped hand for friction in ``mu`` with ``policy`` (planned once per
     process)."""
     key = (source, tuple(mu), policy)

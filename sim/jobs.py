@@ -34,6 +34,7 @@ import numpy as np
 from planner.errors import InputError
 from planner.model.hand import Hand
 from planner.model.system import System
+from planner.model.wedge import wedge_pairs
 from sim.backends import make_backend
 from sim.classify import Thresholds
 from sim.expectation import Expectation, Judgement, ModeSet, Switches
@@ -230,9 +231,11 @@ def job_for_system(system: System, engine: str, prediction: Any, *,
     th = replace(Thresholds.for_drive(drive, load, creep_floor=es.creep / s, settle=es.settle,
                                       jam_force=jam_force, length_scale=size),
                  load=scale_f, jam_depth_force=scale_f)
+    wedges = wedge_pairs(system)
+    ramp = es.start_ramp if not static and (es.ramp_always or wedges) else 0.0
     run = RunSettings(duration=duration, dt=es.dt, slip_speed=SLIP_OF_DRIVE * drive,
                       penetration_tol=PENETRATION_OF_SIZE * size, jam_force=jam_force,
-                      jam_after=es.settle + 0.2, start_ramp=0.0 if static else es.start_ramp,
+                      jam_after=es.settle + 0.2, start_ramp=ramp,
                       record_every=es.record_every)
     expectation = ModeSet(tuple(prediction.all_modes), judge_system or system, factor,
                           workpiece_names(system.n_bodies), drive, size, scale_f,
@@ -242,7 +245,8 @@ def job_for_system(system: System, engine: str, prediction: Any, *,
               "judge_mu": np.asarray((judge_system or system).mu).tolist(),
               "n_bodies": system.n_bodies, "size_m": size, "static": static,
               "drive_speed_m_per_s": drive, "speed_scale": factor, "load_N": load,
-              "force_scale_N": scale_f, "derived_workpiece": scene.meta["derived_workpiece"],
+              "force_scale_N": scale_f, "wedge_pairs": [list(p) for p in wedges],
+              "derived_workpiece": scene.meta["derived_workpiece"],
               "masses_kg": scene.meta["masses"], "environment": scene.meta["environment"],
               "preload_m": scene.meta["preload_m"], "finger_radius_m": scene.meta["finger_radius"],
               **(parameters or {})}

@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from sim.scene import Backend, BodyKind, Control, Scene
+from sim.scene import Backend, BodyKind, Scene
 
 
 class FaultKind(str, Enum):
@@ -252,7 +252,7 @@ def run_scene(scene: Scene, backend: Backend, settings: RunSettings) -> Recordin
     for k in range(n_steps):
         while switches and switches[0][0] <= k * settings.dt + 1e-12:
             _, joint, control = switches.pop(0)
-            backend.set_control(joint, Control(control))
+            backend.set_control(joint, control)
         for i, p in enumerate(pairs):
             if p.mu_kinetic is not None:
                 mu_new = p.mu_kinetic if slipping[i] else p.mu_static

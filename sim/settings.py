@@ -109,8 +109,11 @@ class EngineSettings:
     Run: ``dt`` [s] time step; ``creep`` [m/s] the engine's creep floor of a sticking contact
     (the slip threshold's lower bound); ``settle`` [s] start transient not judged;
     ``duration`` [s] default run length of a system scene; ``start_ramp`` [s] a system scene's
-    drive rises from rest over this time (smoothstep, :func:`sim.run.ramped`); ``ramp`` [s]
-    linear ramp of a plan's command change at a waypoint; ``record_every`` steps.
+    drive rises from rest over this time (smoothstep, :func:`sim.run.ramped`) where two contacts
+    can wedge the workpiece at the start (:func:`planner.model.wedge.wedge_pairs`), or always
+    with ``ramp_always``; otherwise it starts at its speed (the quasistatic model's initial
+    condition); ``ramp`` [s] linear ramp of a plan's command change at a waypoint;
+    ``record_every`` steps.
 
     Speed: ``rate`` [1/s] the fastest contact moves this many scene sizes per second, at most
     ``max_speed`` [m/s] (:func:`drive_speed`).
@@ -129,6 +132,7 @@ class EngineSettings:
     settle: float = 0.2
     duration: float = 1.5
     start_ramp: float = 0.0
+    ramp_always: bool = False
     ramp: float = 0.05
     record_every: int = 1
     rate: float = 0.02
@@ -155,30 +159,37 @@ class EngineSettings:
 #: The one settings table: ``SETTINGS[(kind, engine)]``.
 #:
 #: * system, pymunk: 1 ms steps (pymunk resolves stick/slip thresholds to 2e-4 deg at this
-#:   step, docs/simulation.md "Engines"), creep floor 1e-9 m/s (measured), 0.3 s settling of
-#:   which the first 0.15 s ramp the drive up (a velocity step wedged Example 4.3 at
-#:   mu = .86 .42 .95: 33 N in the first step at a 1 N load), 1.5 s runs, 0.02 sizes per second
-#:   up to 2 mm/s (the paper examples' measured speed);
+#:   step, docs/simulation.md "Engines"), creep floor 1e-9 m/s (measured), 0.3 s settling,
+#:   1.5 s runs, 0.02 sizes per second up to 2 mm/s (the paper examples' measured speed); the
+#:   drive starts at its speed -- the model's initial condition; ramped from rest it passes
+#:   through speeds where the load, not the drive, moves the workpiece: Example 4.3 at
+#:   mu = .05 .15 .85 then slid into an unpredicted branch (S-1 S-2 B3, then S-1 R2 B3) after
+#:   any ramp from 2 to 60 ms, and showed the predicted S+1 B2 R3 from a step -- except where two
+#:   contacts can wedge it: a step wedged Example 4.3 at mu = .86 .42 .95 (33 N in the first
+#:   step at a 1 N load), ramped over 0.15 s it shows the predicted S-1 R2 B3;
 #: * system, MuJoCo: 1 ms, creep floor 1e-8 m/s (elliptic cone with noslip, measured), 1 s
 #:   settling (soft contacts), 2.5 s runs, 0.005 sizes per second up to 0.5 mm/s (sliding
-#:   contacts chatter above a few mm/s: 3 % of steps lost contact at 10 mm/s), the soft squeeze
-#:   pairs, the sliding supports' impedance and driven bodies 1e4 x the workpiece;
+#:   contacts chatter above a few mm/s: 3 % of steps lost contact at 10 mm/s), the drive always
+#:   ramped over 0.5 s (a velocity step makes soft contacts bounce), the soft squeeze pairs,
+#:   the sliding supports' impedance and driven bodies 1e4 x the workpiece;
 #: * hand: the settings measured on the two-finger hand (docs/simulation.md, "Two-finger
 #:   hand"): pymunk at 1 ms; MuJoCo with a 0.01 s solref, masses x 0.1 (then scaled up by the
 #:   load per size, :data:`MUJOCO_REFERENCE_LOAD_PER_SIZE`), a 1e3 N/m in-plane spring, 0.3 s
 #:   settling; commands ramped over 0.05 s at a waypoint; plans run at their own speed up to
 #:   the drive limit (2 mm/s pymunk, 1.5 mm/s MuJoCo: the two-finger plan runs at 1.2 mm/s in
 #:   both);
-#: * ruler: pymunk at 2 ms and 0.3 mm/s, MuJoCo at 1 ms and 0.15 mm/s per finger, every 5th
-#:   step recorded: the switch positions converge to the closed form as the speed drops
-#:   (inertial lag of a hand-over); MuJoCo's 4th/5th switches miss 2 % at 0.3 mm/s, not at
+#: * ruler: pymunk at 2 ms and 0.3 mm/s, MuJoCo at 1 ms and 0.15 mm/s per finger for the
+#:   rod of 0.1 m (size 0.05 m: 0.006 and 0.003 sizes per second), every 5th step recorded:
+#:   the switch positions converge to the closed form as the speed drops (inertial lag of a
+#:   hand-over); MuJoCo's 4th/5th switches miss 2 % at 0.3 mm/s, not at
 #:   0.15 (docs/simulation.md, "The ruler against its closed form").
 SETTINGS: dict[tuple[SceneKind, str], EngineSettings] = {
     (SceneKind.SYSTEM, "pymunk"): EngineSettings(
         dt=1e-3, creep=1e-9, settle=0.3, duration=1.5, start_ramp=0.15, rate=0.02,
         max_speed=2e-3),
     (SceneKind.SYSTEM, "mujoco"): EngineSettings(
-        dt=1e-3, creep=1e-8, settle=1.0, duration=2.5, start_ramp=0.5, rate=0.005,
+        dt=1e-3, creep=1e-8, settle=1.0, duration=2.5, start_ramp=0.5, ramp_always=True,
+        rate=0.005,
         max_speed=5e-4, heavy_ratio=SYSTEM_HEAVY_RATIO, squeeze_d0=SQUEEZE_D0,
         squeeze_solref=SQUEEZE_SOLREF, support_solref=SUPPORT_SOLREF,
         support_impratio=SUPPORT_IMPRATIO, load_per_size=SYSTEM_REFERENCE_LOAD_PER_SIZE),
@@ -189,9 +200,9 @@ SETTINGS: dict[tuple[SceneKind, str], EngineSettings] = {
         mass_scale=0.1, solref=(0.01, 1.0), z_stiffness=1000.0,
         load_per_size=MUJOCO_REFERENCE_LOAD_PER_SIZE),
     (SceneKind.RULER, "pymunk"): EngineSettings(
-        dt=2e-3, creep=1e-9, settle=0.2, rate=0.003, max_speed=3e-4, record_every=5),
+        dt=2e-3, creep=1e-9, settle=0.2, rate=0.006, max_speed=3e-4, record_every=5),
     (SceneKind.RULER, "mujoco"): EngineSettings(
-        dt=1e-3, creep=1e-8, settle=0.2, rate=0.0015, max_speed=1.5e-4, record_every=5),
+        dt=1e-3, creep=1e-8, settle=0.2, rate=0.003, max_speed=1.5e-4, record_every=5),
 }
 
 #: Every engine the table knows, in the order reports list them.

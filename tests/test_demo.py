@@ -1,4 +1,4 @@
-"""`qsplan demo` (issue 5 main job): wiring and expectations with stubbed simulator runs (fast),
+"""`qsplan demo` (the main job): wiring and expectations with stubbed simulator runs (fast),
 bad input, and the real quick demo in both engines (slow)."""
 
 from __future__ import annotations
@@ -31,33 +31,29 @@ def task_plan():
     return plan_hand_task(DATA_DIR / "figure9_task_hand.json", waypoints=5)
 
 
-def _task_stub(negative_passes: bool, segment_fails: bool):
+def _stub(negative_passes: bool, segment_fails: bool):
+    """A stand-in for :func:`qsplan.demo_task.run_demo_job`: the summary a run would write."""
     def job(j):
-        agree = j["expect"] == "agree"
-        ok = (agree and not segment_fails) or (not agree and negative_passes)
-        rows = [{"segment": k + 1, "status": "agreed", "claim_fraction": 1.0,
-                 "final_error_of_travel": 0.001} for k in range(3)]
-        if agree and segment_fails:
-            rows[2].update(status="disagreed", claim_fraction=0.7)
-        return {"kind": "task", "scenario": j["name"], "engine": j["engine"], "mu": j["mu"],
-                "expect": j["expect"], "status": "agreed" if ok else "disagreed",
-                "reason": "" if ok else "segment 1: disagreed", "segments": rows,
-                "passed": ok == agree, "wall_time_s": 0.1, "folder": j["out"], "fault": None,
-                "observed_counts": {}}
-    return job
-
-
-def _stub(negative_passes: bool):
-    def job(j):
-        agree = j["expect"] == "agree"
+        agree = j.expect == "agree"
+        base = {"name": j.name, "engine": j.engine, "expect": j.expect, "task": j.task,
+                "parameters": {"mu": [j.mu] * 4}, "wall_time_s": 0.1, "folder": j.folder,
+                "fault": None, "observed_counts": {}}
+        if j.task:
+            ok = (agree and not segment_fails) or (not agree and negative_passes)
+            rows = [{"segment": k + 1, "status": "agreed", "claim_fraction": 1.0,
+                     "final_error_of_travel": 0.001} for k in range(3)]
+            if agree and segment_fails:
+                rows[2].update(status="disagreed", claim_fraction=0.7)
+            return {**base, "status": "agreed" if ok else "disagreed",
+                    "reason": "" if ok else "segment 1: disagreed", "segments": rows,
+                    "passed": ok == agree}
         ok = agree or negative_passes
-        s = {"scenario": j["name"], "engine": j["engine"], "expect": j["expect"],
-             "status": "agreed" if ok else "disagreed", "claim_fraction": 1.0 if ok else 0.3,
-             "predicted_fraction": 1.0, "final_error_of_travel": 0.001, "travel_m": 0.015,
-             "final_angle_error_rad": 0.0, "observed_counts": {CLAIM if ok else R2S: 10},
-             "observed_segments": [{"mode": R2S, "start_s": 0.0, "end_s": 1.0}],
-             "settings": {"mu": [j["mu"]] * 4, "wall_time_s": 0.1}, "folder": j["out"],
-             "passed": ok == agree, "fault": None}
+        s = {**base, "status": "agreed" if ok else "disagreed",
+             "claim_fraction": 1.0 if ok else 0.3, "predicted_fraction": 1.0,
+             "final_error_of_travel": 0.001, "travel_m": 0.015, "final_angle_error_rad": 0.0,
+             "observed_counts": {CLAIM if ok else R2S: 10},
+             "observed": {"segments": [{"mode": R2S, "start_s": 0.0, "end_s": 1.0}]},
+             "passed": ok == agree, "segments": []}
         if not agree:
             s.update({"rival_predicted": [R2S], "rival_stretch_s": [0.0, 6.6],
                       "rival_observed_s": 1.0, "rival_observed_fraction": 0.2,
@@ -78,8 +74,7 @@ def test_demo_expectations(small_plans, task_plan, monkeypatch, tmp_path, capsys
 
     monkeypatch.setattr(hp, "plan_hand", lambda s, mu, policy: small_plans[policy])
     monkeypatch.setattr(tf, "plan_hand_task", lambda path: task_plan)
-    monkeypatch.setattr(demo, "_validate_job", _stub(negative_passes))
-    monkeypatch.setattr(demo, "_task_job", _task_stub(negative_passes, segment_fails))
+    monkeypatch.setattr(demo, "run_demo_job", _stub(negative_passes, segment_fails))
     out = tmp_path / "report"
     assert main(["demo", "--out", str(out), "--jobs", "1", "--no-render"]) == code
     checks = json.loads((out / "checks.json").read_text())

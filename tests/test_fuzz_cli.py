@@ -213,7 +213,8 @@ def test_numbers_are_printed_plainly(capsys):
 
 @pytest.mark.parametrize("argv,message", [
     (["muspace", "{sys}", "--vary", "nan,1", "--out", "{tmp}/m"],
-     "--vary: expected comma-separated 1-based integers, got 'nan,1'"),
+     "--vary: expected a contact index in 1..3 or a friction group (the file names none), "
+     "got 'nan'"),
     (["muspace", "{sys}", "--vary", "1,2", "--range", "1e308:1e308", "--out", "{tmp}/m"],
      "--range: expected a number in [0, 1e+06], got '1e308'"),
     (["muspace", "{sys}", "--vary", "1,2", "--range", "0,1", "--out", "{tmp}/m"],

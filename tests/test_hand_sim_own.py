@@ -67,21 +67,21 @@ def shipped_plan():
 @pytest.mark.parametrize("engine", ["pymunk", "mujoco"])
 def test_the_pre_load_is_what_makes_the_mirrored_hand_start(mirrored_plan, engine):
     """Built exactly touching (overlap 0) the mirrored hand's contacts are missing at the
-    first step (the crash of issue 14); with the scene-scaled pre-load they all touch."""
-    from sim.hand_run import ENGINE_SETTINGS
-
+    first step; with the scene-scaled pre-load they all touch."""
     from sim.backends import make_backend
     from sim.run import RunSettings, run_scene
     from sim.scenes.hand import hand_scene
+    from sim.settings import SceneKind, settings_for
+    from sim.similarity import scaled_masses
 
     hand, q0 = hand_from_dict(mirrored_plan.hand)
-    es = ENGINE_SETTINGS[engine]
+    es = settings_for(SceneKind.HAND, engine)
     settings = RunSettings(duration=0.01, dt=es.dt, slip_speed=1e-4, penetration_tol=1e-3)
 
     def scene(**kw):
-        return hand_scene(hand, q0, 0.1, ["effort", "velocity"],
-                          [lambda t, s: 0.0, lambda t, s: 0.0], mass_scale=es.mass_scale,
-                          **kw)
+        return scaled_masses(hand_scene(hand, q0, 0.1, ["effort", "velocity"],
+                                        [lambda t, s: 0.0, lambda t, s: 0.0], **kw),
+                             es.mass_scale)
 
     bare = run_scene(scene(overlap=0.0), make_backend(engine, es), settings)
     assert bare.fault is not None and bare.fault.kind is FaultKind.CONTACT_LOST_AT_START
@@ -91,10 +91,10 @@ def test_the_pre_load_is_what_makes_the_mirrored_hand_start(mirrored_plan, engin
 
 @pytest.mark.parametrize("engine", ["pymunk", "mujoco"])
 def test_mirrored_hand_validates_without_a_start_crash(mirrored_plan, engine):
-    from sim.hand_run import run_plan
+    from scenarios.runs import validate_plan
 
     assert mirrored_plan.claim == "S-1 S-2 S+3 S+4"  # the mirror image of the shipped 4S
-    v = run_plan(mirrored_plan, engine, 0.1, waypoints=4, render=False).verdict
+    v = validate_plan(mirrored_plan, engine, 0.1, waypoints=4).verdict
     assert v.fault is None or v.fault.kind is not FaultKind.CONTACT_LOST_AT_START
     assert v.outcome is Outcome.AGREED, v.reasons
 
@@ -105,12 +105,12 @@ def test_torque_outside_the_band_disagrees(shipped_plan, engine):
     workpiece, which escapes (pymunk: it leaves the scene; MuJoCo: it is pushed into a
     finger). The run left the plan before that, so the verdict is a disagreement naming what
     was observed, with the fault as the event that ended the run -- not exit 3."""
-    from sim.hand_run import run_plan
+    from scenarios.runs import validate_plan
 
     plan = dataclasses.replace(shipped_plan, waypoints=tuple(
         dataclasses.replace(w, torque_command=-w.torque_command)
         for w in shipped_plan.waypoints))
-    v = run_plan(plan, engine, 0.1, waypoints=8, render=False).verdict
+    v = validate_plan(plan, engine, 0.1, waypoints=8, expect="disagree").verdict
     assert v.outcome is Outcome.DISAGREED, v.reasons
     assert v.fault is not None and v.fault.kind in (FaultKind.LEFT_SCENE,
                                                     FaultKind.PENETRATION)

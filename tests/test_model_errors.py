@@ -119,7 +119,7 @@ def test_paper_files_load_and_round_trip(tmp_path, example_41, example_43):
     ('{"manipulator": {}}', "expected exactly one of 'contacts' or 'wrench_matrix'"),
     ('{"contacts": [], "manipulator": {"contact_velocities": []}}', "contacts: expected a non-empty list"),
     ('{"contacts": [{"point": [0, 0]}], "manipulator": {"contact_velocities": [[0, 1]]}}',
-     "contact 1: expected key 'normal', got keys \\['point'\\]"),
+     "contact 1: expected key 'mu', got keys \\['point'\\]"),
     ('{"wrench_matrix": [[1, 0], [0, 1], [0, 0]], "manipulator": {"contact_velocities": [[0, 1]]}}',
      "'wrench_matrix': expected a top-level 'mu' \\(one per contact\\) beside it, got no 'mu'"),
     ('{"contacts": [{"point": [0, 0], "normal": [0, 1], "mu": 0.1}], "manipulator": []}',

@@ -62,9 +62,9 @@ def test_ruler_run_takes_the_layout_and_reports_length(tmp_path, capsys) -> None
                  "--out", str(out), "--set", "left=-0.15", "--set", "right=0.3",
                  "--set", "speed=0.002"])
     s = json.loads((out / "summary.json").read_text())
-    assert s["parameters"]["length"] == pytest.approx(0.1)
+    assert s["parameters"]["length_m"] == pytest.approx(0.1)
     assert s["parameters"]["finger_x_m"] == pytest.approx([-0.015, 0.03])
     assert s["predicted"]["sliding_finger"][0] == 1
     # single mu: the far finger slides until both are equidistant, 0.15 L from the COM
-    assert s["switch_positions"]["predicted"][0] == pytest.approx(0.015, rel=1e-6)
+    assert s["predicted"]["switch_positions_m"][0] == pytest.approx(0.015, rel=1e-6)
     assert code == 0 and s["status"] == "agreed"

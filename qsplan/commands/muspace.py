@@ -125,8 +125,10 @@ def axis_contacts(token: str, system: Any, option: str) -> list[int]:
         return [i - 1]
     groups = dict(system.friction_groups)
     if token not in groups:
-        raise InputError(f"{option}: expected a contact index in 1..{system.n_contacts} or a "
-                         f"friction group of the file {sorted(groups)}, got {token!r}")
+        named = (f"one of the file's friction groups {sorted(groups)}" if groups
+                 else "a friction group (the file names none)")
+        raise InputError(f"{option}: expected a contact index in 1..{system.n_contacts} or "
+                         f"{named}, got {token!r}")
     return list(groups[token])
 
 

@@ -31,7 +31,7 @@ def register(sub: argparse._SubParsersAction) -> None:
             "as its links on their joints, in slow motion), run it in "
             "the chosen engine, classify the observed modes from the simulator's contact data "
             "and compare (docs/simulation.md). A file with several workpieces (`workpieces`) "
-            "is judged per contact and per body twist (no --mu-kinetic). A file with no "
+            "is judged per contact and per body twist. A file with no "
             "commanded motion is a static question: it is run without a drive and judged "
             "'stays' (its predicted equilibria) against 'moves' (none predicted). The scene is "
             "simulated at a size between 3 cm and 40 cm (a similar copy of a larger or smaller "
@@ -94,9 +94,6 @@ def _run(args: argparse.Namespace, options: dict[str, Any], work: Path | None) -
     from sim.verdict import Outcome
 
     system = load_system(args.system)  # FileFormatError -> exit 2
-    if system.n_bodies > 1 and options["mu_kinetic"] is not None:
-        raise InputError(f"--mu-kinetic: expected no value for a system of several workpieces "
-                         f"({system.n_bodies} in {args.system}), got {options['mu_kinetic']}")
     res = simulate_system(system, args.engine, name=f"simulate {Path(args.system).name}",
                           source=str(args.system), **options)
     summary = res.summary.to_dict()

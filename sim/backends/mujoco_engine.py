@@ -398,7 +398,7 @@ class MujocoBackend:
             self.model.pair_friction[i, 1] = mu
 
     # -- control switching (a whole task: segments with other control partitions) ----------
-    def set_control(self, joint: str, control: Control) -> None:
+    def set_control(self, joint: str, control: Control | str) -> None:
         """Switch revolute joint ``joint`` to ``control`` from the next step on: velocity
         control gives its degree of freedom the heavy armature and the ``qpos``/``qvel``
         override (the target starts at the joint's present position), effort control takes

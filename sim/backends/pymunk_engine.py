@@ -337,7 +337,7 @@ class PymunkBackend:
         return None
 
     # -- control switching (a whole task: segments with other control partitions) ----------
-    def set_control(self, joint: str, control: Control) -> None:
+    def set_control(self, joint: str, control: Control | str) -> None:
         """Switch revolute joint ``joint`` to ``control`` from the next step on: velocity
         control adds a ``SimpleMotor`` of unbounded force (to the base or the parent link),
         effort control removes it (the joint's command is then a torque). The joint's
