@@ -1,7 +1,8 @@
 """The simulation loop: drive a backend, emulate static/kinetic friction, detect faults, record.
 
-Faults (simulator trouble, never a pass): ``NAN`` (a non-finite state), ``LEFT_SCENE`` (a dynamic
-body's origin outside ``scene.bounds``), ``PENETRATION`` (a contact deeper than
+Faults (simulator trouble, never a pass): ``NAN`` (a non-finite state), ``LEFT_SCENE`` (a
+moving body's origin outside ``scene.bounds``: an escaping workpiece, or a driven body commanded
+out of the scene), ``PENETRATION`` (a contact deeper than
 ``penetration_tol``), ``CONTACT_LOST_AT_START`` (a pair not touching after the first step:
 the scene was built touching), ``ENGINE_WARNING`` (the engine's own alarm: a MuJoCo warning counter
 ``data.warning[mjWARN_*]`` that rose during the step -- ``BADQPOS``/``BADQVEL``/``BADQACC`` are
@@ -238,7 +239,9 @@ def run_scene(scene: Scene, backend: Backend, settings: RunSettings) -> Recordin
     pairs = scene.pairs
     names = tuple(p.name for p in pairs)
     body_names = tuple(b.name for b in scene.bodies)
-    dynamic = [b.name for b in scene.bodies if b.kind == BodyKind.DYNAMIC]
+    # every moving body must stay in the scene: a workpiece that leaves escaped, a driven body
+    # that leaves was commanded out of it (a broken command, not physics)
+    moving = [b.name for b in scene.bodies if b.kind != BodyKind.STATIC]
     n_steps = int(round(settings.duration / settings.dt))
     rows: dict[str, list] = {k: [] for k in (
         "t", "pose", "present", "point", "normal", "fn", "ft", "vt", "depth", "mu")}
@@ -296,7 +299,7 @@ def run_scene(scene: Scene, backend: Backend, settings: RunSettings) -> Recordin
                 and np.all(np.isfinite(fn[present]))):
             fault = Fault(FaultKind.NAN, t, "non-finite body state or contact force")
             break
-        for b in dynamic:
+        for b in moving:
             x, y, _ = states[b].pose
             if not (xmin <= x <= xmax and ymin <= y <= ymax):
                 fault = Fault(FaultKind.LEFT_SCENE, t,

@@ -59,13 +59,18 @@ def test_support_settings_reach_the_support_pairs_only() -> None:
 def test_high_friction_box_slides_in_mujoco(index: int) -> None:
     """Campaign boxes (seed 1) pushed to +x (system / 14: table friction 0.81, predicted
     ``S-1 S-2 S+3``) and, mirrored, to -x (system / 24: 0.55, ``S+1 S+2 S-3``): without the
-    sliding supports' settings MuJoCo's box stick-slips (``inconclusive``, so the check can
-    fail); with them it agrees, its table contacts present on every judged step."""
+    sliding supports' settings MuJoCo's box stick-slips -- its table contacts go missing on
+    1.7-2 % of the judged steps, its forces are 9-11 % off the certificate (14: not judged,
+    ``inconclusive``) -- with them it agrees, its table contacts present on every judged step
+    and its forces within 0.1 %."""
     system, mu, _ = campaign().point("system", index, 1)
     old = simulate_system(system, "mujoco", mu=mu, settings=PLAIN)
-    assert old.verdict.outcome == Outcome.INCONCLUSIVE, old.verdict.reason
+    settled = old.recording.times >= old.summary.parameters["settle_s"]
+    assert np.mean(~old.recording.present[settled][:, :2]) > 0.01
+    assert old.verdict.motion.force_error > 0.05
     res = simulate_system(system, "mujoco", mu=mu)
     assert res.verdict.outcome == Outcome.AGREED, res.verdict.reason
     rec = res.recording
     judged = rec.times >= res.summary.parameters["settle_s"]
     assert np.all(rec.present[judged][:, :2]), "a table contact went missing"
+    assert res.verdict.motion.force_error < 0.01
