@@ -137,18 +137,59 @@ def contact_feature(r: np.ndarray, n: np.ndarray, poly: np.ndarray, size: float)
                      f"with inward normal {n.tolist()}, got neither")
 
 
+def at_vertex(r: np.ndarray, poly: np.ndarray, size: float) -> bool:
+    """True when the point ``r`` (2,) [m] is a vertex of ``poly`` (V, 2) [m] (within
+    ``1e-6 * size``)."""
+    return bool(np.min(np.linalg.norm(np.asarray(poly) - np.asarray(r), axis=1)) <= 1e-6 * size)
+
+
+def _surface(r: np.ndarray, n: np.ndarray, lo: float, hi: float, size: float) -> Capsule:
+    """A capsule of radius ``ENV_THICKNESS * size / 2`` on the side of ``-n``, its flat top on
+    the tangent line through ``r`` shifted ``PRELOAD * size`` along ``n``, from ``lo`` to
+    ``hi`` [m] along ``t = rot90(n)``."""
+    t = np.array([-n[1], n[0]])
+    radius = 0.5 * ENV_THICKNESS * size
+    axis = r + PRELOAD * size * n - radius * n
+    a, b = axis + lo * t, axis + hi * t
+    return Capsule((float(a[0]), float(a[1])), (float(b[0]), float(b[1])), radius)
+
+
+def _reach(r: np.ndarray, n: np.ndarray, poly: np.ndarray, size: float) -> tuple[float, float]:
+    """How far [m] a surface at ``r`` reaches along ``t = rot90(n)`` each way: ``ENV_REACH *
+    size`` where ``poly`` does not lie, ``ENV_INSET * size`` under it."""
+    t = np.array([-n[1], n[0]])
+    along = (poly - r) @ t
+    tol = 1e-9 * size
+    lo = -ENV_REACH * size if along.min() >= -tol else -ENV_INSET * size
+    hi = ENV_REACH * size if along.max() <= tol else ENV_INSET * size
+    return lo, hi
+
+
 def environment_surface(r: np.ndarray, n: np.ndarray, poly: np.ndarray, size: float
                         ) -> Capsule:
     """The fixed surface of an environment contact at ``r`` (2,) [m] with inward normal ``n``:
     a capsule whose flat top lies on the tangent line through ``r`` shifted ``PRELOAD * size``
     into the workpiece, spanning the tangent interval described in the module docstring, of
     radius ``ENV_THICKNESS * size / 2`` on the side away from the workpiece (world frame)."""
+    lo, hi = _reach(r, n, poly, size)
+    return _surface(r, n, lo, hi, size)
+
+
+def support_surface(r: np.ndarray, n: np.ndarray, poly: np.ndarray, support: np.ndarray,
+                    size: float) -> Capsule | None:
+    """The face of another workpiece (polygon ``support`` (S, 2) [m]) that a vertex ``r`` (2,)
+    [m] of ``poly`` rests on, inward normal ``n`` (into ``poly``; world frame): the capsule of
+    :func:`environment_surface` with its flat top cut where ``support``'s boundary leaves the
+    tangent line (the vertex slides along the face, and off it only where the face ends).
+    ``None`` when ``support`` meets the tangent line at a point only (its own vertex: the
+    contact is vertex on vertex, and a round foot stands for that corner)."""
+    n = np.asarray(n, dtype=float) / float(np.linalg.norm(n))
     t = np.array([-n[1], n[0]])
-    along = (poly - r) @ t
-    tol = 1e-9 * size
-    lo = -ENV_REACH * size if along.min() >= -tol else -ENV_INSET * size
-    hi = ENV_REACH * size if along.max() <= tol else ENV_INSET * size
-    radius = 0.5 * ENV_THICKNESS * size
-    axis = r + PRELOAD * size * n - radius * n
-    a, b = axis + lo * t, axis + hi * t
-    return Capsule((float(a[0]), float(a[1])), (float(b[0]), float(b[1])), radius)
+    tol = 1e-6 * size
+    on = np.abs((support - r) @ n) <= tol
+    along = np.append((support[on] - r) @ t, 0.0)
+    lo, hi = _reach(r, n, poly, size)
+    lo, hi = max(lo, float(along.min())), min(hi, float(along.max()))
+    if hi - lo <= tol:
+        return None
+    return _surface(r, n, lo, hi, size)

@@ -23,12 +23,18 @@ What is built (in the world frame of the system file; :mod:`sim.similarity` scal
   the commanded contact velocity ``J_i thetadot = v_in n_i + v_it t_i`` (eq. 5) times
   ``speed_scale`` (slow motion); for a chain manipulator (``System.chain``) the chain's links
   instead (:func:`chain_links`);
-* **contacts between two workpieces** ``(a_i, b_i)`` (normal into ``a_i``): a small circle
-  (a *foot*) fixed to body ``b_i`` whose rim touches body ``a_i``'s polygon at ``r_i``. Only
-  declared pairs collide (``only_pairs``), so the two polygons never touch: the foot is the
-  contact, and the engine reading of the pair (``body_a`` = ``b_i``, ``body_b`` = ``a_i``) has
-  the planner's signs (normal into ``a_i``, force on ``a_i``, slip of ``a_i`` minus ``b_i``,
-  eq. 5);
+* **contacts between two workpieces** ``(a_i, b_i)`` (normal into ``a_i``): a shape fixed to
+  body ``b_i`` that touches body ``a_i``'s polygon at ``r_i``: where ``r_i`` is a vertex of
+  ``a_i`` (a block's corner resting on another block), ``b_i``'s face under it -- the capsule
+  of an environment surface, its flat top cut where ``b_i``'s boundary leaves the tangent line
+  (:func:`sim.scenes.shapes.support_surface`), so the corner slides along the face as it
+  does on a table; elsewhere (``a_i``'s edge on ``b_i``'s corner or face), and for a corner
+  on a corner, a small circle (a *foot*, the fingertips' radius) whose rim touches ``a_i`` at
+  ``r_i``: a foot under a corner would let the corner slide off its rim within
+  ``sqrt(2 R preload)`` (0.002 x size). Only declared pairs collide (``only_pairs``), so the
+  two polygons never touch: the foot or face is the contact, and the engine reading of the
+  pair (``body_a`` = ``b_i``, ``body_b`` = ``a_i``) has the planner's signs (normal into
+  ``a_i``, force on ``a_i``, slip of ``a_i`` minus ``b_i``, eq. 5);
 * **loads**: each body's ``g_obj`` block (eq. 2, about the world origin) as a force through its
   centre of mass ``c`` plus the moment ``m_z - (c_x f_y - c_y f_x)`` -- the same wrench;
 * **pre-load**: every contact starts overlapped by ``PRELOAD * size`` [m].
@@ -62,11 +68,13 @@ from sim.scene import (
 from sim.scenes.shapes import (
     FINGER_RADIUS,
     PRELOAD,
+    at_vertex,
     constant_twist,
     contact_feature,
     environment_surface,
     near_acute_vertex,
     polygon_inertia,
+    support_surface,
     workpiece_polygon,
 )
 
@@ -171,8 +179,10 @@ def system_scene(system: System, *, speed_scale: float = 1.0,
     for i, (a, b) in enumerate(system.contact_bodies):
         muk = None if mu_kinetic is None else float(mu_kinetic[i])
         centre = pts[i] - (radius - PRELOAD * size) * nrm[i]
-        if b >= 0:  # a foot on body b touching body a
-            shapes[b].append(Circle((float(centre[0]), float(centre[1])), radius))
+        if b >= 0:  # body b's face under a corner of body a, else a foot on body b
+            face = (support_surface(pts[i], nrm[i], polys[a], polys[b], size)
+                    if at_vertex(pts[i], polys[a], size) else None)
+            shapes[b].append(face or Circle((float(centre[0]), float(centre[1])), radius))
             pairs.append(ContactPair(f"c{i + 1}", names[b], names[a], float(system.mu[i]),
                                      muk, shape_a=len(shapes[b]) - 1, shape_b=0))
             continue
