@@ -17,8 +17,8 @@ What is built (in the world frame of the system file; :mod:`sim.similarity` scal
   little under it, so a corner resting on it can lift off or pivot. Rounded ends rather than a
   box: MuJoCo's box-box contact of a flat edge on a box slab stuck and slipped (a pushed box
   moved in jumps of up to 20x the drive speed); on the capsule it slides at the drive speed.
-  Near an acute vertex of its workpiece it touches that workpiece's own feature
-  (:func:`sim.scenes.shapes.contact_feature`);
+  Every contact touches the workpiece's polygon, at an acute corner too (MuJoCo's polygon has
+  no spur there: :mod:`sim.backends.mujoco_polygon`);
 * **manipulator contacts**: small driven fingertip circles touching at ``r_i`` and moving with
   the commanded contact velocity ``J_i thetadot = v_in n_i + v_it t_i`` (eq. 5) times
   ``speed_scale`` (slow motion); for a chain manipulator (``System.chain``) the chain's links
@@ -70,9 +70,7 @@ from sim.scenes.shapes import (
     PRELOAD,
     at_vertex,
     constant_twist,
-    contact_feature,
     environment_surface,
-    near_acute_vertex,
     polygon_inertia,
     support_surface,
     workpiece_polygon,
@@ -156,15 +154,9 @@ def system_scene(system: System, *, speed_scale: float = 1.0,
             raise InputError(f"contact {i + 1}: expected a point on the boundary of {where} "
                              f"with the polygon on the side of its normal, got point "
                              f"{pts[i].tolist()} (polygon reaches {gap:.3g} m along the normal)")
+    # every contact touches the polygon (shape 0), exact in both engines at any corner
+    # (sim.backends.mujoco_polygon, sim.backends.pymunk_edges)
     shapes: list[list[Shape]] = [[Polygon(tuple(map(tuple, p.tolist())))] for p in polys]
-    # environment contacts near an acute vertex touch their own feature (contact_feature);
-    # fingers and links the polygon (index 0), exact in pymunk and, away from an acute vertex,
-    # in MuJoCo
-    feature_of: dict[int, int] = {}
-    for i, (a, b) in enumerate(system.contact_bodies):
-        if b < 0 and env[i] and near_acute_vertex(pts[i], polys[a], size):
-            feature_of[i] = len(shapes[a])
-            shapes[a].append(contact_feature(pts[i], nrm[i], polys[a], size))
     radius = FINGER_RADIUS * size
     extra: list[Body] = []
     pairs: list[ContactPair] = []
@@ -202,8 +194,7 @@ def system_scene(system: System, *, speed_scale: float = 1.0,
                               pose=(float(centre[0]), float(centre[1]), 0.0),
                               kind=BodyKind.DRIVEN,
                               twist=constant_twist((float(v[0]), float(v[1]), 0.0))))
-        pairs.append(ContactPair(f"c{i + 1}", body, names[a], float(system.mu[i]), muk,
-                                 shape_b=feature_of.get(i, 0)))
+        pairs.append(ContactPair(f"c{i + 1}", body, names[a], float(system.mu[i]), muk))
     works = [Body(names[a], tuple(shapes[a]), mass=masses[a],
                   com=(float(coms[a][0]), float(coms[a][1])),
                   inertia=polygon_inertia(polys[a], masses[a], coms[a]), pose=(0.0, 0.0, 0.0))
