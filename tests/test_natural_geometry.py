@@ -262,6 +262,40 @@ def test_stacked_blocks_on_their_corners_mujoco(case: str, tmp_path: Path) -> No
     assert s["motion"]["twist_error"] <= 0.01, s["reason"]
 
 
+# ---- a box pushed squarely at its corner ---------------------------------------------------------
+def fingertip_form(doc: dict[str, Any]) -> dict[str, Any]:
+    """``doc`` with its one-joint chain replaced by the contact velocity it commands (the
+    finger a fingertip circle instead of the end of a link)."""
+    d = copy.deepcopy(doc)
+    d["manipulator"] = {"contact_velocities": [[0.0, 0.0], [0.0, 0.0], [0.001, 0.0]]}
+    return d
+
+
+@pytest.mark.parametrize("form,engine", [
+    ("link", "pymunk"), ("fingertip", "pymunk"), pytest.param("link", "mujoco",
+                                                              marks=pytest.mark.slow)])
+def test_box_pushed_squarely_at_its_corner(form: str, engine: str, tmp_path: Path) -> None:
+    """``box_pushed_at_corner_by_slider.json``: the pusher (a link's end, or a fingertip)
+    touches the box's top-left corner along the side's normal, its centre on the line of the
+    top edge -- a penetration fault at t = 1 ms in pymunk before. By hand (table friction
+    0.2): a smooth push at ``y`` tips the box iff ``y >= w/(2 mu) = 0.2`` m; at 0.12 m it
+    slides, ``S-1 S-2 R3``, push ``mu W`` = 0.196 N, rear load ``W (1/2 - mu y/w)`` = 0.196 N
+    with the front load at the front corner. An environment surface supports the bottom edge
+    over ``0.05 x size`` behind the corner (size 0.0721 m) and the engine may put the front
+    load ``N_2`` anywhere there: the rear load is then lower by up to ``N_2 0.05 size / w`` =
+    0.035 N."""
+    doc = load("box_pushed_at_corner_by_slider.json")
+    code, s = simulate(doc if form == "link" else fingertip_form(doc), engine, tmp_path)
+    assert code == 0, s["reason"]
+    assert s["predicted"]["labels"] == ["S-1 S-2 R3"]
+    f = np.array(s["motion"]["forces_observed_N"])
+    weight, w, size = 0.981, 0.08, float(np.hypot(0.04, 0.06))
+    rear = weight * (0.5 - 0.2 * 0.12 / w)
+    assert f[2, 0] == pytest.approx(0.2 * weight, rel=0.02)
+    slack = (weight - rear) * 0.05 * size / w
+    assert rear - slack - 1e-3 <= f[0, 0] <= rear + 1e-3
+
+
 # ---- force-indeterminate, zero twist, frictionless --------------------------------------------
 @pytest.mark.parametrize("engine", ["pymunk", pytest.param("mujoco", marks=pytest.mark.slow)])
 def test_rough_finger_just_below_the_tip_height(engine: str, tmp_path: Path) -> None:
