@@ -6,8 +6,10 @@ stick/slip (SIM-NOTES): elliptic friction cone, ``noslip_iterations = 20``, ``no
 friction changed between steps through ``model.pair_friction``), and one extra out-of-plane slide
 degree of freedom on every dynamic body (noslip does nothing in a strictly planar model).
 
-* Polygons become extruded convex meshes (thickness ``0.2 * length_scale``), circles spheres
-  in the plane, segments capsules.
+* Polygons become thin boxes along their edges, cut back at acute vertices whose tips are
+  triangular prisms (:mod:`sim.backends.mujoco_polygon`: nothing sticks out of the polygon),
+  ``0.2 * length_scale`` thick out of the plane; circles spheres in the plane, segments
+  capsules.
 * Dynamic body: slide x, slide y, slide z, hinge z at the body origin; explicit mass, COM and
   inertia.
 * Driven body: slide x, slide y, hinge z, mass ``heavy_ratio`` (default :data:`HEAVY_RATIO`)
@@ -37,6 +39,7 @@ import mujoco
 import numpy as np
 
 from sim.backends.mujoco_impedance import apply_role_impedance, scene_load
+from sim.backends.mujoco_polygon import polygon_geoms
 from sim.backends.roles import contact_roles
 from sim.backends.switching import replace_joint, switch_joint
 from sim.scene import (
@@ -169,7 +172,8 @@ class MujocoBackend:
             for k, shp in enumerate(b.shapes):
                 gname = f"{b.name}:g{k}"
                 if isinstance(shp, Polygon):
-                    geoms = self._polygon_geoms(body, gname, shp, depth, scene.length_scale)
+                    geoms = polygon_geoms(spec, body, gname, np.asarray(shp.vertices, dtype=float),
+                                          depth, scene.length_scale)
                     self._geoms[(b.name, k)] = [g.name for g in geoms]
                     continue
                 elif isinstance(shp, Circle):
@@ -252,30 +256,6 @@ class MujocoBackend:
         scale squared): ``heavy_ratio`` times the heaviest dynamic body's (1 kg without one)."""
         return self.heavy_ratio * max([b.mass for b in scene.bodies
                                        if b.kind == BodyKind.DYNAMIC] or [1.0])
-
-    @staticmethod
-    def _polygon_geoms(body, gname: str, shp: Polygon, depth: float, length: float) -> list:
-        """One thin box per polygon edge, its outer face on the edge (analytic sphere-box and
-        capsule-box collisions instead of a noisy convex-mesh one)."""
-        v = np.asarray(shp.vertices, dtype=float)
-        geoms = []
-        h = 0.02 * length
-        for e in range(len(v)):
-            a, b = v[e], v[(e + 1) % len(v)]
-            d = b - a
-            ln = float(np.linalg.norm(d))
-            u = d / ln
-            inward = np.array([-u[1], u[0]])  # counter-clockwise polygon: interior on the left
-            c = 0.5 * (a + b) + 0.5 * h * inward
-            ang = float(np.arctan2(u[1], u[0]))
-            g = body.add_geom(name=f"{gname}:e{e}", type=mujoco.mjtGeom.mjGEOM_BOX,
-                              size=[0.5 * ln, 0.5 * h, depth], pos=[c[0], c[1], 0.0],
-                              quat=[np.cos(ang / 2), 0, 0, np.sin(ang / 2)])
-            g.contype = 0
-            g.conaffinity = 0
-            g.mass = 0.0
-            geoms.append(g)
-        return geoms
 
     # -- stepping ----------------------------------------------------------------------
     def _drive(self, joint: str, velocity: float, dt: float) -> None:

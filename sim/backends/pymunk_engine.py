@@ -3,10 +3,13 @@
 Settings (SIM-NOTES): gravity off (loads are explicit), ``collision_slop`` scaled to the scene
 (``1e-4 * length_scale``), many solver iterations, per-pair friction set on the arbiter in a
 pre-solve callback (pymunk otherwise multiplies the two shapes' friction values), one shape per
-contact site so one arbiter holds one contact. Driven bodies are kinematic bodies; velocity
-joints: revolute = pivot + SimpleMotor of unbounded force, prismatic = a kinematic carriage moving
-along the axis with the body welded to it by pivot + gear joints; effort joints: pivot (or
-groove + gear) with the effort applied as a body torque / force every step. Joints on a parent
+contact site so one arbiter holds one contact; a round shape that would sit exactly on the line
+of a polygon edge it is paired with is moved off it (:mod:`sim.backends.pymunk_edges`: Chipmunk
+reports such a contact along the edge's normal at the depth of the radius). Driven bodies are
+kinematic bodies; velocity joints: revolute = pivot + SimpleMotor of unbounded force, prismatic
+= a kinematic carriage moving along the axis with the body welded to it by pivot + gear joints;
+effort joints: pivot (or groove + gear) with the effort applied as a body torque / force every
+step. Joints on a parent
 body (chains, :meth:`PymunkBackend._add_child_joint`): the same constraints between the two
 bodies, efforts applied equal and opposite.
 """
@@ -19,6 +22,7 @@ import numpy as np
 import pymunk
 
 from planner.errors import InputError
+from sim.backends.pymunk_edges import edge_line_offsets
 from sim.backends.switching import replace_joint, switch_joint
 from sim.scene import (
     ABSENT,
@@ -76,6 +80,7 @@ class PymunkBackend:
         self.space = space
         self.bodies: dict[str, pymunk.Body] = {}
         self.shapes: dict[str, list[pymunk.Shape]] = {}
+        offsets = edge_line_offsets(scene)
         for b in scene.bodies:
             if b.kind == BodyKind.STATIC:
                 body = pymunk.Body(body_type=pymunk.Body.STATIC)
@@ -88,13 +93,15 @@ class PymunkBackend:
             body.angle = b.pose[2]
             body.position = (b.pose[0], b.pose[1])
             shapes: list[pymunk.Shape] = []
-            for s in b.shapes:
+            for k, s in enumerate(b.shapes):
+                off = np.asarray(offsets.get((b.name, k), (0.0, 0.0)))
                 if isinstance(s, Polygon):
                     shp: pymunk.Shape = pymunk.Poly(body, [_xy(v) for v in s.vertices])
                 elif isinstance(s, Circle):
-                    shp = pymunk.Circle(body, s.radius, _xy(s.center))
+                    shp = pymunk.Circle(body, s.radius, _xy(np.add(s.center, off)))
                 elif isinstance(s, Capsule):
-                    shp = pymunk.Segment(body, _xy(s.a), _xy(s.b), s.radius)
+                    shp = pymunk.Segment(body, _xy(np.add(s.a, off)), _xy(np.add(s.b, off)),
+                                         s.radius)
                 else:  # pragma: no cover - guarded by the Shape union
                     raise TypeError(type(s))
                 shp.friction = 0.0

@@ -17,15 +17,14 @@ pairs collide, ``Scene.only_pairs``):
   link, on a revolute joint to the base (``joint:<name>``): a capsule of the link's width
   (``side`` contacts) and, for a ``tip`` contact, a circle of radius ``width/2`` at the tip.
 * ``workpiece``: the polygon plus, per ``tip`` contact, a capsule of radius ``vertex_radius``
-  along the contact's declared edge, its surface on the edge line (the tip touches that edge
-  only: a pair with the whole polygon found the neighbouring edge at an acute vertex in
-  MuJoCo, whose polygon is one thin box per edge, and such a box reaches past the polygon
-  there: measured in docs/planning.md, the Figure 9 task), and, per ``palm`` / ``side`` contact,
-  a small circle of radius ``vertex_radius`` at the touching vertex, placed so its surface
-  touches the feature where the sharp vertex does (centre = vertex + r n, n the contact's
-  inward normal at the initial configuration). A sharp vertex has no stable contact point in
-  either engine; the circle moves the contact point by ``r`` times the change of the contact
-  normal's direction (0.5 mm x 0.16 rad = 80 um over the default segment).
+  along the contact's declared edge, its surface on the edge line (the tip touches the edge
+  the plan declares and no other: near an acute vertex a tip paired with the whole polygon can
+  meet the neighbouring edge; docs/planning.md, the Figure 9 task), and, per ``palm`` /
+  ``side`` contact, a small circle of radius ``vertex_radius`` at the touching vertex, placed
+  so its surface touches the feature where the sharp vertex does (centre = vertex + r n, n the
+  contact's inward normal at the initial configuration). A sharp vertex has no stable contact
+  point in either engine; the circle moves the contact point by ``r`` times the change of the
+  contact normal's direction (0.5 mm x 0.16 rad = 80 um over the default segment).
 
 Mass and inertia: workpiece mass and COM from the file, rotational inertia of the uniform
 polygon about the COM; finger links of the file's mass with the inertia of a uniform rod.

@@ -1,5 +1,5 @@
 """Shapes shared by the scene builders: polygon inertia, the polygon a system's contacts bound,
-a contact's own workpiece feature, environment surfaces and constant drives.
+environment surfaces, the face of a workpiece under another's corner, and constant drives.
 
 Sizes are fractions of the scene's ``size`` (its largest distance of a workpiece vertex from the
 centre of mass), so a scene and its scaled copy (:mod:`sim.similarity`) are similar.
@@ -12,7 +12,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from planner.errors import InputError
-from sim.scene import BodyState, Capsule, Circle, Command, Shape
+from sim.scene import BodyState, Capsule, Command
 
 #: Initial overlap of every contact, as a fraction of the scene size [-] (a known pre-load:
 #: bodies built exactly touching get a gap of +-1e-17 m from rounding, and a positive one is no
@@ -25,8 +25,6 @@ ENV_REACH = 0.5
 ENV_INSET = 0.05
 #: Thickness (capsule diameter) of an environment surface, fraction of size.
 ENV_THICKNESS = 0.1
-#: Radius of a contact's workpiece feature (vertex circle, edge capsule), fraction of size.
-FEATURE_RADIUS = 0.005
 
 
 def polygon_inertia(vertices: np.ndarray, mass: float, com: np.ndarray) -> float:
@@ -82,59 +80,32 @@ def constant_twist(twist: tuple[float, float, float]) -> Command:
     return command
 
 
-def near_acute_vertex(r: np.ndarray, poly: np.ndarray, size: float) -> bool:
-    """True when the contact at ``r`` sits at, or on an edge ending at, a vertex of interior
-    angle below 90 deg -- where MuJoCo's per-edge boxes reach past the polygon
-    (:func:`contact_feature`); elsewhere the polygon is exact in both engines."""
-    tol = 1e-6 * size
-    prv, nxt = np.roll(poly, 1, axis=0), np.roll(poly, -1, axis=0)
-    u, w = prv - poly, nxt - poly
-    acute = np.einsum("ij,ij->i", u, w) > 1e-9 * np.linalg.norm(u, axis=1) * np.linalg.norm(
-        w, axis=1)  # cos(theta) > 0
-    edges = nxt - poly
-    length = np.linalg.norm(edges, axis=1)
-    along = np.einsum("ij,ij->i", r - poly, edges) / length
-    d = r - poly
-    off = np.abs(edges[:, 0] * d[:, 1] - edges[:, 1] * d[:, 0]) / length
-    on = (off <= tol) & (along >= -tol) & (along <= length + tol)  # r on edge k -> k+1
-    return bool(np.any(on & (acute | np.roll(acute, -1))))
+def at_vertex(r: np.ndarray, poly: np.ndarray, size: float) -> bool:
+    """True when the point ``r`` (2,) [m] is a vertex of ``poly`` (V, 2) [m] (within
+    ``1e-6 * size``)."""
+    return bool(np.min(np.linalg.norm(np.asarray(poly) - np.asarray(r), axis=1)) <= 1e-6 * size)
 
 
-def contact_feature(r: np.ndarray, n: np.ndarray, poly: np.ndarray, size: float) -> Shape:
-    """The workpiece's side of a contact at ``r`` (2,) with inward normal ``n`` (workpiece
-    frame = world frame at the start), instead of the whole polygon: a circle of radius
-    ``FEATURE_RADIUS * size`` whose surface touches the vertex where the contact sits at a
-    polygon vertex (centre ``v + rho n``), else a capsule of that radius along the polygon
-    edge through ``r`` whose inward normal is ``n``, its surface on the edge line.
+def _surface(r: np.ndarray, n: np.ndarray, lo: float, hi: float, size: float) -> Capsule:
+    """A capsule of radius ``ENV_THICKNESS * size / 2`` on the side of ``-n``, its flat top on
+    the tangent line through ``r`` shifted ``PRELOAD * size`` along ``n``, from ``lo`` to
+    ``hi`` [m] along ``t = rot90(n)``."""
+    t = np.array([-n[1], n[0]])
+    radius = 0.5 * ENV_THICKNESS * size
+    axis = r + PRELOAD * size * n - radius * n
+    a, b = axis + lo * t, axis + hi * t
+    return Capsule((float(a[0]), float(a[1])), (float(b[0]), float(b[1])), radius)
 
-    Why not the polygon: MuJoCo builds a polygon as one thin box per edge, and at a vertex of
-    interior angle ``theta < 90 deg`` an edge's box reaches past the neighbouring edge by
-    ``h cos theta`` (``h`` the box's thickness): a triangle on a table rested on a box corner
-    1.5 mm below its vertex and turned (docs/simulation.md, "A contact's workpiece feature").
-    The hand scenes pair their tips and vertices the same way (:mod:`sim.scenes.hand`)."""
-    rho = FEATURE_RADIUS * size
-    tol = 1e-6 * size
-    n = np.asarray(n, dtype=float) / float(np.linalg.norm(n))
-    d = np.linalg.norm(poly - r, axis=1)
-    k = int(np.argmin(d))
-    nxt = np.roll(poly, -1, axis=0)
-    edges = nxt - poly
-    length = np.linalg.norm(edges, axis=1)
-    inward = np.stack([-edges[:, 1], edges[:, 0]], axis=1) / length[:, None]
-    along = np.einsum("ij,ij->i", r - poly, edges) / length
-    off = np.abs(np.einsum("ij,ij->i", r - poly, inward))
-    on_edge = (off <= tol) & (along >= -tol) & (along <= length + tol)
-    same = np.linalg.norm(inward - n, axis=1) <= 1e-6
-    cand = np.flatnonzero(on_edge & same)
-    if d[k] > tol and len(cand):
-        e = int(cand[0])
-        a, b = poly[e] + rho * n, nxt[e] + rho * n
-        return Capsule((float(a[0]), float(a[1])), (float(b[0]), float(b[1])), rho)
-    if d[k] <= tol:
-        c = poly[k] + rho * n
-        return Circle((float(c[0]), float(c[1])), rho)
-    raise InputError(f"contact at {r.tolist()}: expected a polygon vertex or a point on an edge "
-                     f"with inward normal {n.tolist()}, got neither")
+
+def _reach(r: np.ndarray, n: np.ndarray, poly: np.ndarray, size: float) -> tuple[float, float]:
+    """How far [m] a surface at ``r`` reaches along ``t = rot90(n)`` each way: ``ENV_REACH *
+    size`` where ``poly`` does not lie, ``ENV_INSET * size`` under it."""
+    t = np.array([-n[1], n[0]])
+    along = (poly - r) @ t
+    tol = 1e-9 * size
+    lo = -ENV_REACH * size if along.min() >= -tol else -ENV_INSET * size
+    hi = ENV_REACH * size if along.max() <= tol else ENV_INSET * size
+    return lo, hi
 
 
 def environment_surface(r: np.ndarray, n: np.ndarray, poly: np.ndarray, size: float
@@ -143,12 +114,25 @@ def environment_surface(r: np.ndarray, n: np.ndarray, poly: np.ndarray, size: fl
     a capsule whose flat top lies on the tangent line through ``r`` shifted ``PRELOAD * size``
     into the workpiece, spanning the tangent interval described in the module docstring, of
     radius ``ENV_THICKNESS * size / 2`` on the side away from the workpiece (world frame)."""
+    lo, hi = _reach(r, n, poly, size)
+    return _surface(r, n, lo, hi, size)
+
+
+def support_surface(r: np.ndarray, n: np.ndarray, poly: np.ndarray, support: np.ndarray,
+                    size: float) -> Capsule | None:
+    """The face of another workpiece (polygon ``support`` (S, 2) [m]) that a vertex ``r`` (2,)
+    [m] of ``poly`` rests on, inward normal ``n`` (into ``poly``; world frame): the capsule of
+    :func:`environment_surface` with its flat top cut where ``support``'s boundary leaves the
+    tangent line (the vertex slides along the face, and off it only where the face ends).
+    ``None`` when ``support`` meets the tangent line at a point only (its own vertex: the
+    contact is vertex on vertex, and a round foot stands for that corner)."""
+    n = np.asarray(n, dtype=float) / float(np.linalg.norm(n))
     t = np.array([-n[1], n[0]])
-    along = (poly - r) @ t
-    tol = 1e-9 * size
-    lo = -ENV_REACH * size if along.min() >= -tol else -ENV_INSET * size
-    hi = ENV_REACH * size if along.max() <= tol else ENV_INSET * size
-    radius = 0.5 * ENV_THICKNESS * size
-    axis = r + PRELOAD * size * n - radius * n
-    a, b = axis + lo * t, axis + hi * t
-    return Capsule((float(a[0]), float(a[1])), (float(b[0]), float(b[1])), radius)
+    tol = 1e-6 * size
+    on = np.abs((support - r) @ n) <= tol
+    along = np.append((support[on] - r) @ t, 0.0)
+    lo, hi = _reach(r, n, poly, size)
+    lo, hi = max(lo, float(along.min())), min(hi, float(along.max()))
+    if hi - lo <= tol:
+        return None
+    return _surface(r, n, lo, hi, size)

@@ -17,18 +17,24 @@ What is built (in the world frame of the system file; :mod:`sim.similarity` scal
   little under it, so a corner resting on it can lift off or pivot. Rounded ends rather than a
   box: MuJoCo's box-box contact of a flat edge on a box slab stuck and slipped (a pushed box
   moved in jumps of up to 20x the drive speed); on the capsule it slides at the drive speed.
-  Near an acute vertex of its workpiece it touches that workpiece's own feature
-  (:func:`sim.scenes.shapes.contact_feature`);
+  Every contact touches the workpiece's polygon, at an acute corner too (MuJoCo's polygon has
+  no spur there: :mod:`sim.backends.mujoco_polygon`);
 * **manipulator contacts**: small driven fingertip circles touching at ``r_i`` and moving with
   the commanded contact velocity ``J_i thetadot = v_in n_i + v_it t_i`` (eq. 5) times
   ``speed_scale`` (slow motion); for a chain manipulator (``System.chain``) the chain's links
   instead (:func:`chain_links`);
-* **contacts between two workpieces** ``(a_i, b_i)`` (normal into ``a_i``): a small circle
-  (a *foot*) fixed to body ``b_i`` whose rim touches body ``a_i``'s polygon at ``r_i``. Only
-  declared pairs collide (``only_pairs``), so the two polygons never touch: the foot is the
-  contact, and the engine reading of the pair (``body_a`` = ``b_i``, ``body_b`` = ``a_i``) has
-  the planner's signs (normal into ``a_i``, force on ``a_i``, slip of ``a_i`` minus ``b_i``,
-  eq. 5);
+* **contacts between two workpieces** ``(a_i, b_i)`` (normal into ``a_i``): a shape fixed to
+  body ``b_i`` that touches body ``a_i``'s polygon at ``r_i``: where ``r_i`` is a vertex of
+  ``a_i`` (a block's corner resting on another block), ``b_i``'s face under it -- the capsule
+  of an environment surface, its flat top cut where ``b_i``'s boundary leaves the tangent line
+  (:func:`sim.scenes.shapes.support_surface`), so the corner slides along the face as it
+  does on a table; elsewhere (``a_i``'s edge on ``b_i``'s corner or face), and for a corner
+  on a corner, a small circle (a *foot*, the fingertips' radius) whose rim touches ``a_i`` at
+  ``r_i``: a foot under a corner would let the corner slide off its rim within
+  ``sqrt(2 R preload)`` (0.002 x size). Only declared pairs collide (``only_pairs``), so the
+  two polygons never touch: the foot or face is the contact, and the engine reading of the
+  pair (``body_a`` = ``b_i``, ``body_b`` = ``a_i``) has the planner's signs (normal into
+  ``a_i``, force on ``a_i``, slip of ``a_i`` minus ``b_i``, eq. 5);
 * **loads**: each body's ``g_obj`` block (eq. 2, about the world origin) as a force through its
   centre of mass ``c`` plus the moment ``m_z - (c_x f_y - c_y f_x)`` -- the same wrench;
 * **pre-load**: every contact starts overlapped by ``PRELOAD * size`` [m].
@@ -62,11 +68,11 @@ from sim.scene import (
 from sim.scenes.shapes import (
     FINGER_RADIUS,
     PRELOAD,
+    at_vertex,
     constant_twist,
-    contact_feature,
     environment_surface,
-    near_acute_vertex,
     polygon_inertia,
+    support_surface,
     workpiece_polygon,
 )
 
@@ -148,15 +154,9 @@ def system_scene(system: System, *, speed_scale: float = 1.0,
             raise InputError(f"contact {i + 1}: expected a point on the boundary of {where} "
                              f"with the polygon on the side of its normal, got point "
                              f"{pts[i].tolist()} (polygon reaches {gap:.3g} m along the normal)")
+    # every contact touches the polygon (shape 0), exact in both engines at any corner
+    # (sim.backends.mujoco_polygon, sim.backends.pymunk_edges)
     shapes: list[list[Shape]] = [[Polygon(tuple(map(tuple, p.tolist())))] for p in polys]
-    # environment contacts near an acute vertex touch their own feature (contact_feature);
-    # fingers and links the polygon (index 0), exact in pymunk and, away from an acute vertex,
-    # in MuJoCo
-    feature_of: dict[int, int] = {}
-    for i, (a, b) in enumerate(system.contact_bodies):
-        if b < 0 and env[i] and near_acute_vertex(pts[i], polys[a], size):
-            feature_of[i] = len(shapes[a])
-            shapes[a].append(contact_feature(pts[i], nrm[i], polys[a], size))
     radius = FINGER_RADIUS * size
     extra: list[Body] = []
     pairs: list[ContactPair] = []
@@ -171,8 +171,10 @@ def system_scene(system: System, *, speed_scale: float = 1.0,
     for i, (a, b) in enumerate(system.contact_bodies):
         muk = None if mu_kinetic is None else float(mu_kinetic[i])
         centre = pts[i] - (radius - PRELOAD * size) * nrm[i]
-        if b >= 0:  # a foot on body b touching body a
-            shapes[b].append(Circle((float(centre[0]), float(centre[1])), radius))
+        if b >= 0:  # body b's face under a corner of body a, else a foot on body b
+            face = (support_surface(pts[i], nrm[i], polys[a], polys[b], size)
+                    if at_vertex(pts[i], polys[a], size) else None)
+            shapes[b].append(face or Circle((float(centre[0]), float(centre[1])), radius))
             pairs.append(ContactPair(f"c{i + 1}", names[b], names[a], float(system.mu[i]),
                                      muk, shape_a=len(shapes[b]) - 1, shape_b=0))
             continue
@@ -192,8 +194,7 @@ def system_scene(system: System, *, speed_scale: float = 1.0,
                               pose=(float(centre[0]), float(centre[1]), 0.0),
                               kind=BodyKind.DRIVEN,
                               twist=constant_twist((float(v[0]), float(v[1]), 0.0))))
-        pairs.append(ContactPair(f"c{i + 1}", body, names[a], float(system.mu[i]), muk,
-                                 shape_b=feature_of.get(i, 0)))
+        pairs.append(ContactPair(f"c{i + 1}", body, names[a], float(system.mu[i]), muk))
     works = [Body(names[a], tuple(shapes[a]), mass=masses[a],
                   com=(float(coms[a][0]), float(coms[a][1])),
                   inertia=polygon_inertia(polys[a], masses[a], coms[a]), pose=(0.0, 0.0, 0.0))
