@@ -154,31 +154,58 @@ def control_for(plan: str) -> tuple[str, Any]:
     return "reversed", None
 
 
-def near_boundary(plan: str, mu: Any, near: float) -> bool:
-    """The planner's prediction at some waypoint of some segment no longer is the claim alone
-    when one coefficient (one for all contacts under the ``common`` model, else each contact's)
-    moves by ``+-near`` from ``mu``: the same rule as the systems' (``NEAR``), at the plan's
-    own commands."""
+def near_boundary(plan: str, mu: Any, near: float, slip: float) -> dict[str, bool]:
+    """Where a run of ``plan`` at ``mu`` lies, by the systems' rules applied at every waypoint
+    of every segment, at the plan's own commands: ``near_boundary`` when the planner's
+    prediction no longer is the claim alone with one coefficient (one for all contacts under
+    the ``common`` model, else each contact's) moved by ``+-near``; ``near_velocity`` when a
+    contact the claim slides moves slower than ``2 slip`` times the segment's drive speed
+    (:func:`sim.schedule.contact_drive_speed`; the classifier's slip threshold is ``slip``
+    times it)."""
+    from planner.model.modes import SLIDE
     from planner.predict.feasibility import feasible_modes
-    from sim.schedule import plan_layout
+    from sim.schedule import contact_drive_speed, plan_layout
 
     p = _load(plan)
     lay = plan_layout(p)
-    for seg, hand, sched in zip(p.segments, lay.hands, lay.schedules):
+    out = {"near_boundary": False, "near_velocity": False}
+    for seg, hand, sched, q0 in zip(p.segments, lay.hands, lay.schedules, lay.q_starts):
         base = np.broadcast_to(np.asarray(mu, dtype=float), (hand.n_contacts,)).copy()
         params = ([list(range(hand.n_contacts))] if np.ndim(mu) == 0
                   else [[i] for i in range(hand.n_contacts)])
         claim = sched.claim.label
+        drive = contact_drive_speed(hand, q0, sched.controls, sched.commands)
+        sliding = np.array([c == SLIDE for c in sched.claim.codes])
         for w, row in zip(seg.waypoints, sched.commands):
             q = np.r_[np.asarray(w.pose, dtype=float), np.asarray(w.angles, dtype=float)]
             joints = [{c: float(v)} for c, v in zip(sched.controls, row)]
+            for m in feasible_modes(hand.system(q, base, joints)).all_modes:
+                vt = np.abs(np.asarray(m.contact_velocities, dtype=float)[:, 1])
+                if m.label == claim and np.any(sliding & (vt < 2 * slip * drive)):
+                    out["near_velocity"] = True
             for ix in params:
                 for d in (-near, near):
                     m = base.copy()
                     m[ix] = np.maximum(0.0, m[ix] + d)
                     if feasible_modes(hand.system(q, m, joints)).labels != [claim]:
-                        return True
-    return False
+                        out["near_boundary"] = True
+            if all(out.values()):
+                return out
+    return out
+
+
+def where_flags(plan: str, k: int, mu: Any, near: float, slip: float) -> dict[str, bool]:
+    """:func:`near_boundary` of the run at the plan's ``k``-th ``mu.validate`` value, cached
+    beside the plan (the planner's answer, the same for both engines)."""
+    cache = Path(plan).parent / f"where{k}.json"
+    if not cache.is_file():
+        from planner.files.atomic import atomic_write_json
+
+        atomic_write_json(cache, {"near": near, "slip": slip, "mu": np.asarray(mu).tolist(),
+                                  **near_boundary(plan, mu, near, slip)})
+    flags = json.loads(cache.read_text())
+    return {"near_boundary": bool(flags["near_boundary"]),
+            "near_velocity": bool(flags["near_velocity"])}
 
 
 def _mu_arg(mu: Any) -> str:
@@ -205,9 +232,10 @@ def validate(plan: str, engine: str, mu: Any, out: Path) -> dict[str, Any]:
     return res
 
 
-def run_hand(index: int, engine: str, seed: int, root: Path, near: float) -> dict[str, Any]:
+def run_hand(index: int, engine: str, seed: int, root: Path, near: float, slip: float
+             ) -> dict[str, Any]:
     """One random hand in ``engine`` (module docstring): a campaign row; each run at a
-    ``mu.validate`` value flagged :func:`near_boundary` with ``near``."""
+    ``mu.validate`` value placed by :func:`near_boundary` with ``near`` and ``slip``."""
     t0 = time.perf_counter()
     folder = root / f"seed{seed}" / f"hand{index:03d}"
     rec = planned(index, seed, folder)
@@ -231,13 +259,7 @@ def run_hand(index: int, engine: str, seed: int, root: Path, near: float) -> dic
                                    f"{MAX_RUN_S:g} s"})
             continue
         run = validate(plan, engine, np.asarray(mu).tolist(), folder / engine / f"mu{k}")
-        cache = folder / f"near{k}.json"  # the planner's answer: the same for both engines
-        if not cache.is_file():
-            from planner.files.atomic import atomic_write_json
-
-            atomic_write_json(cache, {"near": near, "mu": np.asarray(mu).tolist(),
-                                      "near_boundary": near_boundary(plan, mu, near)})
-        run["near_boundary"] = bool(json.loads(cache.read_text())["near_boundary"])
+        run.update(where_flags(plan, k, mu, near, slip))
         runs.append(run)
     row["runs"] = runs
     statuses = [r["status"] for r in runs]

@@ -274,7 +274,8 @@ def entries(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
             continue
         for k, run in enumerate(r["runs"]):
             e = {"case": "hand", "engine": r["engine"], "status": run["status"],
-                 "near_boundary": bool(run.get("near_boundary")), "control_of": r["status"]}
+                 "near_boundary": bool(run.get("near_boundary")),
+                 "near_velocity": bool(run.get("near_velocity")), "control_of": r["status"]}
             if k == 0 and "control_status" in r:
                 e["control_status"] = r["control_status"]
             out.append(e)
@@ -375,7 +376,7 @@ def task_row(task: tuple[str, int, str, int]) -> dict[str, Any]:
             sys.path.insert(0, here)
         from campaign_hands import run_hand
 
-        return run_hand(index, engine, seed, HANDS_DIR, NEAR)
+        return run_hand(index, engine, seed, HANDS_DIR, NEAR, SLIP)
     if case in KINDS:
         from planner.errors import QsplanError
 
@@ -409,6 +410,22 @@ def read_rows(path: str) -> list[dict[str, Any]]:
     return rows
 
 
+def refresh_where(path: str, rows: list[dict[str, Any]]) -> None:
+    """Re-derive every hand run's near flags from its plan and rewrite ``path``."""
+    from planner.files.atomic import atomic_write_text
+
+    here = str(Path(__file__).resolve().parent)
+    if here not in sys.path:
+        sys.path.insert(0, here)
+    from campaign_hands import where_flags
+
+    for r in rows:
+        if r["case"] == "hand":
+            for k, run in enumerate(r.get("runs", [])):
+                run.update(where_flags(r["plan"], k, run["mu"], NEAR, SLIP))
+    atomic_write_text(path, "".join(json.dumps(r) + "\n" for r in rows))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--points", default="8",
@@ -424,6 +441,9 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=1, help="processes")
     ap.add_argument("--chunk", default="0/1", help="K/N: run only tasks with number %% N == K")
     ap.add_argument("--table-only", action="store_true", help="print the table of --jsonl")
+    ap.add_argument("--refresh-where", action="store_true",
+                    help="re-derive the hand rows' near flags of --jsonl from their plans (the "
+                    "planner only, no simulation) and rewrite the file")
     ap.add_argument("--mujoco-backend-defaults", action="store_true",
                     help="MuJoCo: the backend's defaults (stiff squeeze pairs, driven bodies 1e6 "
                     "x the workpiece) instead of the system scenes' settings "
@@ -436,6 +456,9 @@ def main() -> None:
         MUJOCO_SETTINGS = EngineSettings()
     globals()["HANDS_DIR"] = Path(args.hands_dir)
     done = read_rows(args.jsonl) if args.jsonl else []
+    if args.refresh_where:
+        refresh_where(args.jsonl, done)
+        return
     if args.table_only:
         print(table(done))
         return
