@@ -282,3 +282,32 @@ def run_hand(index: int, engine: str, seed: int, root: Path, near: float, slip: 
         row["control_run"] = c
     row["wall_s"] = time.perf_counter() - t0
     return row
+
+
+def hand_entries(r: dict[str, Any]) -> list[dict[str, Any]]:
+    """The campaign table's entries of row ``r``: a system row as it is; a hand row as one
+    entry per run at a ``mu.validate`` value (its own near flags; the hand's control on the
+    first, set against the whole plan's status), or the row itself (``no plan``)."""
+    if r["case"] != "hand" or not r.get("runs"):
+        return [r]
+    out = []
+    for k, run in enumerate(r["runs"]):
+        e = {"case": "hand", "engine": r["engine"], "status": run["status"],
+             "near_boundary": bool(run.get("near_boundary")),
+             "near_velocity": bool(run.get("near_velocity")), "control_of": r["status"]}
+        if k == 0 and "control_status" in r:
+            e["control_status"] = r["control_status"]
+        out.append(e)
+    return out
+
+
+def refresh_where(path: str, rows: list[dict[str, Any]], near: float, slip: float) -> None:
+    """Re-derive every hand run's near flags of ``rows`` from its plan (:func:`where_flags`)
+    and rewrite the campaign file ``path`` with them."""
+    from planner.files.atomic import atomic_write_text
+
+    for r in rows:
+        if r["case"] == "hand":
+            for k, run in enumerate(r.get("runs", [])):
+                run.update(where_flags(r["plan"], k, run["mu"], near, slip))
+    atomic_write_text(path, "".join(json.dumps(r) + "\n" for r in rows))

@@ -1,30 +1,33 @@
-"""Validation campaign: seeded random friction points and random systems, both engines.
+"""Validation campaign: seeded random points through the user's path, both engines
+(docs/validation-campaign.md).
 
-Cases (each simulated with :func:`scenarios.runs.simulate_system`, the path of ``qsplan
-simulate``):
+Cases:
 
-* ``ex41`` / ``ex43``: Examples 4.1 / 4.3 (eqs. 37, 42), the shipped files (simulated at the
-  pipeline's scale, :data:`sim.settings.SIZE_RANGE`) at friction drawn uniformly from
-  [0.05, 1] per contact;
-* ``system``: random boxes and trapezoids on a table pushed by one frictionless finger from the
-  left or (mirrored) the right, at a random height and direction (:func:`random_system`) --
-  systems with ``workpiece`` geometry and ``environment`` contacts.
+* ``ex41`` / ``ex43``: Examples 4.1 / 4.3 (eqs. 37, 42), the shipped files at friction drawn
+  uniformly from [0.05, 1] per contact;
+* ``system``: boxes and trapezoids on a table pushed by one frictionless finger
+  (:func:`random_system`, built in code);
+* ``acute``, ``supports``, ``stacked``, ``static``: system files of the kinds a user writes
+  (:mod:`planner.sweeps.user_systems`), read by the system-file loader (:func:`user_point`);
+* ``hand``: random hands planned by ``qsplan plan`` and validated by ``qsplan validate``
+  (``campaign_hands.py``).
 
-Every run is also judged against the prediction at a second random friction point whose
-predicted mode set shares no mode with the first's (a negative control: agreement there while
-the run agreed with its own prediction is a false agreement). A point is *near a boundary*
-when the predicted mode set changes with any one coefficient moved by ``+-NEAR`` (0.03) or a
-predicted sliding contact is too slow for the classifier (:func:`near_velocity`), and *wedge
-possible* when two contacts can wedge the workpiece (:func:`wedge_pairs`); both are counted
-apart from the points *away* (docs/simulation.md, "Validation campaign").
+A system point is simulated by :func:`scenarios.runs.simulate_system` (``qsplan simulate``) and
+the same recording is judged against the prediction of a negative control whose predicted mode
+set shares no mode with the point's (another friction, or for a drawn file its mirror image);
+agreement there while the run agreed with its own prediction is a false agreement. A point is
+*near a boundary* when the predicted mode set changes with one coefficient a user sets moved by
+``+-NEAR`` (0.03) or a predicted sliding contact is too slow for the classifier
+(:func:`near_velocity`), and *wedge possible* when two contacts can wedge the workpiece
+(:func:`wedge_pairs`); both are counted apart from the points *away*.
 
     python benchmarks/validation_campaign.py --points 8 --seed 1
-    python benchmarks/validation_campaign.py --points ex41=200,ex43=200,system=50 \\
+    python benchmarks/validation_campaign.py --cases ex41,ex43,acute,supports,stacked,static,hand \\
+        --points ex41=200,ex43=200,acute=16,supports=16,stacked=16,static=16,hand=24 --seed 4 \\
         --jsonl out.jsonl --workers 2          # the full campaign (resumable)
     python benchmarks/validation_campaign.py --jsonl out.jsonl --table-only
 
-Rates are printed per case, engine and near/away; the full campaign (>= 200 points per example,
->= 50 systems, ~3-5 s per run) takes hours on two cores.
+Rates are printed per case, engine and near/away; the full campaign takes hours on two cores.
 """
 
 from __future__ import annotations
@@ -51,6 +54,9 @@ from scenarios.registry import DATA_DIR
 from scenarios.runs import simulate_system
 from sim.judge import judge
 from sim.scenes.system import commanded_contact_speed
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # the sibling benchmarks module
+from campaign_hands import hand_entries, refresh_where, run_hand  # noqa: E402
 
 NEAR = 0.03
 #: MuJoCo backend settings of every run (``--mujoco-backend-defaults``; ``None``: the system
@@ -263,32 +269,13 @@ def false_agreement(row: dict[str, Any]) -> bool:
             and row.get("control_of", row["status"]) == "agreed")
 
 
-def entries(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """Table entries: a system row as it is; a hand row as one entry per run at a
-    ``mu.validate`` value (its own near flag; the hand's control on the first, set against the
-    whole plan's status), or one ``no plan`` / ``not run`` entry."""
-    out = []
-    for r in rows:
-        if r["case"] != "hand" or not r.get("runs"):
-            out.append(r)
-            continue
-        for k, run in enumerate(r["runs"]):
-            e = {"case": "hand", "engine": r["engine"], "status": run["status"],
-                 "near_boundary": bool(run.get("near_boundary")),
-                 "near_velocity": bool(run.get("near_velocity")), "control_of": r["status"]}
-            if k == 0 and "control_status" in r:
-                e["control_status"] = r["control_status"]
-            out.append(e)
-    return out
-
-
 STATUSES = ("agreed", "disagreed", "inconclusive", "fault")
 
 
 def table(rows: list[dict[str, Any]]) -> str:
     """Per case, engine and where (:func:`where`): runs per verdict, runs not made (a hand
     without a plan, a plan whose run would be too long), false agreements of the controls."""
-    rows = entries(rows)
+    rows = [e for r in rows for e in hand_entries(r)]
     out = ["| case | engine | where | n | agreed | disagreed | inconclusive | fault | not run | "
            "false agreement on control |", "|---|---|---|---|---|---|---|---|---|---|"]
     keys = sorted({(r["case"], r["engine"], where(r)) for r in rows})
@@ -371,11 +358,6 @@ def run_task(task: tuple[str, int, str, int]) -> dict[str, Any]:
 def task_row(task: tuple[str, int, str, int]) -> dict[str, Any]:
     case, index, engine, seed = task
     if case == "hand":
-        here = str(Path(__file__).resolve().parent)
-        if here not in sys.path:
-            sys.path.insert(0, here)
-        from campaign_hands import run_hand
-
         return run_hand(index, engine, seed, HANDS_DIR, NEAR, SLIP)
     if case in KINDS:
         from planner.errors import QsplanError
@@ -410,22 +392,6 @@ def read_rows(path: str) -> list[dict[str, Any]]:
     return rows
 
 
-def refresh_where(path: str, rows: list[dict[str, Any]]) -> None:
-    """Re-derive every hand run's near flags from its plan and rewrite ``path``."""
-    from planner.files.atomic import atomic_write_text
-
-    here = str(Path(__file__).resolve().parent)
-    if here not in sys.path:
-        sys.path.insert(0, here)
-    from campaign_hands import where_flags
-
-    for r in rows:
-        if r["case"] == "hand":
-            for k, run in enumerate(r.get("runs", [])):
-                run.update(where_flags(r["plan"], k, run["mu"], NEAR, SLIP))
-    atomic_write_text(path, "".join(json.dumps(r) + "\n" for r in rows))
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--points", default="8",
@@ -457,7 +423,7 @@ def main() -> None:
     globals()["HANDS_DIR"] = Path(args.hands_dir)
     done = read_rows(args.jsonl) if args.jsonl else []
     if args.refresh_where:
-        refresh_where(args.jsonl, done)
+        refresh_where(args.jsonl, done, NEAR, SLIP)
         return
     if args.table_only:
         print(table(done))
