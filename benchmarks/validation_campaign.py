@@ -1,51 +1,63 @@
-"""Validation campaign: seeded random friction points and random systems, both engines.
+"""Validation campaign: seeded random points through the user's path, both engines
+(docs/validation-campaign.md).
 
-Cases (each simulated with :func:`scenarios.runs.simulate_system`, the path of ``qsplan
-simulate``):
+Cases:
 
-* ``ex41`` / ``ex43``: Examples 4.1 / 4.3 (eqs. 37, 42), the shipped files (simulated at the
-  pipeline's scale, :data:`sim.settings.SIZE_RANGE`) at friction drawn uniformly from
-  [0.05, 1] per contact;
-* ``system``: random boxes and trapezoids on a table pushed by one frictionless finger from the
-  left or (mirrored) the right, at a random height and direction (:func:`random_system`) --
-  systems with ``workpiece`` geometry and ``environment`` contacts.
+* ``ex41`` / ``ex43``: Examples 4.1 / 4.3 (eqs. 37, 42), the shipped files at friction drawn
+  uniformly from [0.05, 1] per contact;
+* ``system``: boxes and trapezoids on a table pushed by one frictionless finger
+  (:func:`random_system`, built in code);
+* ``acute``, ``supports``, ``stacked``, ``static``: system files of the kinds a user writes
+  (:mod:`planner.sweeps.user_systems`), read by the system-file loader (:func:`user_point`);
+* ``hand``: random hands planned by ``qsplan plan`` and validated by ``qsplan validate``
+  (``campaign_hands.py``).
 
-Every run is also judged against the prediction at a second random friction point whose
-predicted mode set shares no mode with the first's (a negative control: agreement there while
-the run agreed with its own prediction is a false agreement). A point is *near a boundary*
-when the predicted mode set changes with any one coefficient moved by ``+-NEAR`` (0.03) or a
-predicted sliding contact is too slow for the classifier (:func:`near_velocity`), and *wedge
-possible* when two contacts can wedge the workpiece (:func:`wedge_pairs`); both are counted
-apart from the points *away* (docs/simulation.md, "Validation campaign").
+A system point is simulated by :func:`scenarios.runs.simulate_system` (``qsplan simulate``) and
+the same recording is judged against the prediction of a negative control whose predicted mode
+set shares no mode with the point's (another friction, or for a drawn file its mirror image);
+agreement there while the run agreed with its own prediction is a false agreement. A point is
+*near a boundary* when the predicted mode set changes with one coefficient a user sets moved by
+``+-NEAR`` (0.03) or a predicted sliding contact is too slow for the classifier
+(:func:`near_velocity`), and *wedge possible* when two contacts can wedge the workpiece
+(:func:`wedge_pairs`); both are counted apart from the points *away*.
 
     python benchmarks/validation_campaign.py --points 8 --seed 1
-    python benchmarks/validation_campaign.py --points ex41=200,ex43=200,system=50 \\
+    python benchmarks/validation_campaign.py --cases ex41,ex43,acute,supports,stacked,static,hand \\
+        --points ex41=200,ex43=200,acute=16,supports=16,stacked=16,static=16,hand=24 --seed 4 \\
         --jsonl out.jsonl --workers 2          # the full campaign (resumable)
     python benchmarks/validation_campaign.py --jsonl out.jsonl --table-only
 
-Rates are printed per case, engine and near/away; the full campaign (>= 200 points per example,
->= 50 systems, ~3-5 s per run) takes hours on two cores.
+Rates are printed per case, engine and near/away; the full campaign takes hours on two cores.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import sys
 import time
 from collections import Counter
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from planner.files.system_file import load_system
+from planner.files.system_file import load_system, system_from_dict
+from planner.model.layout import group_mu
 from planner.model.modes import SLIDE
 from planner.model.system import System
 from planner.model.wedge import wedge_pairs as planner_wedge_pairs
 from planner.model.workpiece import WorkpieceGeometry
 from planner.predict.feasibility import feasible_modes
+from planner.sweeps.user_files import UserDraw, mirror_system
+from planner.sweeps.user_systems import KINDS, draw_user_system
 from scenarios.registry import DATA_DIR
 from scenarios.runs import simulate_system
 from sim.judge import judge
+from sim.scenes.system import commanded_contact_speed
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # the sibling benchmarks module
+from campaign_hands import hand_entries, refresh_where, run_hand  # noqa: E402
 
 NEAR = 0.03
 #: MuJoCo backend settings of every run (``--mujoco-backend-defaults``; ``None``: the system
@@ -54,19 +66,30 @@ MUJOCO_SETTINGS: Any = None
 #: The classifier's slip threshold as a fraction of the drive speed (``sim.classify``).
 SLIP = 0.05
 EXAMPLES = {"ex41": "example_4_1", "ex43": "example_4_3"}
+#: Where the random hands' files, plans and runs go (``--hands-dir``).
+HANDS_DIR = Path(__file__).resolve().parent / "results" / "campaign_hands"
 
 
 def labels(system: System, mu: np.ndarray) -> frozenset[str]:
     return frozenset(feasible_modes(system.with_mu(mu)).labels)
 
 
+def parameters(system: System) -> list[list[int]]:
+    """The friction coefficients a user sets: each friction group (its contacts share one
+    value) and each contact outside a group; 0-based contact indices."""
+    grouped = [list(ix) for _, ix in system.friction_groups]
+    taken = {i for ix in grouped for i in ix}
+    return grouped + [[i] for i in range(system.n_contacts) if i not in taken]
+
+
 def near_boundary(system: System, mu: np.ndarray) -> bool:
-    """The predicted mode set changes when one coefficient moves by ``+-NEAR``."""
+    """The predicted mode set changes when one coefficient a user sets (:func:`parameters`:
+    a contact's, or a friction group's) moves by ``+-NEAR``."""
     base = labels(system, mu)
-    for i in range(len(mu)):
+    for ix in parameters(system):
         for d in (-NEAR, NEAR):
             m = mu.copy()
-            m[i] = max(0.0, m[i] + d)
+            m[ix] = np.maximum(0.0, m[ix] + d)
             if labels(system, m) != base:
                 return True
     return False
@@ -75,9 +98,11 @@ def near_boundary(system: System, mu: np.ndarray) -> bool:
 def near_velocity(system: System, mu: np.ndarray) -> bool:
     """A contact predicted to slide does so slower than ``2 x SLIP`` of the fastest commanded
     contact speed: twice the classifier's slip threshold (``sim.classify.Thresholds``: 0.05 of
-    the drive speed, left again below half of it), where the engine cannot tell S from R."""
-    fastest = float(np.max(np.linalg.norm(
-        np.asarray(system.joint_inputs, dtype=float).reshape(-1, 2), axis=1)))
+    the drive speed, left again below half of it), where the engine cannot tell S from R. (A
+    static system has no drive: never.)"""
+    fastest = commanded_contact_speed(system)
+    if not fastest > 0:
+        return False
     for m in feasible_modes(system.with_mu(mu)).all_modes:
         vt = np.abs(np.asarray(m.contact_velocities, dtype=float)[:, 1])
         sliding = np.array([c == SLIDE for c in m.mode.codes])
@@ -169,10 +194,11 @@ def reach(system: System, mu: np.ndarray, p: dict[str, Any]) -> tuple[float, np.
     return omega * k, slide * k
 
 
-def run_point(case: str, engine: str, system: System, mu: np.ndarray, ctrl: np.ndarray
-              ) -> dict[str, Any]:
+def run_point(case: str, engine: str, system: System, mu: np.ndarray, ctrl: np.ndarray,
+              control_system: System | None = None) -> dict[str, Any]:
     """One point through the user's path (:func:`scenarios.runs.simulate_system`, as ``qsplan
-    simulate``), and the same recording judged against the control friction's prediction."""
+    simulate``), and the same recording judged against the prediction of the control: the
+    friction ``ctrl``, of ``control_system`` when given (else of ``system``)."""
     from dataclasses import replace
 
     t0 = time.perf_counter()
@@ -189,12 +215,15 @@ def run_point(case: str, engine: str, system: System, mu: np.ndarray, ctrl: np.n
     }
     if engine == "mujoco" and MUJOCO_SETTINGS is not None:
         row["settings"] = "backend defaults"
-    if not np.array_equal(ctrl, mu) and res.verdict.outcome.value != "fault":
-        control = system.with_mu(ctrl)
+    if control_system is not None:
+        row["control_system"] = "mirror image"
+    if ((control_system is not None or not np.array_equal(ctrl, mu))
+            and res.verdict.outcome.value != "fault"):
+        control = (control_system or system).with_mu(ctrl)
         judged = feasible_modes(control)
         row["control_predicted"] = list(judged.labels)
-        if not set(judged.labels or ["JAM"]) & set(row["predicted"]):  # a jam is "JAM"
-            exp = replace(res.job.expectation, modes=tuple(judged.all_modes), system=control)
+        exp = replace(res.job.expectation, modes=tuple(judged.all_modes), system=control)
+        if not set(exp.labels) & set(row["predicted"]):  # "JAM" / "MOVES" for an empty set
             row["control_status"] = judge(res.recording, exp,
                                           res.job.thresholds).verdict.outcome.value
     row["wall_s"] = time.perf_counter() - t0
@@ -203,7 +232,7 @@ def run_point(case: str, engine: str, system: System, mu: np.ndarray, ctrl: np.n
 
 def where(row: dict[str, Any]) -> str:
     """``near boundary`` (friction or slip speed), ``wedge possible`` or ``away``."""
-    if row["near_boundary"] or row.get("near_velocity"):
+    if row.get("near_boundary") or row.get("near_velocity"):
         return "near boundary"
     return "wedge possible" if row.get("wedge") else "away"
 
@@ -212,24 +241,31 @@ def false_agreement(row: dict[str, Any]) -> bool:
     """The control agreed although the run agreed with its own prediction, whose modes the
     control's share none of. (A control that agrees with a run that missed its own prediction
     -- e.g. a run that jammed, judged at a friction where a jam is predicted -- is the judge
-    being right.)"""
-    return row.get("control_status") == "agreed" and row["status"] == "agreed"
+    being right.) A hand's control is set against the whole plan's status (``control_of``)."""
+    return (row.get("control_status") == "agreed"
+            and row.get("control_of", row["status"]) == "agreed")
+
+
+STATUSES = ("agreed", "disagreed", "inconclusive", "fault")
 
 
 def table(rows: list[dict[str, Any]]) -> str:
-    out = ["| case | engine | where | n | agreed | disagreed | inconclusive | fault | "
-           "false agreement on control |", "|---|---|---|---|---|---|---|---|---|"]
+    """Per case, engine and where (:func:`where`): runs per verdict, runs not made (a hand
+    without a plan, a plan whose run would be too long), false agreements of the controls."""
+    rows = [e for r in rows for e in hand_entries(r)]
+    out = ["| case | engine | where | n | agreed | disagreed | inconclusive | fault | not run | "
+           "false agreement on control |", "|---|---|---|---|---|---|---|---|---|---|"]
     keys = sorted({(r["case"], r["engine"], where(r)) for r in rows})
     for case, engine, at in keys:
         sel = [r for r in rows if (r["case"], r["engine"], where(r)) == (case, engine, at)]
         c = Counter(r["status"] for r in sel)
         ctrl = [r for r in sel if "control_status" in r]
         false = sum(false_agreement(r) for r in ctrl)
-        n = len(sel)
-        out.append(f"| {case} | {engine} | {at} | {n} | "
-                   + " | ".join(f"{c[s]} ({c[s] / n:.0%})" for s in
-                                ("agreed", "disagreed", "inconclusive", "fault"))
-                   + f" | {false} of {len(ctrl)} |")
+        ran = [r for r in sel if r["status"] in STATUSES]
+        n = len(ran) or 1
+        out.append(f"| {case} | {engine} | {at} | {len(ran)} | "
+                   + " | ".join(f"{c[s]} ({c[s] / n:.0%})" for s in STATUSES)
+                   + f" | {len(sel) - len(ran)} | {false} of {len(ctrl)} |")
     return "\n".join(out)
 
 
@@ -241,9 +277,40 @@ def tasks(cases: list[str], engines: list[str], points: dict[str, int]
             for e in engines if i < points[c]]
 
 
+def user_point(kind: str, index: int, seed: int
+               ) -> tuple[UserDraw, System, np.ndarray, np.ndarray, System | None]:
+    """The ``index``-th system file of ``kind`` (:mod:`planner.sweeps.user_systems`, seeded
+    by ``(seed, kind, index)``: no replay), read with the loader of ``qsplan simulate``
+    (:func:`planner.files.system_file.system_from_dict` of its JSON text), its friction, and a
+    negative control: the friction groups redrawn from their ranges until the predicted mode
+    set (``JAM`` / ``MOVES`` when empty) shares none with the point's; when 50 redraws find
+    none, the mirror image of the file (:func:`planner.sweeps.user_files.mirror_system`) as
+    the judged system if its modes share none (returned last, else ``None``); else ``mu``
+    itself (no control)."""
+    code = sum(map(ord, kind))
+    d = draw_user_system(kind, np.random.default_rng([seed, code, index]))
+    system = system_from_dict(json.loads(json.dumps(d.data)), f"{kind} #{index}")
+    mu = np.asarray(system.mu, dtype=float)
+    empty = "JAM" if commanded_contact_speed(system) > 0 else "MOVES"
+    own = labels(system, mu) or {empty}
+    rng = np.random.default_rng([seed, code, index, 1])
+    for _ in range(50):
+        values = {g: float(rng.uniform(*r)) for g, r in d.groups.items()}
+        ctrl = group_mu(mu, system.friction_groups, values)
+        if not (labels(system, ctrl) or {empty}) & own:
+            return d, system, mu, ctrl, None
+    mirror = system_from_dict(mirror_system(d.data), f"{kind} #{index} mirrored")
+    if not (labels(mirror, mu) or {empty}) & own:
+        return d, system, mu, mu, mirror
+    return d, system, mu, mu, None
+
+
 def point(case: str, index: int, seed: int) -> tuple[System, np.ndarray, np.ndarray]:
     """The ``index``-th draw of ``case`` (the same draw whatever else runs: the generator is
-    seeded by ``(seed, case)`` and the draws before ``index`` are replayed, no simulation)."""
+    seeded by ``(seed, case)`` and the draws before ``index`` are replayed, no simulation; a
+    user-written kind is seeded by ``(seed, kind, index)``, :func:`user_point`)."""
+    if case in KINDS:
+        return user_point(case, index, seed)[1:4]
     rng = np.random.default_rng([seed, sum(map(ord, case))])
     for _ in range(index):
         draw(case, rng)
@@ -251,9 +318,38 @@ def point(case: str, index: int, seed: int) -> tuple[System, np.ndarray, np.ndar
 
 
 def run_task(task: tuple[str, int, str, int]) -> dict[str, Any]:
+    """The row of one ``(case, index, engine, seed)``; an unexpected exception becomes a row
+    with status ``error`` (the campaign goes on; the row says what broke)."""
+    try:
+        return task_row(task)
+    except Exception as exc:  # noqa: BLE001 -- recorded, reported as a finding
+        import traceback
+
+        case, index, engine, seed = task
+        return {"case": case, "index": index, "engine": engine, "seed": seed,
+                "status": "error", "reason": f"{type(exc).__name__}: {exc}",
+                "traceback": traceback.format_exc()[-2000:], "near_boundary": False,
+                "wall_s": 0.0}
+
+
+def task_row(task: tuple[str, int, str, int]) -> dict[str, Any]:
     case, index, engine, seed = task
-    system, mu, ctrl = point(case, index, seed)
-    row = run_point(case, engine, system, mu, ctrl)
+    if case == "hand":
+        return run_hand(index, engine, seed, HANDS_DIR, NEAR, SLIP)
+    if case in KINDS:
+        from planner.errors import QsplanError
+
+        d = draw_user_system(case, np.random.default_rng([seed, sum(map(ord, case)), index]))
+        try:
+            _, system, mu, ctrl, mirror = user_point(case, index, seed)
+            row = run_point(case, engine, system, mu, ctrl, mirror)
+        except QsplanError as exc:  # what `qsplan simulate` refuses with exit 2
+            row = {"case": case, "engine": engine, "status": "refused", "reason": str(exc),
+                   "near_boundary": False, "wall_s": 0.0}
+        row.update(params=d.params, claim=d.claim.why, file=d.data)
+    else:
+        system, mu, ctrl = point(case, index, seed)
+        row = run_point(case, engine, system, mu, ctrl)
     row.update(index=index, seed=seed)
     return row
 
@@ -279,12 +375,18 @@ def main() -> None:
                     help="points per case: N, or CASE=N,... (e.g. ex41=200,ex43=200,system=50)")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--engines", default="pymunk,mujoco")
-    ap.add_argument("--cases", default="ex41,ex43,system")
+    ap.add_argument("--cases", default="ex41,ex43,system",
+                    help=f"comma-separated: ex41, ex43, system, {', '.join(KINDS)}, hand")
+    ap.add_argument("--hands-dir", default=str(HANDS_DIR),
+                    help="folder for the random hands' files, plans and validation runs")
     ap.add_argument("--jsonl", help="append every row to this file and skip the (case, index, "
                     "engine, seed) rows it already holds (resumable)")
     ap.add_argument("--workers", type=int, default=1, help="processes")
     ap.add_argument("--chunk", default="0/1", help="K/N: run only tasks with number %% N == K")
     ap.add_argument("--table-only", action="store_true", help="print the table of --jsonl")
+    ap.add_argument("--refresh-where", action="store_true",
+                    help="re-derive the hand rows' near flags of --jsonl from their plans (the "
+                    "planner only, no simulation) and rewrite the file")
     ap.add_argument("--mujoco-backend-defaults", action="store_true",
                     help="MuJoCo: the backend's defaults (stiff squeeze pairs, driven bodies 1e6 "
                     "x the workpiece) instead of the system scenes' settings "
@@ -295,7 +397,11 @@ def main() -> None:
 
         global MUJOCO_SETTINGS
         MUJOCO_SETTINGS = EngineSettings()
+    globals()["HANDS_DIR"] = Path(args.hands_dir)
     done = read_rows(args.jsonl) if args.jsonl else []
+    if args.refresh_where:
+        refresh_where(args.jsonl, done, NEAR, SLIP)
+        return
     if args.table_only:
         print(table(done))
         return
@@ -318,10 +424,12 @@ def main() -> None:
         if args.jsonl:
             with open(args.jsonl, "a") as fh:
                 fh.write(json.dumps(r) + "\n")
-        print(f"{r['case']} #{r['index']} {r['engine']} mu={np.round(r['mu'], 3).tolist()} "
-              f"{r['status']:12s} control {r.get('control_status', '-'):10s} "
-              f"{where(r)} pred {r['predicted']} "
-              f"obs {r['observed']} [{r['wall_s']:.1f} s]", flush=True)
+        what = (f"runs {[x['status'] for x in r.get('runs', [])]}" if r["case"] == "hand"
+                else f"mu={np.round(r.get('mu', []), 3).tolist()} pred {r.get('predicted')} "
+                     f"obs {r.get('observed')}")
+        print(f"{r['case']} #{r['index']} {r['engine']} {r['status']:12s} control "
+              f"{r.get('control_status', '-'):10s} {where(r)} {what} [{r['wall_s']:.1f} s]",
+              flush=True)
 
     if args.workers > 1:
         import multiprocessing
