@@ -1,0 +1,435 @@
+"""DART (``dartpy``) backend of :class:`sim.scene.Backend`: a complementarity (LCP) referee.
+
+DART solves every step's contacts as one boxed LCP (Dantzig pivoting; DART falls back to its
+projected Gauss-Seidel solver when pivoting fails on a degenerate contact set): a sticking
+contact's tangential velocity is the solution of a linear system, not the end point of an
+iteration, so the engine is algorithmically independent of pymunk's sequential impulses and of
+MuJoCo's soft contacts. The measured facts and every derived setting are in docs/engine-dart.md.
+
+Mapping of the scene (plane = DART's x-y plane, z out of the plane; every shape is extruded
+symmetrically about z = 0, so every contact normal lies in the plane):
+
+* dynamic body without a joint: a ``PlanarJoint`` (x, y, theta of the body frame) on a carrier
+  that slides along z (:data:`CARRIER_MASS_RATIO`): with no out-of-plane degree of freedom the
+  z friction rows of every contact are zero and the pivoting solver fails on the singular LCP;
+  nothing pushes along z, so the carrier stays at z = 0 (its coordinate is not reported);
+* driven body: a ``PlanarJoint`` with DART's ``VELOCITY`` actuator -- the joint moves at the
+  commanded twist, is not moved by contact impulses (infinite inertia) and transmits friction;
+* static body: a skeleton welded to the world;
+* joint: ``RevoluteJoint`` (about z) or ``PrismaticJoint`` at the anchor, on the carrier (joint
+  to the base) or on the parent link (chains); velocity control = ``VELOCITY`` actuator (the
+  exact commanded rate, unbounded effort), effort control = ``FORCE`` actuator (the effort acts on
+  the body and, opposite, on the parent);
+* loads: an external force at the centre of mass plus a torque about z, every step;
+* contact pairs: one *site* per pair and side -- a massless body welded to the pair's body that
+  carries a copy of the pair's shape -- and a body-pair filter that lets a site collide only with
+  its partner: only declared pairs touch, and each pair has its own Coulomb coefficient (DART takes
+  the smaller of the two shapes' coefficients; both copies carry the pair's ``mu``);
+* shapes (:func:`primitives`): a circle is a sphere; a capsule a DART capsule (against a capsule:
+  a box and two spheres, since DART gives two parallel capsules one contact point); a rectangle a
+  box; another convex polygon one thin box (*slab*) per edge, its outer face on the edge
+  (against a polygon: capsules of radius :data:`ROUNDING_OF_SCALE` inset along its edges, so
+  flat-on-flat contacts give two points in the plane instead of four redundant ones).
+
+Engine options fixed here, each derived in docs/engine-dart.md: gravity 0 (loads are explicit),
+sleeping (DART's default deactivation of bodies slower than 1 cm/s) off, split impulses on
+(penetration recovery without adding velocity), DART's own collision detector.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import dartpy as dart
+import numpy as np
+
+from planner.errors import InputError
+from sim.backends.switching import replace_joint, switch_joint
+from sim.scene import (
+    ABSENT,
+    Body,
+    BodyKind,
+    BodyState,
+    Capsule,
+    Circle,
+    ContactReading,
+    Control,
+    Joint,
+    JointKind,
+    Polygon,
+    Scene,
+    Shape,
+    point_velocity,
+)
+
+#: Extrusion depth along z of every box, in scene length scales (any depth beyond the largest
+#: in-plane penetration gives the same in-plane contacts).
+EXTRUSION_OF_SCALE = 1.0
+#: Thickness of a polygon's edge slab, in scene length scales (at most half the polygon's
+#: width). Only a vertex of interior angle below 90 deg is affected: its two slabs reach past
+#: the neighbouring edge by ``thickness cos(angle)``.
+SLAB_OF_SCALE = 1e-2
+#: Radius of the sphere that rounds every polygon vertex, in scene length scales: above the
+#: scenes' pre-load (:data:`sim.scene.PRELOAD_OF_SCALE`), so a tip's centre starts outside.
+ROUNDING_OF_SCALE = 1e-4
+#: Mass of a z carrier and of a contact site over the scene's heaviest dynamic body (they only
+#: keep the LCP regular; their inertia is negligible at this ratio).
+CARRIER_MASS_RATIO = 1e-6
+#: DART treats a contact whose friction coefficient is at most this as frictionless.
+FRICTION_FLOOR = 1e-3
+#: DART's constraint force mixing (compiled into the engine): a sticking contact slips at about
+#: ``CFM x |tangential impulse| x (inverse effective mass)`` per step -- the creep floor
+#: (docs/engine-dart.md).
+CFM = 1e-5
+
+
+def _rotation(theta: float) -> np.ndarray:
+    c, s = np.cos(theta), np.sin(theta)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def _iso(rot: np.ndarray, p: Sequence[float]) -> dart.math.Isometry3:
+    tf = dart.math.Isometry3()
+    tf.set_rotation(rot)
+    tf.set_translation([float(p[0]), float(p[1]), float(p[2]) if len(p) > 2 else 0.0])
+    return tf
+
+
+Primitive = tuple[dart.dynamics.Shape, np.ndarray, tuple[float, float]]
+
+
+def _box(a: np.ndarray, b: np.ndarray, width: float, inward: float, depth: float) -> Primitive:
+    """Box from ``a`` to ``b`` (2,) of ``width`` [m], centred ``inward`` [m] to the left."""
+    d = b - a
+    u = d / np.linalg.norm(d)
+    c = 0.5 * (a + b) + inward * np.array([-u[1], u[0]])
+    return (dart.dynamics.BoxShape([float(np.linalg.norm(d)), width, depth]),
+            _rotation(float(np.arctan2(u[1], u[0]))), (float(c[0]), float(c[1])))
+
+
+def _sphere(c: np.ndarray, radius: float) -> Primitive:
+    return (dart.dynamics.SphereShape(float(radius)), np.eye(3), (float(c[0]), float(c[1])))
+
+
+def _is_rectangle(v: np.ndarray) -> bool:
+    if len(v) != 4:
+        return False
+    e = np.roll(v, -1, axis=0) - v
+    scale = float(np.max(np.linalg.norm(e, axis=1)))
+    return bool(np.all(np.abs(np.einsum("ij,ij->i", e, np.roll(e, -1, axis=0)))
+                       <= 1e-9 * scale ** 2))
+
+
+#: Kinds of primitives of a site: flat faces (boxes), true round geometry (spheres of circles
+#: and capsule ends) and the rounded tips of polygon vertices.
+FACES, ROUNDS, TIPS = "faces", "rounds", "tips"
+#: Which kinds of the two sides of a pair collide (and in reverse order): every contact is then
+#: a sphere against a box or a sphere, found in the plane z = 0 -- the 2-D contact set.
+COLLIDING = {(FACES, ROUNDS), (FACES, TIPS), (ROUNDS, ROUNDS)}
+
+
+def primitives(shape: Shape, length: float) -> dict[str, list[Primitive]]:
+    """DART shapes of a 2-D ``shape`` by kind (:data:`FACES`, :data:`ROUNDS`, :data:`TIPS`):
+    ``(shape, rotation (3, 3), centre (2,))`` in the body frame; ``length`` [m] the scene's
+    length scale. A circle is a sphere; a capsule a box (its straight part) and two end
+    spheres; a rectangle one box, another convex polygon one slab per edge (outer face on the
+    edge, :data:`SLAB_OF_SCALE` thick, at most half the polygon's width), and every polygon
+    vertex a sphere of radius :data:`ROUNDING_OF_SCALE` tangent to its two edges."""
+    depth = EXTRUSION_OF_SCALE * length
+    if isinstance(shape, Circle):
+        return {ROUNDS: [_sphere(np.asarray(shape.center, dtype=float), shape.radius)]}
+    if isinstance(shape, Capsule):
+        a, b = np.asarray(shape.a, dtype=float), np.asarray(shape.b, dtype=float)
+        if np.linalg.norm(b - a) <= 1e-9 * length:
+            return {ROUNDS: [_sphere(a, shape.radius)]}
+        return {FACES: [_box(a, b, 2.0 * shape.radius, 0.0, depth)],
+                ROUNDS: [_sphere(a, shape.radius), _sphere(b, shape.radius)]}
+    v = np.asarray(shape.vertices, dtype=float)
+    nxt = np.roll(v, -1, axis=0)
+    u = (nxt - v) / np.linalg.norm(nxt - v, axis=1)[:, None]
+    inward = np.stack([-u[:, 1], u[:, 0]], axis=1)
+    prev = np.roll(inward, 1, axis=0)  # inward normal of the edge ending at each vertex
+    rho = ROUNDING_OF_SCALE * length
+    tips = [_sphere(c, rho) for c in
+            v + rho * (prev + inward) / (1.0 + np.einsum("ij,ij->i", prev, inward))[:, None]]
+    if _is_rectangle(v):
+        e0, e1 = v[1] - v[0], v[2] - v[1]
+        c = v.mean(axis=0)
+        box = (dart.dynamics.BoxShape([float(np.linalg.norm(e0)), float(np.linalg.norm(e1)),
+                                       depth]),
+               _rotation(float(np.arctan2(e0[1], e0[0]))), (float(c[0]), float(c[1])))
+        return {FACES: [box], TIPS: tips}
+    width = float(min(np.max((v - v[k]) @ inward[k]) for k in range(len(v))))
+    h = min(SLAB_OF_SCALE * length, 0.5 * width)
+    return {FACES: [_box(v[k], nxt[k], h, 0.5 * h, depth) for k in range(len(v))], TIPS: tips}
+
+
+def moment_of_inertia(body: Body) -> float:
+    """Moment of inertia [kg m^2] about the centre of mass: ``body.inertia``, else that of its
+    first shape at uniform density (the formulas pymunk uses, so both engines agree)."""
+    if body.inertia is not None:
+        return float(body.inertia)
+    m, com, shape = body.mass, np.asarray(body.com, dtype=float), body.shapes[0]
+    if isinstance(shape, Circle):
+        return float(m * (0.5 * shape.radius ** 2 + np.sum((np.asarray(shape.center) - com) ** 2)))
+    if isinstance(shape, Capsule):
+        a, b = np.asarray(shape.a, dtype=float), np.asarray(shape.b, dtype=float)
+        length = float(np.linalg.norm(b - a)) + 2.0 * shape.radius
+        return float(m * ((length ** 2 + 4.0 * shape.radius ** 2) / 12.0
+                          + np.sum((0.5 * (a + b) - com) ** 2)))
+    p = np.asarray(shape.vertices, dtype=float) - com
+    x, y = p[:, 0], p[:, 1]
+    x1, y1 = np.roll(x, -1), np.roll(y, -1)
+    cr = x * y1 - x1 * y
+    return float(m * np.sum(cr * (x * x + x * x1 + x1 * x1 + y * y + y * y1 + y1 * y1))
+                 / (6.0 * np.sum(cr)))
+
+
+class DartBackend:
+    """DART via dartpy (module docstring). No options: every setting is derived from the scene."""
+
+    name = "dart"
+
+    def __init__(self) -> None:
+        self.t = 0.0
+
+    # -- construction ------------------------------------------------------------------
+    def build(self, scene: Scene) -> None:
+        self.scene = scene
+        world = dart.simulation.World()
+        world.setGravity([0.0, 0.0, 0.0])
+        sleep = world.getDeactivationOptions()
+        sleep.mEnabled = False
+        world.setDeactivationOptions(sleep)
+        world.setCollisionDetector(dart.simulation.CollisionDetectorType.DART)
+        world.getConstraintSolver().setSplitImpulseEnabled(True)
+        self.world = world
+        self._light = CARRIER_MASS_RATIO * max(
+            [b.mass for b in scene.bodies if b.kind == BodyKind.DYNAMIC] or [1.0])
+        joint_of = {j.body: j for j in scene.joints}
+        self.nodes: dict[str, dart.dynamics.BodyNode] = {}
+        self.joints: dict[str, dart.dynamics.Joint] = {}
+        self._skeletons: list[dart.dynamics.Skeleton] = []
+        for b in scene.bodies:
+            j = joint_of.get(b.name)
+            if b.kind == BodyKind.STATIC:
+                if j is not None:
+                    raise InputError(f"joint {j.name!r}: expected a joint on a dynamic or "
+                                     f"driven body, got static body {b.name!r}")
+                self.nodes[b.name] = self._static(b)
+            elif j is not None and j.parent is not None and \
+                    scene.body(j.parent).kind != BodyKind.STATIC:
+                self.nodes[b.name] = self._jointed(b, j, self.nodes[j.parent])
+            elif j is not None:
+                self.nodes[b.name] = self._jointed(b, j, self._carrier(b.name))
+            elif b.kind == BodyKind.DRIVEN:
+                self.nodes[b.name] = self._planar(b, None, driven=True)
+            else:
+                self.nodes[b.name] = self._planar(b, self._carrier(b.name), driven=False)
+        self._build_sites(scene)
+        for skel in self._skeletons:
+            world.addSkeleton(skel)
+        self._readings: dict[str, ContactReading] = {}
+
+    def _skeleton(self, name: str) -> dart.dynamics.Skeleton:
+        skel = dart.dynamics.Skeleton(name)
+        self._skeletons.append(skel)
+        return skel
+
+    def _static(self, b: Body) -> dart.dynamics.BodyNode:
+        skel = self._skeleton(b.name)
+        joint, node = skel.createWeldJointAndBodyNodePair(None)
+        joint.setTransformFromParentBodyNode(_iso(_rotation(b.pose[2]), b.pose[:2]))
+        skel.setMobile(False)
+        return node
+
+    def _carrier(self, name: str) -> dart.dynamics.BodyNode:
+        """Root of a mobile skeleton: a light body sliding along z (module docstring)."""
+        joint, node = self._skeleton(name).createPrismaticJointAndBodyNodePair(None)
+        joint.setAxis([0.0, 0.0, 1.0])
+        self._mass(node, self._light, self._light)
+        return node
+
+    def _mass(self, node: dart.dynamics.BodyNode, mass: float, inertia: float,
+              com: Sequence[float] = (0.0, 0.0)) -> None:
+        node.setMass(float(mass))
+        node.setLocalCOM([float(com[0]), float(com[1]), 0.0])
+        node.setMomentOfInertia(inertia, inertia, inertia)
+
+    def _planar(self, b: Body, parent: dart.dynamics.BodyNode | None,
+                driven: bool) -> dart.dynamics.BodyNode:
+        skel = parent.getSkeleton() if parent is not None else self._skeleton(b.name)
+        joint, node = skel.createPlanarJointAndBodyNodePair(parent)
+        joint.setXYPlane()
+        joint.setPositions(np.asarray(b.pose, dtype=float))
+        if driven:
+            joint.setActuatorType(dart.dynamics.ActuatorType.VELOCITY)
+            self._mass(node, 1.0, 1.0)
+        else:
+            self._mass(node, b.mass, moment_of_inertia(b), b.com)
+        return node
+
+    def _jointed(self, b: Body, j: Joint, parent: dart.dynamics.BodyNode
+                 ) -> dart.dynamics.BodyNode:
+        """Body ``b`` on revolute/prismatic joint ``j`` to ``parent`` (a chain link or the
+        carrier of a joint to the base). Joint frame: at the anchor, oriented like ``b`` at
+        its initial pose, so the joint coordinate is 0 at the scene's poses."""
+        skel = parent.getSkeleton()
+        if j.kind == JointKind.REVOLUTE:
+            joint, node = skel.createRevoluteJointAndBodyNodePair(parent)
+            joint.setAxis([0.0, 0.0, 1.0])
+        else:
+            joint, node = skel.createPrismaticJointAndBodyNodePair(parent)
+            ax = _rotation(b.pose[2])[:2, :2].T @ np.asarray(j.axis, dtype=float)
+            joint.setAxis([float(ax[0]), float(ax[1]), 0.0])
+        pose_p = (self.scene.body(j.parent).pose if j.parent is not None
+                  and self.scene.body(j.parent).kind != BodyKind.STATIC else (0.0, 0.0, 0.0))
+        rp, rb = _rotation(pose_p[2]), _rotation(b.pose[2])
+        anchor = np.array([j.anchor[0], j.anchor[1], 0.0])
+        in_parent = rp.T @ (anchor - np.array([pose_p[0], pose_p[1], 0.0]))
+        in_body = rb.T @ (anchor - np.array([b.pose[0], b.pose[1], 0.0]))
+        joint.setTransformFromParentBodyNode(_iso(rp.T @ rb, in_parent))
+        joint.setTransformFromChildBodyNode(_iso(np.eye(3), in_body))
+        self._mass(node, b.mass, moment_of_inertia(b), b.com)
+        self.joints[j.name] = joint
+        self._actuate(j.name, j.control)
+        return node
+
+    def _actuate(self, joint: str, control: Control | str) -> None:
+        kind = (dart.dynamics.ActuatorType.VELOCITY if Control(control) == Control.VELOCITY
+                else dart.dynamics.ActuatorType.FORCE)
+        self.joints[joint].setActuatorType(kind)
+
+    def _build_sites(self, scene: Scene) -> None:
+        """Site bodies per pair, side and kind of primitive (module docstring) and the filter
+        that lets a site collide only with its partner's sites of a :data:`COLLIDING` kind."""
+        self._site_of: dict[str, tuple[str, str]] = {}  # shape node name -> (pair, side)
+        self._site_shapes: dict[str, list[dart.dynamics.ShapeNode]] = {}
+        sites: list[tuple[str, str, str, dart.dynamics.BodyNode]] = []
+        for p in scene.pairs:
+            self._site_shapes[p.name] = []
+            for side, body, index in (("a", p.body_a, p.shape_a), ("b", p.body_b, p.shape_b)):
+                parent = self.nodes[body]
+                shape = scene.body(body).shapes[index]
+                for kind, prims in primitives(shape, scene.length_scale).items():
+                    joint, node = parent.getSkeleton().createWeldJointAndBodyNodePair(parent)
+                    node.setName(f"{p.name}#{side}:{kind}")
+                    self._mass(node, self._light, self._light)
+                    for k, (shp, rot, centre) in enumerate(prims):
+                        sn = node.createShapeNode(shp)
+                        sn.setName(f"{p.name}#{side}:{kind}{k}")
+                        sn.setRelativeTransform(_iso(rot, centre))
+                        sn.createCollisionAspect()
+                        sn.createDynamicsAspect().setFrictionCoeff(float(p.mu_static))
+                        self._site_of[sn.getName()] = (p.name, side)
+                        self._site_shapes[p.name].append(sn)
+                    sites.append((p.name, side, kind, node))
+        # the solver's own filter object (a filter assigned to the option returned by
+        # getCollisionOption() is not kept)
+        self._filter = self.world.getConstraintSolver().getCollisionOption().collisionFilter
+        for i, (pi, si, ki, ni) in enumerate(sites):
+            for pj, sj, kj, nj in sites[i + 1:]:
+                if pi != pj or si == sj or not ((ki, kj) in COLLIDING or (kj, ki) in COLLIDING):
+                    self._filter.addBodyNodePairToBlackList(ni, nj)
+        for skel in self._skeletons:  # a pair between two links of one chain
+            skel.enableSelfCollisionCheck()
+            skel.disableAdjacentBodyCheck()
+
+    # -- stepping ----------------------------------------------------------------------
+    def step(self, dt: float) -> None:
+        states = self.state()
+        jointed = {j.body for j in self.scene.joints}
+        for b in self.scene.bodies:
+            if b.kind == BodyKind.DRIVEN and b.twist is not None and b.name not in jointed:
+                self.nodes[b.name].getParentJoint().setCommands(
+                    np.array([float(v) for v in b.twist(self.t, states)]))
+        for j in self.scene.joints:
+            self.joints[j.name].setCommand(0, float(j.command(self.t, states)))
+        for ld in self.scene.loads:
+            node, body = self.nodes[ld.body], self.scene.body(ld.body)
+            node.addExtForce([float(ld.force[0]), float(ld.force[1]), 0.0],
+                             [float(body.com[0]), float(body.com[1]), 0.0], False, True)
+            node.addExtTorque([0.0, 0.0, float(ld.moment)], False)
+        if self.world.getTimeStep() != dt:
+            self.world.setTimeStep(dt)
+        self.world.step()
+        self.t += dt
+        self._readings = self._read_contacts()
+
+    # -- readout -----------------------------------------------------------------------
+    def state(self) -> dict[str, BodyState]:
+        out = {}
+        for b in self.scene.bodies:
+            node = self.nodes[b.name]
+            tf = node.getWorldTransform()
+            p, rot = tf.translation(), tf.rotation()
+            v, w = node.getLinearVelocity(), node.getAngularVelocity()
+            out[b.name] = BodyState(
+                pose=(float(p[0]), float(p[1]), float(np.arctan2(rot[1, 0], rot[0, 0]))),
+                twist=(float(v[0]), float(v[1]), float(w[2])))
+        return out
+
+    def _read_contacts(self) -> dict[str, ContactReading]:
+        """One reading per pair from the step's contacts (found at the poses at the start of
+        the step, forces of the step's LCP). Several contacts of one pair (a capsule flat on a
+        slab, a vertex touching two slabs) are summed: force = sum, normal = the deepest
+        contact's, point = normal-force-weighted mean (the deepest point without force), depth =
+        the largest; the slip velocity is taken at the point from the bodies' twists after the
+        step."""
+        parts: dict[str, list[tuple[float, np.ndarray, np.ndarray, np.ndarray]]] = {}
+        for c in self.world.getLastCollisionResult().getContacts():
+            first = self._site_of.get(c.collisionObject1.getShapeFrame().getName())
+            if first is None:
+                continue
+            # DART: the normal points into collision object 1, the force is the force on it
+            sign = 1.0 if first[1] == "b" else -1.0
+            n3, f3 = sign * np.asarray(c.normal), sign * np.asarray(c.force)
+            n = n3[:2] / max(float(np.linalg.norm(n3[:2])), 1e-300)
+            parts.setdefault(first[0], []).append(
+                (float(c.penetrationDepth), np.asarray(c.point, dtype=float)[:2], n, f3[:2]))
+        states = self.state() if parts else {}
+        out: dict[str, ContactReading] = {}
+        for p in self.scene.pairs:
+            items = parts.get(p.name)
+            if not items:
+                continue
+            depth, point, n, _ = max(items, key=lambda it: it[0])
+            f = np.sum([it[3] for it in items], axis=0)
+            w = np.array([max(float(it[3] @ n), 0.0) for it in items])
+            if len(items) > 1 and w.sum() > 0:
+                point = np.sum([wi * it[1] for wi, it in zip(w, items)], axis=0) / w.sum()
+            t = np.array([-n[1], n[0]])
+            vt = point_velocity(states[p.body_b], point) - point_velocity(states[p.body_a], point)
+            out[p.name] = ContactReading(
+                present=True, point=(float(point[0]), float(point[1])),
+                normal=(float(n[0]), float(n[1])), normal_force=float(f @ n),
+                tangent_force=float(f @ t), slip_velocity=float(vt @ t), depth=depth)
+        return out
+
+    def contacts(self) -> dict[str, ContactReading]:
+        return {p.name: self._readings.get(p.name, ABSENT) for p in self.scene.pairs}
+
+    def set_friction(self, pair: str, mu: float) -> None:
+        if pair not in self._site_shapes:
+            raise InputError(f"set_friction: expected a pair of the scene "
+                             f"{sorted(self._site_shapes)}, got {pair!r}")
+        for sn in self._site_shapes[pair]:
+            sn.getDynamicsAspect().setFrictionCoeff(float(mu))
+
+    def health(self) -> str | None:
+        """A reason when a skeleton's coordinates or velocities are no longer finite."""
+        for skel in self._skeletons:
+            if not (np.all(np.isfinite(skel.getPositions()))
+                    and np.all(np.isfinite(skel.getVelocities()))):
+                return f"DART: non-finite state of {skel.getName()!r}"
+        return None
+
+    # -- control switching (a whole task: segments with other control partitions) ----------
+    def set_control(self, joint: str, control: Control | str) -> None:
+        """Switch revolute joint ``joint`` to ``control`` from the next step on (DART's
+        ``VELOCITY`` or ``FORCE`` actuator); its ``command`` must then return that quantity."""
+        j = switch_joint(self.scene, joint, control)
+        if j is None:
+            return
+        self._actuate(j.name, control)
+        self.scene = replace_joint(self.scene, j, control)
