@@ -305,7 +305,11 @@ class DartBackend:
     def _actuate(self, joint: str, control: Control | str) -> None:
         kind = (dart.dynamics.ActuatorType.VELOCITY if Control(control) == Control.VELOCITY
                 else dart.dynamics.ActuatorType.FORCE)
-        self.joints[joint].setActuatorType(kind)
+        j = self.joints[joint]
+        j.setActuatorType(kind)
+        # the articulated inertia is cached: a kinematic (VELOCITY) joint makes its subtree
+        # infinitely heavy, and switching it to FORCE otherwise leaves the subtree frozen
+        j.getSkeleton().dirtyArticulatedInertia(j.getTreeIndex())
 
     def _build_sites(self, scene: Scene) -> None:
         """Site bodies per pair, side and kind of primitive (module docstring) and the filter
