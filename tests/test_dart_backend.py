@@ -151,7 +151,7 @@ def test_driven_finger_pushes_a_box_at_its_speed_with_the_sliding_friction():
     push = list(rec.pair_names).index("push")
     support = list(rec.pair_names).index("support")
     # the frictionless finger pushes along +x into the box: quasistatic force = mu W
-    assert np.allclose(rec.normals[late, push], [1.0, 0.0], atol=1e-9)
+    assert np.allclose(rec.normals[late, push], [1.0, 0.0], atol=1e-6)
     assert np.allclose(rec.normal_force[late, push], mu_table * weight, rtol=1e-3)
     assert np.allclose(rec.tangent_force[late, push], 0.0, atol=1e-9)
     assert np.allclose(rec.slip_velocity[late, support], -speed, rtol=1e-3)
@@ -265,3 +265,52 @@ def test_polygon_primitives_put_faces_on_the_edges_and_tips_inside_the_vertices(
             inward = np.array([-d[1], d[0]]) / np.linalg.norm(d)
             assert (c - a) @ inward >= r - 1e-12
         assert np.linalg.norm(c - vert) < 10 * r
+
+
+# -- the ruler (Sec. 5.1) against its closed form ----------------------------------------------
+def ruler_errors(mu_s: float, mu_k: float, speed: float, switches: int) -> list[float | None]:
+    """Relative errors of the first ``switches`` switch positions of the ruler in DART
+    (``scenarios.paper_sims.run_ruler``'s scene, classifier and matching; pymunk's step)."""
+    from sim.classify import Thresholds
+    from sim.scenes.ruler import (
+        THICKNESS_RATIO,
+        compare_switches,
+        observed_switches,
+        predicted_switches,
+        ruler_scene,
+        sliding_finger,
+    )
+    from sim.scenes.ruler_theory import SWITCH_OF_SPEED
+
+    x_left, x_right, min_d = -0.4 * L, 0.25 * L, 0.015 * L
+    predicted, sliders = predicted_switches(-x_left, x_right, 1.0, THICKNESS_RATIO * L, mu_s,
+                                            mu_k, min_distance=min_d)
+    predicted, sliders = predicted[:switches], sliders[:switches]
+    # run until the sliding finger is 20 % past the last judged switch
+    travel = (x_right - x_left) - (predicted[-1] + (predicted[-2] if switches > 1 else 0.0))
+    scene = ruler_scene(length=L, weight=1.0, mass=0.1, x_left=x_left, x_right=x_right,
+                        speed=speed, mu_s=mu_s, mu_k=None if mu_k == mu_s else mu_k,
+                        finger_radius=0.03 * L)
+    rec = run_scene(scene, DartBackend(), RunSettings(
+        duration=1.2 * travel / (2 * speed), dt=2e-3, slip_speed=SWITCH_OF_SPEED * speed,
+        penetration_tol=0.01 * L, record_every=5))
+    assert rec.fault is None and rec.present.all()
+    th = Thresholds.for_drive(speed, 1.0, creep_floor=1e-7)
+    slider = sliding_finger(rec, th.slip_speed, th.window)
+    observed, obs_sliders, _ = observed_switches(rec, slider, rec.body_names, th.window)
+    _, errors = compare_switches(predicted, sliders, observed, obs_sliders, tolerance=0.01,
+                                 required=switches)
+    return errors
+
+
+def test_ruler_static_kinetic_first_switches_within_one_percent():
+    errors = ruler_errors(0.8, 0.5, speed=1e-3, switches=2)
+    assert all(e is not None and e <= 0.01 for e in errors), errors
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("mu_s, mu_k", [(0.3, 0.2), (0.5, 0.3), (0.6, 0.4), (0.8, 0.6),
+                                        (0.8, 0.5), (0.8, 0.3)])
+def test_ruler_static_kinetic_five_switches_within_one_percent(mu_s, mu_k):
+    errors = ruler_errors(mu_s, mu_k, speed=3e-4, switches=5)
+    assert all(e is not None and e <= 0.01 for e in errors), errors

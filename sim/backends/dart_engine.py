@@ -1,39 +1,28 @@
-"""DART (``dartpy``) backend of :class:`sim.scene.Backend`: a complementarity (LCP) referee.
+"""DART (``dartpy``) backend of :class:`sim.scene.Backend`: a complementarity referee.
 
-DART solves every step's contacts as one boxed LCP (Dantzig pivoting; DART falls back to its
-projected Gauss-Seidel solver when pivoting fails on a degenerate contact set): a sticking
-contact's tangential velocity is the solution of a linear system, not the end point of an
-iteration, so the engine is algorithmically independent of pymunk's sequential impulses and of
-MuJoCo's soft contacts. The measured facts and every derived setting are in docs/engine-dart.md.
+Each step DART solves the contacts and joints as one constraint problem, here with its
+non-smooth Gauss-Seidel solver under the exact Coulomb law (:data:`NSGS_TOLERANCE`; DART's
+default Dantzig pivoting bounds friction by the *frictionless* normal impulses, which left the
+sliding fingers of a squeeze at 0.6-0.8 mu). Facts and derivations: docs/engine-dart.md.
 
-Mapping of the scene (plane = DART's x-y plane, z out of the plane; every shape is extruded
-symmetrically about z = 0, so every contact normal lies in the plane):
+The scene plane is DART's x-y plane; shapes are extruded symmetrically about z = 0.
 
-* dynamic body without a joint: a ``PlanarJoint`` (x, y, theta of the body frame) on a carrier
-  that slides along z (:data:`CARRIER_MASS_RATIO`): with no out-of-plane degree of freedom the
-  z friction rows of every contact are zero and the pivoting solver fails on the singular LCP;
-  nothing pushes along z, so the carrier stays at z = 0 (its coordinate is not reported);
-* driven body: a ``PlanarJoint`` with DART's ``VELOCITY`` actuator -- the joint moves at the
-  commanded twist, is not moved by contact impulses (infinite inertia) and transmits friction;
-* static body: a skeleton welded to the world;
-* joint: ``RevoluteJoint`` (about z) or ``PrismaticJoint`` at the anchor, on the carrier (joint
-  to the base) or on the parent link (chains); velocity control = ``VELOCITY`` actuator (the
-  exact commanded rate, unbounded effort), effort control = ``FORCE`` actuator (the effort acts on
-  the body and, opposite, on the parent);
-* loads: an external force at the centre of mass plus a torque about z, every step;
-* contact pairs: one *site* per pair and side -- a massless body welded to the pair's body that
-  carries a copy of the pair's shape -- and a body-pair filter that lets a site collide only with
-  its partner: only declared pairs touch, and each pair has its own Coulomb coefficient (DART takes
-  the smaller of the two shapes' coefficients; both copies carry the pair's ``mu``);
-* shapes (:func:`primitives`): a circle is a sphere; a capsule a DART capsule (against a capsule:
-  a box and two spheres, since DART gives two parallel capsules one contact point); a rectangle a
-  box; another convex polygon one thin box (*slab*) per edge, its outer face on the edge
-  (against a polygon: capsules of radius :data:`ROUNDING_OF_SCALE` inset along its edges, so
-  flat-on-flat contacts give two points in the plane instead of four redundant ones).
+* dynamic body: ``PlanarJoint`` (x, y, theta) on a light carrier sliding along z
+  (:data:`CARRIER_MASS_RATIO`; without it every contact's z friction row is zero and the
+  problem singular); driven body: ``PlanarJoint`` with the ``VELOCITY`` actuator (moves at the
+  commanded twist, unmoved by contacts, transmits friction); static body: welded to the world;
+* joint: ``RevoluteJoint`` (z) or ``PrismaticJoint`` at the anchor, on the carrier (to the
+  base) or on the parent link (chains); ``VELOCITY`` actuator (exact rate, unbounded effort) or
+  ``FORCE`` actuator (effort on the body and, opposite, on the parent); loads: external force at
+  the centre of mass and torque about z, every step;
+* contacts: per pair, side and kind of primitive (:func:`primitives`) a massless *site* body
+  welded to the pair's body, and a body-pair filter letting a site touch only its partner's
+  sites of a :data:`COLLIDING` kind -- only declared pairs collide, each with its own Coulomb
+  coefficient, and every contact is a sphere against a box or sphere in the plane z = 0.
 
-Engine options fixed here, each derived in docs/engine-dart.md: gravity 0 (loads are explicit),
-sleeping (DART's default deactivation of bodies slower than 1 cm/s) off, split impulses on
-(penetration recovery without adding velocity), DART's own collision detector.
+Fixed engine options (docs/engine-dart.md): gravity 0 (loads are explicit), sleeping off (DART
+freezes bodies slower than 1 cm/s for 0.5 s), split impulses, DART's collision detector, the
+depth floor :data:`DEPTH_FLOOR_OF_SCALE`.
 """
 
 from __future__ import annotations
@@ -60,6 +49,7 @@ from sim.scene import (
     Shape,
     point_velocity,
 )
+from sim.scenes.multibody import polygon_inertia
 
 #: Extrusion depth along z of every box, in scene length scales (any depth beyond the largest
 #: in-plane penetration gives the same in-plane contacts).
@@ -74,19 +64,20 @@ ROUNDING_OF_SCALE = 1e-4
 #: Mass of a z carrier and of a contact site over the scene's heaviest dynamic body (they only
 #: keep the LCP regular; their inertia is negligible at this ratio).
 CARRIER_MASS_RATIO = 1e-6
-#: Depth floor of a touching contact, in scene length scales. DART pushes a penetrating contact
-#: out by 1 % of its depth per step (its error reduction, compiled in): the depth of a resting
-#: contact decays towards 0 until rounding makes it lose the contact for a step, and the
-#: contact's load then acts alone for that step (a sliding finger's kinetic friction jerks a
-#: ruler so hard that the sticking finger slips). A contact shallower than this has its sphere
-#: grown to this depth (:attr:`DartBackend.inflation` sums the growth: about
-#: ``0.01 x floor`` per contact-step at rest, at most 1e-5 length scales after 1e5 steps).
+#: Depth floor of a touching contact, in scene length scales: DART pushes a contact out by 1 % of
+#: its depth per step (compiled in), so a resting depth decays until rounding drops the contact
+#: for a step (the ruler then chattered); a shallower contact has its sphere grown to the floor
+#: (:attr:`DartBackend.inflation` sums the growth, ~0.01 floor per contact-step at rest).
 DEPTH_FLOOR_OF_SCALE = 1e-8
+#: Residual (DART's measure, ~ the worst contact's velocity error [m/s]) and sweep cap of the
+#: Coulomb solve: 1e-5 of the slowest drive (1e-4 m/s), below the :data:`CFM` creep; a jam has
+#: no solution and stops at the cap (:attr:`DartBackend.unconverged` counts those solves).
+NSGS_TOLERANCE = 1e-9
+NSGS_MAX_SWEEPS = 500
 #: DART treats a contact whose friction coefficient is at most this as frictionless.
 FRICTION_FLOOR = 1e-3
-#: DART's constraint force mixing (compiled into the engine): a sticking contact slips at about
-#: ``CFM x |tangential impulse| x (inverse effective mass)`` per step -- the creep floor
-#: (docs/engine-dart.md).
+#: DART's constraint force mixing (compiled in): a sticking contact slips at about
+#: ``CFM x |tangential impulse| x inverse effective mass`` -- the creep floor.
 CFM = 1e-5
 
 
@@ -119,19 +110,14 @@ def _sphere(c: np.ndarray, radius: float) -> Primitive:
 
 
 def _is_rectangle(v: np.ndarray) -> bool:
-    if len(v) != 4:
-        return False
     e = np.roll(v, -1, axis=0) - v
-    scale = float(np.max(np.linalg.norm(e, axis=1)))
-    return bool(np.all(np.abs(np.einsum("ij,ij->i", e, np.roll(e, -1, axis=0)))
-                       <= 1e-9 * scale ** 2))
+    corners = np.abs(np.einsum("ij,ij->i", e, np.roll(e, -1, axis=0)))
+    return len(v) == 4 and bool(np.all(corners <= 1e-9 * np.max(np.sum(e * e, axis=1))))
 
 
-#: Kinds of primitives of a site: flat faces (boxes), true round geometry (spheres of circles
-#: and capsule ends) and the rounded tips of polygon vertices.
+#: Kinds of primitives: flat faces (boxes), round geometry (circles, capsule ends), polygon tips.
 FACES, ROUNDS, TIPS = "faces", "rounds", "tips"
-#: Which kinds of the two sides of a pair collide (and in reverse order): every contact is then
-#: a sphere against a box or a sphere, found in the plane z = 0 -- the 2-D contact set.
+#: Kinds of the two sides of a pair that collide (either order): a sphere on a box or sphere.
 COLLIDING = {(FACES, ROUNDS), (FACES, TIPS), (ROUNDS, ROUNDS)}
 
 
@@ -159,13 +145,9 @@ def primitives(shape: Shape, length: float) -> dict[str, list[Primitive]]:
     rho = ROUNDING_OF_SCALE * length
     tips = [_sphere(c, rho) for c in
             v + rho * (prev + inward) / (1.0 + np.einsum("ij,ij->i", prev, inward))[:, None]]
-    if _is_rectangle(v):
-        e0, e1 = v[1] - v[0], v[2] - v[1]
-        c = v.mean(axis=0)
-        box = (dart.dynamics.BoxShape([float(np.linalg.norm(e0)), float(np.linalg.norm(e1)),
-                                       depth]),
-               _rotation(float(np.arctan2(e0[1], e0[0]))), (float(c[0]), float(c[1])))
-        return {FACES: [box], TIPS: tips}
+    if _is_rectangle(v):  # one box: its first edge, as wide as the second edge is long
+        w = float(np.linalg.norm(v[2] - v[1]))
+        return {FACES: [_box(v[0], v[1], w, 0.5 * w, depth)], TIPS: tips}
     width = float(min(np.max((v - v[k]) @ inward[k]) for k in range(len(v))))
     h = min(SLAB_OF_SCALE * length, 0.5 * width)
     return {FACES: [_box(v[k], nxt[k], h, 0.5 * h, depth) for k in range(len(v))], TIPS: tips}
@@ -184,12 +166,7 @@ def moment_of_inertia(body: Body) -> float:
         length = float(np.linalg.norm(b - a)) + 2.0 * shape.radius
         return float(m * ((length ** 2 + 4.0 * shape.radius ** 2) / 12.0
                           + np.sum((0.5 * (a + b) - com) ** 2)))
-    p = np.asarray(shape.vertices, dtype=float) - com
-    x, y = p[:, 0], p[:, 1]
-    x1, y1 = np.roll(x, -1), np.roll(y, -1)
-    cr = x * y1 - x1 * y
-    return float(m * np.sum(cr * (x * x + x * x1 + x1 * x1 + y * y + y * y1 + y1 * y1))
-                 / (6.0 * np.sum(cr)))
+    return polygon_inertia(np.asarray(shape.vertices, dtype=float), com, m)
 
 
 class DartBackend:
@@ -206,10 +183,17 @@ class DartBackend:
         world = dart.simulation.World()
         world.setGravity([0.0, 0.0, 0.0])
         sleep = world.getDeactivationOptions()
-        sleep.mEnabled = False
+        sleep.mEnabled = False  # DART's default freezes bodies slower than 1 cm/s
         world.setDeactivationOptions(sleep)
         world.setCollisionDetector(dart.simulation.CollisionDetectorType.DART)
-        world.getConstraintSolver().setSplitImpulseEnabled(True)
+        solver = world.getConstraintSolver()
+        solver.setSplitImpulseEnabled(True)
+        options = dart.constraint.NsgsFrictionSolver.Options()
+        options.law = dart.constraint.NsgsFrictionSolver.Law.Coulomb
+        options.tolerance = NSGS_TOLERANCE
+        options.maxSweeps = NSGS_MAX_SWEEPS
+        self._solver = dart.constraint.NsgsFrictionSolver(options)
+        solver.setBoxedLcpSolver(self._solver)
         self.world = world
         self._light = CARRIER_MASS_RATIO * max(
             [b.mass for b in scene.bodies if b.kind == BodyKind.DYNAMIC] or [1.0])
@@ -239,9 +223,8 @@ class DartBackend:
         self._readings: dict[str, ContactReading] = {}
 
     def _skeleton(self, name: str) -> dart.dynamics.Skeleton:
-        skel = dart.dynamics.Skeleton(name)
-        self._skeletons.append(skel)
-        return skel
+        self._skeletons.append(dart.dynamics.Skeleton(name))
+        return self._skeletons[-1]
 
     def _static(self, b: Body) -> dart.dynamics.BodyNode:
         skel = self._skeleton(b.name)
@@ -289,14 +272,14 @@ class DartBackend:
             joint, node = skel.createPrismaticJointAndBodyNodePair(parent)
             ax = _rotation(b.pose[2])[:2, :2].T @ np.asarray(j.axis, dtype=float)
             joint.setAxis([float(ax[0]), float(ax[1]), 0.0])
-        pose_p = (self.scene.body(j.parent).pose if j.parent is not None
-                  and self.scene.body(j.parent).kind != BodyKind.STATIC else (0.0, 0.0, 0.0))
-        rp, rb = _rotation(pose_p[2]), _rotation(b.pose[2])
+        pp = (self.scene.body(j.parent).pose if j.parent is not None
+              and self.scene.body(j.parent).kind != BodyKind.STATIC else (0.0, 0.0, 0.0))
+        rp, rb = _rotation(pp[2]), _rotation(b.pose[2])
         anchor = np.array([j.anchor[0], j.anchor[1], 0.0])
-        in_parent = rp.T @ (anchor - np.array([pose_p[0], pose_p[1], 0.0]))
-        in_body = rb.T @ (anchor - np.array([b.pose[0], b.pose[1], 0.0]))
-        joint.setTransformFromParentBodyNode(_iso(rp.T @ rb, in_parent))
-        joint.setTransformFromChildBodyNode(_iso(np.eye(3), in_body))
+        joint.setTransformFromParentBodyNode(
+            _iso(rp.T @ rb, rp.T @ (anchor - np.array([pp[0], pp[1], 0.0]))))
+        joint.setTransformFromChildBodyNode(
+            _iso(np.eye(3), rb.T @ (anchor - np.array([b.pose[0], b.pose[1], 0.0]))))
         self._mass(node, b.mass, moment_of_inertia(b), b.com)
         self.joints[j.name] = joint
         self._actuate(j.name, j.control)
@@ -341,8 +324,7 @@ class DartBackend:
                             self._spheres[sn.getName()] = shp
                         self._site_shapes[p.name].append(sn)
                     sites.append((p.name, side, kind, node))
-        # the solver's own filter object (a filter assigned to the option returned by
-        # getCollisionOption() is not kept)
+        # the solver's own filter (one assigned to the returned option would not be kept)
         self._filter = self.world.getConstraintSolver().getCollisionOption().collisionFilter
         for i, (pi, si, ki, ni) in enumerate(sites):
             for pj, sj, kj, nj in sites[i + 1:]:
@@ -352,7 +334,6 @@ class DartBackend:
             skel.enableSelfCollisionCheck()
             skel.disableAdjacentBodyCheck()
 
-    # -- stepping ----------------------------------------------------------------------
     def step(self, dt: float) -> None:
         states = self.state()
         jointed = {j.body for j in self.scene.joints}
@@ -373,7 +354,6 @@ class DartBackend:
         self.t += dt
         self._readings = self._read_contacts()
 
-    # -- readout -----------------------------------------------------------------------
     def state(self) -> dict[str, BodyState]:
         out = {}
         for b in self.scene.bodies:
@@ -387,19 +367,17 @@ class DartBackend:
         return out
 
     def _read_contacts(self) -> dict[str, ContactReading]:
-        """One reading per pair from the step's contacts (found at the poses at the start of
-        the step, forces of the step's LCP). Several contacts of one pair (a capsule flat on a
-        slab, a vertex touching two slabs) are summed: force = sum, normal = the deepest
-        contact's, point = normal-force-weighted mean (the deepest point without force), depth =
-        the largest; the slip velocity is taken at the point from the bodies' twists after the
-        step."""
+        """One reading per pair (contacts found at the step's start poses, the step's forces);
+        several contacts of a pair (a flat edge on a face) are summed: force = sum, normal = the
+        deepest one's, point = normal-force-weighted mean, depth = the largest; slip from the
+        bodies' twists after the step at that point."""
         parts: dict[str, list[tuple[float, np.ndarray, np.ndarray, np.ndarray]]] = {}
         for c in self.world.getLastCollisionResult().getContacts():
             name1 = c.collisionObject1.getShapeFrame().getName()
             first = self._site_of.get(name1)
             if first is None:
                 continue
-            if c.penetrationDepth < self._floor:
+            if c.penetrationDepth < self._floor and float(np.dot(c.force, c.normal)) > 0:
                 self._keep_touching(name1, c.collisionObject2.getShapeFrame().getName(),
                                     float(c.penetrationDepth))
             # DART: the normal points into collision object 1, the force is the force on it
@@ -428,7 +406,8 @@ class DartBackend:
         return out
 
     def _keep_touching(self, name1: str, name2: str, depth: float) -> None:
-        """Grow the contact's sphere by ``floor - depth`` (:data:`DEPTH_FLOOR_OF_SCALE`)."""
+        """Grow a loaded contact's sphere by ``floor - depth`` (:data:`DEPTH_FLOOR_OF_SCALE`;
+        a separating contact carries no force and is left to open)."""
         sphere = self._spheres.get(name1) or self._spheres.get(name2)
         if sphere is None:  # pragma: no cover - every contact involves a sphere
             return
@@ -446,6 +425,13 @@ class DartBackend:
         for sn in self._site_shapes[pair]:
             sn.getDynamicsAspect().setFrictionCoeff(float(mu))
 
+    @property
+    def unconverged(self) -> int:
+        """Contact solves that stopped at :data:`NSGS_MAX_SWEEPS` before
+        :data:`NSGS_TOLERANCE` (two solves per step: velocities and split-impulse positions)."""
+        stats = self._solver.getStats()
+        return int(stats.numSolves - stats.numConverged)
+
     def health(self) -> str | None:
         """A reason when a skeleton's coordinates or velocities are no longer finite."""
         for skel in self._skeletons:
@@ -454,7 +440,6 @@ class DartBackend:
                 return f"DART: non-finite state of {skel.getName()!r}"
         return None
 
-    # -- control switching (a whole task: segments with other control partitions) ----------
     def set_control(self, joint: str, control: Control | str) -> None:
         """Switch revolute joint ``joint`` to ``control`` from the next step on (DART's
         ``VELOCITY`` or ``FORCE`` actuator); its ``command`` must then return that quantity."""
