@@ -3,12 +3,13 @@ ruler with static/kinetic friction, the paper's examples, system scenes, the val
 campaign's friction points, and speed -- DART next to pymunk and MuJoCo in the same run.
 
 * ``incline``: a box on a static block tilted by ``a`` at mu = 0.3, loaded by its weight, each
-  engine's backend with its defaults: creep below ``atan(mu)`` (largest ``|v_t|`` over the last
+  engine's backend with its defaults (``dart-defaults``: DART's own sleeping and solver put
+  back): creep below ``atan(mu)`` (largest ``|v_t|`` over the last
   half of 0.5 s), the stick/slip threshold found by bisection (a box *slides* when its slip after
   0.5 s exceeds 1e-6 m/s), the sliding acceleration's error against ``g (sin a - mu cos a)``;
 * ``ruler``: Sec. 5.1 through ``scenarios.paper_sims.run_ruler`` (pymunk's speed and step);
-* ``examples``: the registered Example 4.1 / 4.3 scenarios (and negative controls) through
-  ``scenarios.paper_sims.run_example``;
+* ``examples``: every registered simulator scenario (Examples 4.1 / 4.3, the ruler, the hand,
+  several workpieces, their negative controls) through its own ``run``;
 * ``systems``: ``box_on_table_high`` / ``_low``, ``part_tool_wall``, ``ruler_block`` and the
   chain boxes of ``tests/data`` through ``sim.system_run.simulate_system``;
 * ``campaign``: the first ``--points`` friction points of ``benchmarks/validation_campaign.py``
@@ -44,6 +45,15 @@ ROOT = Path(__file__).resolve().parents[1]
 G, L, MU = 9.81, 0.1, 0.3
 #: DART's creep floor for the classifier [m/s] (docs/engine-dart.md: measured <= 3e-8)
 DART_CREEP = 1e-7
+#: DART backends made by the registered factory (their depth-floor growth and unconverged solves)
+BUILT: list[Any] = []
+
+
+def dart_counters() -> dict[str, Any]:
+    """Depth-floor growth [m] and unconverged contact solves of the last DART backend built."""
+    if not BUILT:
+        return {}
+    return {"inflation_m": BUILT[-1].inflation, "unconverged_solves": BUILT[-1].unconverged}
 
 
 def enable_dart() -> None:
@@ -52,6 +62,8 @@ def enable_dart() -> None:
     :mod:`scenarios.paper_sims`, with pymunk's numbers and :data:`DART_CREEP`."""
     import scenarios.paper_sims as ps
     import sim.backends as sb
+    import sim.hand_run as hr
+    import sim.hand_settings as hs
     import sim.system_run as sr
     from sim.backends.dart_engine import DartBackend
 
@@ -61,9 +73,13 @@ def enable_dart() -> None:
     factory = sb.make_backend
 
     def make_backend(engine: str, settings: Any = None) -> Any:
-        return DartBackend() if engine == "dart" else factory(engine, settings)
+        if engine != "dart":
+            return factory(engine, settings)
+        BUILT.append(DartBackend())
+        return BUILT[-1]
 
-    sb.make_backend = make_backend  # type: ignore[assignment]
+    sb.make_backend = hr.make_backend = make_backend  # type: ignore[assignment]
+    hs.ENGINE_SETTINGS["dart"] = sb.EngineSettings(dt=1e-3, creep=DART_CREEP)
     sr.RATE["dart"], sr.MAX_SPEED["dart"] = sr.RATE["pymunk"], sr.MAX_SPEED["pymunk"]
     sr.ENGINE["dart"] = dict(sr.ENGINE["pymunk"], creep=DART_CREEP)
     sr.SYSTEM_SETTINGS["dart"] = sb.EngineSettings()
@@ -72,10 +88,29 @@ def enable_dart() -> None:
 
 
 def backend(engine: str) -> Any:
+    """``engine``'s backend; ``dart-defaults``: the DART backend with DART's own defaults put
+    back (sleeping on, Dantzig pivoting with the PGS fallback) -- what the issue measured."""
     enable_dart()
     import sim.backends as sb
 
-    return sb.make_backend(engine)
+    if engine != "dart-defaults":
+        return sb.make_backend(engine)
+    import dartpy
+
+    from sim.backends.dart_engine import DartBackend
+
+    class DartDefaults(DartBackend):
+        name = "dart-defaults"
+
+        def build(self, scene: Scene) -> None:
+            super().build(scene)
+            sleep = self.world.getDeactivationOptions()
+            sleep.mEnabled = True
+            self.world.setDeactivationOptions(sleep)
+            self.world.getConstraintSolver().setBoxedLcpSolver(
+                dartpy.constraint.DantzigBoxedLcpSolver())
+
+    return DartDefaults()
 
 
 # -- incline ---------------------------------------------------------------------------------
@@ -105,6 +140,8 @@ def incline_rows(engines: list[str]) -> list[dict[str, Any]]:
         t0 = time.perf_counter()
         creep = {f"{d:g}": float(np.nanmax(np.abs(slip(engine, th + d)[250:])))
                  for d in (-1.0, -0.01, -0.001)}
+        frozen = slip(engine, th + 0.01, 1.0)  # 1.8e-3 m/s^2: below 1 cm/s for the whole run
+        a01 = G * (np.sin(np.radians(th + 0.01)) - MU * np.cos(np.radians(th + 0.01)))
         lo, hi = th - 0.2, th + 0.2
         for _ in range(18):  # 0.4 deg / 2^18 = 1.5e-6 deg
             mid = 0.5 * (lo + hi)
@@ -125,6 +162,7 @@ def incline_rows(engines: list[str]) -> list[dict[str, Any]]:
                      "threshold_minus_atan_mu_deg": 0.5 * (lo + hi) - th,
                      "threshold_bracket_deg": hi - lo,
                      "sliding_accel_rel_error_at_delta_deg": accel,
+                     "slip_after_1s_at_0.01_deg_of_closed_form": float(frozen[-1] / a01),
                      "wall_s": round(time.perf_counter() - t0, 1)})
         print(rows[-1], flush=True)
     return rows
@@ -147,7 +185,8 @@ def ruler_rows(pairs: list[tuple[float, float]], out: Path) -> list[dict[str, An
                      "predicted": s["switch_positions"]["predicted"],
                      "observed": s["switch_positions"]["observed"],
                      "creep_m_per_s": s["observed"]["creep_m_per_s"],
-                     "fault": s["observed"]["fault"], "wall_s": round(time.perf_counter() - t0)})
+                     "fault": s["observed"]["fault"], "wall_s": round(time.perf_counter() - t0),
+                     **dart_counters()})
         print(rows[-1], flush=True)
     return rows
 
@@ -158,12 +197,11 @@ def example_rows(out: Path) -> list[dict[str, Any]]:
 
     rows = []
     for name, sc in all_scenarios().items():
-        if "paper" not in sc.tags or "ruler" in sc.tags:
+        if "sim" not in sc.tags:
             continue
         s = sc.run(out / name, engine="dart", render=False)
-        rows.append({"scenario": name, "expect": s["expect"], "status": s["status"],
-                     "passed": s["passed"], "predicted": s["predicted"]["labels"],
-                     "observed": s["observed"]["counts"], "fault": s["observed"]["fault"]})
+        rows.append({"scenario": name, "expect": s.get("expect"), "status": s.get("status"),
+                     "passed": s.get("passed"), "reason": s.get("reason"), **dart_counters()})
         print(rows[-1], flush=True)
     return rows
 
@@ -188,7 +226,8 @@ def system_rows(engines: list[str]) -> list[dict[str, Any]]:
                          "predicted": res.summary["predicted"]["labels"],
                          "observed": res.summary["observed"]["counts"],
                          "reason": res.verdict.reason,
-                         "wall_s": round(time.perf_counter() - t0, 1)})
+                         "wall_s": round(time.perf_counter() - t0, 1),
+                         **(dart_counters() if engine == "dart" else {})})
             print({k: rows[-1][k] for k in ("system", "engine", "status", "predicted")},
                   flush=True)
     return rows
