@@ -74,8 +74,6 @@ DEPTH_FLOOR_OF_SCALE = 1e-8
 #: no solution and stops at the cap (:attr:`DartBackend.unconverged` counts those solves).
 NSGS_TOLERANCE = 1e-9
 NSGS_MAX_SWEEPS = 500
-#: DART treats a contact whose friction coefficient is at most this as frictionless.
-FRICTION_FLOOR = 1e-3
 #: DART's constraint force mixing (compiled in): a sticking contact slips at about
 #: ``CFM x |tangential impulse| x inverse effective mass`` -- the creep floor.
 CFM = 1e-5
@@ -221,6 +219,7 @@ class DartBackend:
         for skel in self._skeletons:
             world.addSkeleton(skel)
         self._readings: dict[str, ContactReading] = {}
+        self._states: dict[str, BodyState] | None = None
 
     def _skeleton(self, name: str) -> dart.dynamics.Skeleton:
         self._skeletons.append(dart.dynamics.Skeleton(name))
@@ -351,10 +350,13 @@ class DartBackend:
         if self.world.getTimeStep() != dt:
             self.world.setTimeStep(dt)
         self.world.step()
+        self._states = None
         self.t += dt
         self._readings = self._read_contacts()
 
     def state(self) -> dict[str, BodyState]:
+        if self._states is not None:  # unchanged since the last step
+            return self._states
         out = {}
         for b in self.scene.bodies:
             node = self.nodes[b.name]
@@ -364,6 +366,7 @@ class DartBackend:
             out[b.name] = BodyState(
                 pose=(float(p[0]), float(p[1]), float(np.arctan2(rot[1, 0], rot[0, 0]))),
                 twist=(float(v[0]), float(v[1]), float(w[2])))
+        self._states = out
         return out
 
     def _read_contacts(self) -> dict[str, ContactReading]:
@@ -408,12 +411,9 @@ class DartBackend:
     def _keep_touching(self, name1: str, name2: str, depth: float) -> None:
         """Grow a loaded contact's sphere by ``floor - depth`` (:data:`DEPTH_FLOOR_OF_SCALE`;
         a separating contact carries no force and is left to open)."""
-        sphere = self._spheres.get(name1) or self._spheres.get(name2)
-        if sphere is None:  # pragma: no cover - every contact involves a sphere
-            return
-        grow = self._floor - depth
-        sphere.setRadius(sphere.getRadius() + grow)
-        self.inflation += grow
+        sphere = self._spheres.get(name1) or self._spheres[name2]  # every contact has one
+        sphere.setRadius(sphere.getRadius() + self._floor - depth)
+        self.inflation += self._floor - depth
 
     def contacts(self) -> dict[str, ContactReading]:
         return {p.name: self._readings.get(p.name, ABSENT) for p in self.scene.pairs}
