@@ -107,8 +107,9 @@ def backend(engine: str) -> Any:
             sleep = self.world.getDeactivationOptions()
             sleep.mEnabled = True
             self.world.setDeactivationOptions(sleep)
+            self._default_world = dartpy.simulation.World()  # owns DART's default solver
             self.world.getConstraintSolver().setBoxedLcpSolver(
-                dartpy.constraint.DantzigBoxedLcpSolver())
+                self._default_world.getConstraintSolver().getBoxedLcpSolver())
 
     return DartDefaults()
 
@@ -131,6 +132,34 @@ def slip(engine: str, angle_deg: float, duration: float = 0.5) -> np.ndarray:
                     RunSettings(duration=duration, dt=1e-3, slip_speed=1e-6,
                                 penetration_tol=0.01 * L))
     return np.where(rec.present[:, 0], rec.slip_velocity[:, 0], np.nan)  # + down the slope
+
+
+def sleeping_row() -> dict[str, Any]:
+    """The incline at +0.01 deg with the weight given as DART's gravity (as a plain DART script
+    has it) and DART's default sleeping on: slip after 0.5 s and 1 s over the closed form."""
+    import dartpy
+
+    from sim.backends.dart_engine import DartBackend
+
+    class Sleepy(DartBackend):
+        def build(self, scene: Scene) -> None:
+            super().build(scene)
+            self.world.setGravity([0.0, -G, 0.0])
+            sleep = self.world.getDeactivationOptions()
+            sleep.mEnabled = True
+            self.world.setDeactivationOptions(sleep)
+
+    th = float(np.degrees(np.arctan(MU))) + 0.01
+    scene = incline(th)
+    scene = Scene(bodies=scene.bodies, pairs=scene.pairs, length_scale=L, only_pairs=True)
+    rec = run_scene(scene, Sleepy(), RunSettings(duration=1.0, dt=1e-3, slip_speed=1e-6,
+                                                 penetration_tol=0.01 * L))
+    a = G * (np.sin(np.radians(th)) - MU * np.cos(np.radians(th)))
+    k = int(np.searchsorted(rec.times, 0.5))
+    return {"dartpy": dartpy.__version__, "delta_deg": 0.01,
+            "slip_of_closed_form_at_0.5s": float(rec.slip_velocity[k, 0] / (a * rec.times[k])),
+            "slip_of_closed_form_at_1s": float(rec.slip_velocity[-1, 0] / (a * rec.times[-1])),
+            "present_fraction": float(rec.present.mean())}
 
 
 def incline_rows(engines: list[str]) -> list[dict[str, Any]]:
@@ -305,7 +334,8 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("parts", nargs="+",
                     choices=("incline", "ruler", "examples", "systems", "campaign", "speed"))
-    ap.add_argument("--engines", default="pymunk,mujoco,dart")
+    ap.add_argument("--engines", default="pymunk,mujoco,dart",
+                    help="comma-separated; 'dart-defaults' (incline only): DART's own defaults")
     ap.add_argument("--points", type=int, default=20)
     ap.add_argument("--ruler-pairs", default="0.5/0.5,0.3/0.2,0.5/0.3,0.6/0.4,0.8/0.6,0.8/0.5,"
                                              "0.8/0.3")
@@ -321,6 +351,8 @@ def main() -> None:
     for part in args.parts:
         if part == "incline":
             result["incline"] = incline_rows(engines)
+            result["incline_dart_sleeping"] = sleeping_row()
+            print(result["incline_dart_sleeping"])
         elif part == "ruler":
             pairs = [tuple(float(x) for x in p.split("/")) for p in args.ruler_pairs.split(",")]
             result["ruler"] = ruler_rows(pairs, Path(args.work))  # type: ignore[arg-type]
