@@ -10,8 +10,8 @@ campaign's friction points, and speed -- DART next to pymunk and MuJoCo in the s
 * ``ruler``: Sec. 5.1 through ``scenarios.paper_sims.run_ruler`` (pymunk's speed and step);
 * ``examples``: every registered simulator scenario (Examples 4.1 / 4.3, the ruler, the hand,
   several workpieces, their negative controls) through its own ``run``;
-* ``systems``: ``box_on_table_high`` / ``_low``, ``part_tool_wall``, ``ruler_block`` and the
-  chain boxes of ``tests/data`` through ``sim.system_run.simulate_system``;
+* ``systems``: ``box_on_table_high`` / ``_low`` and the chain boxes of ``tests/data`` through
+  ``sim.system_run.simulate_system`` (the several-workpiece files run as registered scenarios);
 * ``campaign``: the first ``--points`` friction points of ``benchmarks/validation_campaign.py``
   (seed 1) per case through the same machinery, and agreement with the pymunk / MuJoCo rows
   recorded for those points in ``benchmarks/results/validation_campaign.jsonl``;
@@ -236,7 +236,6 @@ def example_rows(out: Path) -> list[dict[str, Any]]:
 
 
 SYSTEM_FILES = ("scenarios/data/box_on_table_high.json", "scenarios/data/box_on_table_low.json",
-                "scenarios/data/part_tool_wall.json", "scenarios/data/ruler_block.json",
                 "tests/data/two_link_finger_box.json", "tests/data/prismatic_finger_box.json",
                 "tests/data/two_link_effort_finger_box.json")
 
