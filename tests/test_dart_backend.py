@@ -314,3 +314,23 @@ def test_ruler_static_kinetic_first_switches_within_one_percent():
 def test_ruler_static_kinetic_five_switches_within_one_percent(mu_s, mu_k):
     errors = ruler_errors(mu_s, mu_k, speed=3e-4, switches=5)
     assert all(e is not None and e <= 0.01 for e in errors), errors
+
+
+def test_sliding_fingers_of_a_squeeze_carry_exactly_mu_times_their_normal_force():
+    """Example 4.1 at mu = (0.2, 0.3, 0.1), mode 3S (Sec. 4.1, eq. 37): every finger slides, so
+    each contact's ``|f_t| / f_n`` is its ``mu``. (DART's default Dantzig solver gave 0.142,
+    0.243, 0.061: its friction bounds come from normal impulses that later pivots change.)"""
+    from planner.files.system_file import load_system
+    from scenarios.registry import DATA_DIR
+    from sim.scenes.paper import example_scene, scaled_system
+
+    mu = (0.2, 0.3, 0.1)
+    system = scaled_system(load_system(DATA_DIR / "example_4_1.json"), 0.01, 2e-3).with_mu(mu)
+    backend = DartBackend()
+    backend.build(example_scene(system, speed=2e-3, mass=0.1))
+    for _ in range(600):
+        backend.step(1e-3)
+    for m, r in zip(mu, backend.contacts().values()):
+        assert r.present and abs(r.slip_velocity) > 1e-4
+        assert abs(r.tangent_force) / r.normal_force == pytest.approx(m, rel=1e-4)
+    assert backend.unconverged == 0
