@@ -209,6 +209,24 @@ def environment_failure(exc: BaseException) -> str | None:
             f"({errno.errorcode[exc.errno]}){where}; {interrupts.outputs_status()}")
 
 
+@contextlib.contextmanager
+def _memory_budget(args: argparse.Namespace) -> Iterator[None]:
+    """``--memory-gib`` as the process's memory budget (the loaders check it too) while the
+    command runs."""
+    from planner.files.reader import GIB, memory_budget, set_memory_budget
+    from qsplan.options import parse_number
+
+    if getattr(args, "memory_gib", None) is not None:
+        args.memory_gib = parse_number(str(args.memory_gib), "--memory-gib", lo=1e-6, hi=1e6)
+        set_memory_budget(int(args.memory_gib * GIB))
+    else:
+        memory_budget()  # a bad $QSPLAN_MEMORY_GIB is bad input before any work
+    try:
+        yield
+    finally:
+        set_memory_budget(None)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``qsplan`` console script; returns the exit code."""
     restore = interrupts.install()  # in-process callers: handlers for this call only
@@ -233,12 +251,7 @@ def _main(argv: Sequence[str] | None) -> int:
     debug = bool(getattr(args, "debug", False))
     name = f"qsplan {args.command}"
     try:
-        with interrupts.armed(name):
-            if getattr(args, "memory_gib", None) is not None:
-                from qsplan.options import parse_number
-
-                args.memory_gib = parse_number(str(args.memory_gib), "--memory-gib", lo=1e-6,
-                                               hi=1e6)
+        with interrupts.armed(name), _memory_budget(args):
             with _quiet_numerics(debug):
                 return int(args.func(args) or 0)
     except interrupts.Interrupted as exc:
