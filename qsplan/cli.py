@@ -241,7 +241,9 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def _main(argv: Sequence[str] | None) -> int:
     from planner.errors import QsplanError
+    from planner.files.outputs import forget_history
 
+    forget_history()  # what became of the outputs: this command's only
     parser = build_parser()
     argv = list(sys.argv[1:] if argv is None else argv)
     args = parser.parse_args(argv)

@@ -82,6 +82,10 @@ def outputs_status() -> str:
     if pending:
         parts.append(f"not written: {', '.join(map(repr, pending))} (previous contents left "
                      "as they were)")
+    left = [str(p) for p in outputs.staging_left()] if outputs else []
+    if left:
+        parts.append(f"the file system refused to delete the staging folder "
+                     f"{', '.join(map(repr, left))}")
     return "; ".join(parts) or "no outputs written"
 
 
