@@ -118,4 +118,4 @@ def test_tiny_and_read_only_file_systems(tmp_path):
                                                           "muspace.png"]
     ro = (tmp_path / "ro.err").read_text()
     assert (tmp_path / "ro.rc").read_text().strip() == "2", ro
-    assert "--out: expected a writable location" in ro, ro
+    assert "--out: expected a writable location" in ro and "is read-only" in ro, ro

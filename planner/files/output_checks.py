@@ -65,9 +65,19 @@ def nearest_existing_ancestor(path: Path, what: str) -> Path:
         raise InputError(f"{what}: expected a path below a directory, got {str(path)!r} "
                          f"({str(parent)!r} is {describe_mode(st.st_mode)})")
     if not os.access(parent, os.W_OK | os.X_OK):
-        raise InputError(f"{what}: expected a writable location, got {str(path)!r} (no "
-                         f"permission to write in {str(parent)!r})")
+        raise InputError(f"{what}: expected a writable location, got {str(path)!r} "
+                         f"({unwritable(parent)})")
     return parent
+
+
+def unwritable(folder: Path | str) -> str:
+    """Why ``folder`` cannot be written: its file system is read-only, or no permission."""
+    try:
+        if os.statvfs(folder).f_flag & getattr(os, "ST_RDONLY", 1):
+            return f"the file system of {str(folder)!r} is read-only"
+    except OSError:
+        pass
+    return f"no permission to write in {str(folder)!r}"
 
 
 def check_output_path(path: str | os.PathLike[str], kind: Kind, what: str = "--out") -> Path:
@@ -93,8 +103,8 @@ def check_output_path(path: str | os.PathLike[str], kind: Kind, what: str = "--o
     if kind == "file" and stat.S_ISREG(st.st_mode) or kind == "dir" and stat.S_ISDIR(st.st_mode):
         folder = p.absolute().parent if kind == "file" else p
         if not os.access(folder, os.W_OK | os.X_OK):
-            raise InputError(f"{what}: expected a writable location, got {text!r} (no "
-                             f"permission to write in {str(folder)!r})")
+            raise InputError(f"{what}: expected a writable location, got {text!r} "
+                             f"({unwritable(folder)})")
         return p
     link = " (through a symbolic link)" if os.path.islink(p) else ""
     raise InputError(f"{what}: expected {wanted} or a new path, got {text!r}, which is "
@@ -166,8 +176,8 @@ def _check_tree(folder: Path, what: str) -> None:
                              f"{str(d)!r}; it is not replaced")
         if not os.access(d, os.W_OK | os.X_OK):
             raise InputError(f"{what}: expected a writable folder {str(d)!r} inside "
-                             f"{str(folder)!r}, which the command replaces as a whole, got no "
-                             "permission to delete in it")
+                             f"{str(folder)!r}, which the command replaces as a whole, got "
+                             f"{unwritable(d)}")
         try:
             with os.scandir(d) as it:
                 found = [(Path(e.path), e.stat(follow_symlinks=False).st_mode) for e in it]
