@@ -18,8 +18,6 @@ from __future__ import annotations
 import os
 import sys
 
-from qsplan import interrupts  # standard library only: in place before anything slow loads
-
 
 def _started_as_command() -> bool:
     """True in the ``qsplan`` process itself (the console script or ``python -m
@@ -28,7 +26,23 @@ def _started_as_command() -> bool:
                                                                               "qsplan.exe")
 
 
+def _interrupted_while_starting(signum: int, frame: object) -> None:
+    """The first handler: nothing started yet, so one line and the exit code."""
+    name = {2: "SIGINT (Ctrl-C)", 15: "SIGTERM", 1: "SIGHUP"}.get(signum, f"signal {signum}")
+    try:
+        os.write(2, f"qsplan: interrupted by {name} while starting; nothing done\n".encode())
+    finally:
+        os._exit(128 + signum)
+
+
 if _started_as_command():  # a Ctrl-C while Python imports is one line, not a traceback
+    _signal = __import__("_signal")  # the C module: at once (signal.py's enums take ~50 ms)
+    for _signum in (2, 15, 1):
+        _signal.signal(_signum, _interrupted_while_starting)
+
+from qsplan import interrupts  # noqa: E402 - standard library only
+
+if _started_as_command():
     interrupts.install(watchdog=True)
 
 import argparse  # noqa: E402
