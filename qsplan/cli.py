@@ -128,7 +128,8 @@ def build_parser() -> argparse.ArgumentParser:
         description=(
             "Quasistatic planar contact-mode prediction, torque-bound planning and simulator "
             "validation (Trinkle & Zeng 1994). Exit codes: 0 ok, 1 a check failed, 2 bad "
-            "input, 3 internal or simulator fault."
+            "input, 3 internal, simulator or environment fault, 128+n interrupted by signal "
+            "n."
         ),
         formatter_class=HelpFormatter,
     )
