@@ -114,9 +114,9 @@ def markdown(table: dict[str, dict[str, float]]) -> str:
 
 
 FAULT_COLUMNS = ("runs", "exit 0", "exit 1", "exit 2", "exit 3", "exit 128+n",
-                 "finished first", "tracebacks", "wrong exit code", "ended > 1 s after signal",
-                 "children left", "staging left", "partial output sets",
-                 "special files touched", "internal faults")
+                 "finished first", "signal as it finished", "tracebacks", "wrong exit code",
+                 "ended > 1 s after signal", "children left", "staging left",
+                 "partial output sets", "special files touched", "internal faults")
 
 
 def fault_campaign(fx, tmp: Path, args: argparse.Namespace) -> list:  # type: ignore[no-untyped-def]
@@ -175,6 +175,7 @@ def fault_table(runs: list) -> dict[str, dict[str, float]]:  # type: ignore[type
         key = f"exit {r.code}" if r.code in (0, 1, 2, 3) else "exit 128+n"
         row[key] += 1
         row["finished first"] += "finished first" in r.detail
+        row["signal as it finished"] += "came as the command finished" in r.detail
         text = " ".join(r.problems)
         row["tracebacks"] += "traceback" in text
         row["wrong exit code"] += "expected one of" in text

@@ -20,6 +20,9 @@ How:
   children ignore SIGINT and SIGHUP (the terminal sends them to the whole process group; the
   parent decides), take SIGTERM's default action and, on Linux, get SIGKILL when the parent
   dies (``PR_SET_PDEATHSIG``).
+* Once Python runs its exit handlers (the command's result decided, its outputs written), the
+  three signals are ignored: Python would otherwise reset them to their default action while
+  it collects its objects, and a late signal would kill the process without a word.
 * With ``watchdog=True`` (the ``qsplan`` process itself, not an in-process call) a thread
   wakes on every signal through ``signal.set_wakeup_fd``; if the process still runs
   :data:`GRACE_S` seconds after the first one -- the main thread stuck in a long call of
@@ -30,6 +33,7 @@ How:
 
 from __future__ import annotations
 
+import atexit
 import contextlib
 import os
 import signal
@@ -204,6 +208,7 @@ def install(command: str = "qsplan", *, watchdog: bool = False) -> Callable[[], 
         _STATE["fork_hook"] = True
     if watchdog:
         _start_watchdog()
+        atexit.register(_ignore_while_exiting)  # registered first: runs after the others
 
     def restore() -> None:
         for s, h in previous.items():
@@ -221,6 +226,16 @@ def armed(command: str) -> Iterator[None]:
         yield
     finally:
         _STATE.update(armed=False, phase="finishing")
+
+
+def _ignore_while_exiting() -> None:
+    """The last exit handler: the command's result is decided and its outputs are written,
+    and Python is about to put its signal handling away (``SIG_DFL``) before collecting its
+    objects (up to a second after a simulation); a signal then would kill the process without
+    a word.  Ignored instead: the process ends with its own exit code."""
+    for signum in SIGNALS:
+        with contextlib.suppress(ValueError, OSError):
+            signal.signal(signum, signal.SIG_IGN)
 
 
 def _start_watchdog() -> None:

@@ -16,7 +16,10 @@ its function replaced by SCRIPT, a deterministic stand-in for a long command:
 ``pool``
     writes the set while two pool workers sleep, waits (the test sends the signal);
 ``print_in_set``
-    prints 20,000 lines inside the output set, then returns 1 (a failed check).
+    prints 20,000 lines inside the output set, then returns 1 (a failed check);
+``slow_exit``
+    writes the set, prints "done" and returns 0, leaving an object whose finaliser takes 3 s
+    when Python collects it at exit (a signal then comes after the result is decided).
 """
 
 from __future__ import annotations
@@ -38,6 +41,14 @@ def _parse() -> tuple[str, str, int]:
 
 def _sleep(seconds: float) -> None:
     time.sleep(seconds)
+
+
+class SlowToCollect:
+    def __del__(self) -> None:
+        time.sleep(3.0)
+
+
+KEEP: list[object] = []
 
 
 def main() -> int:
@@ -67,6 +78,8 @@ def main() -> int:
                 with ProcessPoolExecutor(max_workers=2) as pool:
                     print("pool started", flush=True)
                     list(pool.map(_sleep, [30.0] * 8))
+            elif script == "slow_exit":
+                KEEP.append(SlowToCollect())
             elif script == "print_in_set":
                 for k in range(20000):
                     print(f"line {k}")
@@ -82,6 +95,8 @@ def main() -> int:
                     real(src, dst)  # type: ignore[arg-type]
 
                 os.rename = rename  # type: ignore[assignment]
+        if script == "slow_exit":
+            print("done", flush=True)
         return 0
 
     real_build = cli.build_parser

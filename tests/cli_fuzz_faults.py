@@ -245,10 +245,12 @@ def signal_fault(job: Job, ref: Reference, folder: Path, log_dir: Path,
     t0 = time.monotonic()
     kids: list[int] = []
     exit_s = None
+    sent = False
     try:
         while time.monotonic() - t0 < at and proc.poll() is None:
             time.sleep(0.01)
         if proc.poll() is None:
+            sent = True
             kids = descendants(proc.pid)
             proc.send_signal(sig)
             t_sig = time.monotonic()
@@ -267,9 +269,11 @@ def signal_fault(job: Job, ref: Reference, folder: Path, log_dir: Path,
     for pid in left:
         os.kill(pid, signal.SIGKILL)
     run = Run("signal", job.name, f"{signal.Signals(sig).name} at {at:.2f} s", proc.returncode,
-              err, exit_s if proc.returncode == 128 + sig else None)
-    if proc.returncode != 128 + sig:
+              err, exit_s if sent else None)
+    if not sent:
         run.detail += " (finished first)"
+    elif proc.returncode != 128 + sig:
+        run.detail += " (came as the command finished)"
     return check_run(run, job, before, snapshot(folder), allowed, left)
 
 

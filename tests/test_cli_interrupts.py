@@ -163,6 +163,22 @@ def test_sweep_workers_end_with_the_command(tmp_path):
         _reap(kids + [proc.pid])
 
 
+def test_signal_while_python_exits_keeps_the_result(tmp_path):
+    """The command finished (outputs written, exit 0) and Python collects its objects: a
+    signal now is ignored -- it killed the process without a word (exit by the signal)."""
+    out = tmp_path / "out"
+    _old_set(out)
+    proc = subprocess.Popen([sys.executable, str(DRIVER), "slow_exit", str(out), "SIGINT"],
+                            env=ENV, cwd=tmp_path, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    assert proc.stdout.readline().strip() == "done"
+    time.sleep(1.0)  # main has returned; the finaliser runs for 3 s
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 0, err
+    assert "Traceback" not in err and (out / "summary.json").read_bytes() == b"new\n"
+
+
 def test_ctrl_c_while_python_imports_is_one_line(tmp_path):
     """The signal arrives while the command line still imports numpy and the commands (before
     the old CLI's ``try``): one line, exit 130, never a traceback."""
