@@ -140,8 +140,13 @@ def descendants(pid: int | None = None) -> list[int]:
 
 
 def kill_children() -> list[int]:
-    """SIGKILL every descendant process (pool workers); returns their ids."""
+    """SIGKILL every descendant process (pool workers); returns their ids.  Without ``/proc``:
+    the processes ``multiprocessing`` started."""
     kids = descendants()
+    if not kids and "multiprocessing" in sys.modules:
+        with contextlib.suppress(Exception):
+            kids = [p.pid for p in sys.modules["multiprocessing"].active_children()
+                    if p.pid is not None]
     for pid in kids:
         with contextlib.suppress(OSError):
             os.kill(pid, signal.SIGKILL)
