@@ -5,29 +5,61 @@ Subcommands live in :mod:`qsplan.commands`: every module there defines
 
 Exit codes: 0 success; 1 the job ran and a check failed (e.g. a validation disagreed);
 2 bad input (usage, a malformed file, invalid values, an unusable output path, a request beyond
-the memory budget); 3 internal or simulator fault.  An unexpected exception never reaches the
+the memory budget); 3 internal, simulator or environment fault (a full disk, a permission lost
+mid-run: named as such, with the path); ``128 + n`` interrupted by signal ``n`` (SIGINT 130,
+SIGTERM 143, SIGHUP 129; :mod:`qsplan.interrupts`).  An unexpected exception never reaches the
 terminal as a traceback: one line names the fault and the log file holding the traceback
-(``--debug`` prints it instead).
+(``--debug`` prints it instead).  The exit code is the command's result whatever happens to
+stdout and stderr (a reader that closes the pipe early: :mod:`qsplan.streams`).
 """
 
 from __future__ import annotations
 
-import argparse
-import contextlib
-import datetime
-import importlib
 import os
-import pkgutil
-import re
 import sys
-import tempfile
-import traceback
-import warnings
-from collections.abc import Iterator, Sequence
-from pathlib import Path
-from typing import Any, NoReturn
 
-from planner.errors import QsplanError
+
+def _started_as_command() -> bool:
+    """True in the ``qsplan`` process itself (the console script or ``python -m
+    qsplan.cli``), False when another program imports this module."""
+    return __name__ == "__main__" or os.path.basename(sys.argv[0] or "") in ("qsplan",
+                                                                              "qsplan.exe")
+
+
+def _interrupted_while_starting(signum: int, frame: object) -> None:
+    """The first handler: nothing started yet, so one line and the exit code."""
+    name = {2: "SIGINT (Ctrl-C)", 15: "SIGTERM", 1: "SIGHUP"}.get(signum, f"signal {signum}")
+    try:
+        os.write(2, f"qsplan: interrupted by {name} while starting; nothing done\n".encode())
+    finally:
+        os._exit(128 + signum)
+
+
+if _started_as_command():  # a Ctrl-C while Python imports is one line, not a traceback
+    _signal = __import__("_signal")  # the C module: at once (signal.py's enums take ~50 ms)
+    for _signum in (2, 15, 1):
+        _signal.signal(_signum, _interrupted_while_starting)
+
+from qsplan import interrupts  # noqa: E402 - standard library only
+
+if _started_as_command():
+    interrupts.install(watchdog=True)
+
+import argparse  # noqa: E402
+import contextlib  # noqa: E402
+import datetime  # noqa: E402
+import errno  # noqa: E402
+import importlib  # noqa: E402
+import pkgutil  # noqa: E402
+import re  # noqa: E402
+import tempfile  # noqa: E402
+import traceback  # noqa: E402
+import warnings  # noqa: E402
+from collections.abc import Iterator, Sequence  # noqa: E402
+from pathlib import Path  # noqa: E402
+from typing import Any, NoReturn  # noqa: E402
+
+from qsplan.streams import guarded_streams  # noqa: E402
 
 EXIT_OK, EXIT_FAILED, EXIT_INPUT, EXIT_FAULT = 0, 1, 2, 3
 LOG_DIR_ENV = "QSPLAN_LOG_DIR"
@@ -96,7 +128,8 @@ def build_parser() -> argparse.ArgumentParser:
         description=(
             "Quasistatic planar contact-mode prediction, torque-bound planning and simulator "
             "validation (Trinkle & Zeng 1994). Exit codes: 0 ok, 1 a check failed, 2 bad "
-            "input, 3 internal or simulator fault."
+            "input, 3 internal, simulator or environment fault, 128+n interrupted by signal "
+            "n."
         ),
         formatter_class=HelpFormatter,
     )
@@ -167,8 +200,65 @@ def _quiet_numerics(debug: bool) -> Iterator[None]:
             os.environ["TQDM_DISABLE"] = saved
 
 
+#: Failures of the machine rather than of qsplan or its input: named as such, with the path.
+ENVIRONMENT_ERRNOS = {
+    errno.ENOSPC: "no space left on the device", errno.EDQUOT: "disk quota exceeded",
+    errno.EROFS: "the file system is read-only", errno.EACCES: "permission denied",
+    errno.EPERM: "operation not permitted", errno.EIO: "input/output error",
+    errno.EFBIG: "file too large", errno.EMFILE: "too many open files",
+    errno.ENFILE: "too many open files in the system",
+}
+
+
+def environment_failure(exc: BaseException) -> str | None:
+    """The message of an environment failure (disk full, permission lost, read-only file
+    system, ...): what failed, where (the output's own name, never its staging folder) and
+    what became of the outputs; None for any other exception."""
+    if not isinstance(exc, OSError) or exc.errno not in ENVIRONMENT_ERRNOS:
+        return None
+    outputs = sys.modules.get("planner.files.outputs")
+    paths = [str(outputs.final_path(f) if outputs else f)
+             for f in (exc.filename, exc.filename2) if f]
+    where = f" at {', '.join(repr(p) for p in paths)}" if paths else ""
+    return (f"environment failure: {ENVIRONMENT_ERRNOS[exc.errno]} "
+            f"({errno.errorcode[exc.errno]}){where}; {interrupts.outputs_status()}")
+
+
+@contextlib.contextmanager
+def _memory_budget(args: argparse.Namespace) -> Iterator[None]:
+    """``--memory-gib`` as the process's memory budget (the loaders check it too) while the
+    command runs."""
+    from planner.files.reader import GIB, memory_budget, set_memory_budget
+    from qsplan.options import parse_number
+
+    if getattr(args, "memory_gib", None) is not None:
+        args.memory_gib = parse_number(str(args.memory_gib), "--memory-gib", lo=1e-6, hi=1e6)
+        set_memory_budget(int(args.memory_gib * GIB))
+    else:
+        memory_budget()  # a bad $QSPLAN_MEMORY_GIB is bad input before any work
+    try:
+        yield
+    finally:
+        set_memory_budget(None)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``qsplan`` console script; returns the exit code."""
+    restore = interrupts.install()  # in-process callers: handlers for this call only
+    try:
+        with guarded_streams():
+            code = _main(argv)
+    finally:
+        restore()
+    interrupts.end_if_interrupted(code)
+    return code
+
+
+def _main(argv: Sequence[str] | None) -> int:
+    from planner.errors import QsplanError
+    from planner.files.outputs import forget_history
+
+    forget_history()  # what became of the outputs: this command's only
     parser = build_parser()
     argv = list(sys.argv[1:] if argv is None else argv)
     args = parser.parse_args(argv)
@@ -178,28 +268,30 @@ def main(argv: Sequence[str] | None = None) -> int:
     debug = bool(getattr(args, "debug", False))
     name = f"qsplan {args.command}"
     try:
-        if getattr(args, "memory_gib", None) is not None:
-            from qsplan.options import parse_number
+        with interrupts.armed(name), _memory_budget(args):
+            with _quiet_numerics(debug):
+                return int(args.func(args) or 0)
+    except interrupts.Interrupted as exc:
+        interrupts.say(interrupts.describe(exc.signum, name))
+        return exc.exit_code
+    except KeyboardInterrupt:  # a Ctrl-C that reached Python's own handler
+        import signal
 
-            args.memory_gib = parse_number(str(args.memory_gib), "--memory-gib", lo=1e-6,
-                                           hi=1e6)
-        with _quiet_numerics(debug):
-            return int(args.func(args) or 0)
+        interrupts.say(interrupts.describe(signal.SIGINT, name))
+        return 128 + signal.SIGINT
     except QsplanError as exc:
         print(f"{name}: error: {exc}", file=sys.stderr)
         return EXIT_INPUT
-    except BrokenPipeError:  # e.g. piped into `head`
-        with contextlib.suppress(OSError):
-            sys.stderr.close()
-        return EXIT_OK
-    except KeyboardInterrupt:
-        print("interrupted", file=sys.stderr)
-        return 130
     except MemoryError:
-        print(f"{name}: error: out of memory; expected a smaller request (lower --memory-gib "
-              "to have such requests refused up front)", file=sys.stderr)
+        print(f"{name}: error: out of memory: the machine had less memory left than this "
+              "request needed; expected a smaller request (requests sized before they start "
+              "are refused beyond --memory-gib)", file=sys.stderr)
         return EXIT_FAULT
     except Exception as exc:  # noqa: BLE001 - the one place that turns faults into exit 3
+        environment = environment_failure(exc)
+        if environment is not None and not debug:
+            print(f"{name}: {environment}", file=sys.stderr)
+            return EXIT_FAULT
         if debug:
             traceback.print_exc()
             return EXIT_FAULT

@@ -15,10 +15,9 @@ import warnings
 from collections.abc import Iterator, Sequence
 
 from planner.errors import InputError
+from planner.files.reader import GIB, check_memory
+from planner.files.reader import memory_budget as process_memory_budget
 
-GIB = 2 ** 30
-DEFAULT_MEMORY_GIB = 4.0
-"""Default memory budget of one command in GiB (``--memory-gib`` or ``QSPLAN_MEMORY_GIB``)."""
 MU_MAX = 1e6
 """Largest friction coefficient the command line accepts (larger values are typing errors)."""
 
@@ -99,23 +98,17 @@ def check_int(value: int, what: str, lo: int, hi: int | None = None) -> int:
 
 
 def memory_budget(gib: float | None = None) -> int:
-    """The memory budget in bytes: ``gib``, else ``$QSPLAN_MEMORY_GIB``, else the default."""
-    if gib is None:
-        env = os.environ.get("QSPLAN_MEMORY_GIB")
-        gib = (parse_number(env, "QSPLAN_MEMORY_GIB", lo=0.0, hi=1e6) if env
-               else DEFAULT_MEMORY_GIB)
-    return int(gib * GIB)
+    """The memory budget in bytes: ``gib``, else the process's
+    (:func:`planner.files.reader.memory_budget`: ``--memory-gib``, ``$QSPLAN_MEMORY_GIB`` or
+    the default)."""
+    return process_memory_budget() if gib is None else int(gib * GIB)
 
 
 def check_budget(need_bytes: float, budget_bytes: int, what: str, hint: str = "") -> None:
     """Refuse a request that would need more than the budget, saying how much it would need
-    (``what`` describes the request, ``hint`` what to do instead)."""
-    if need_bytes > budget_bytes:
-        raise InputError(
-            f"expected a request within the memory budget ({budget_bytes / GIB:.3g} GiB), got "
-            f"{what}, which would need {need_bytes / GIB:.3g} GiB"
-            f"{'; ' + hint if hint else ''} (or raise --memory-gib)"
-        )
+    (``what`` describes the request, ``hint`` what to do instead;
+    :func:`planner.files.reader.check_memory`)."""
+    check_memory(need_bytes, what, hint, budget_bytes)
 
 
 def fmt(x: float, spec: str = "g") -> str:

@@ -189,7 +189,7 @@ def parse_settings(scenario: Scenario, settings: list[str] | None) -> dict[str, 
         if key not in known:
             names = ", ".join(known) or "none"
             raise InputError(f"--set: unknown parameter {key!r} of scenario {scenario.name!r}; "
-                             f"expected one of: {names}")
+                             f"expected one of: {names}; got {key!r}")
         out[key] = known[key].parse(value.strip())
     return out
 
@@ -219,5 +219,6 @@ def get(name: str) -> Scenario:
     """The scenario called ``name``; a clear error listing the known names otherwise."""
     table = all_scenarios()
     if name not in table:
-        raise InputError(f"unknown scenario {name!r}; expected one of: {', '.join(table)}")
+        raise InputError(f"unknown scenario {name!r}; expected one of: {', '.join(table)}; got "
+                         f"{name!r}")
     return table[name]

@@ -70,6 +70,12 @@ class EngineWatch:
     * Any engine: exceptions that the engine swallowed during the step. Python reports them to
       ``sys.unraisablehook`` (pymunk's cffi callbacks do this: a failing ``post_solve`` prints
       "Exception ignored from cffi callback" and the step goes on without that reading).
+
+    An interrupt swallowed that way -- a ``KeyboardInterrupt`` (Ctrl-C, or the command line's
+    own SIGTERM/SIGHUP interrupt, a subclass), a ``SystemExit``, any ``BaseException`` that is
+    not an ``Exception`` -- is no engine alarm: the user or the system asked the run to stop,
+    so :meth:`step` raises it again once the engine's step has returned
+    (:func:`swallowed_interrupt`), and it never becomes a fault or a verdict.
     """
 
     def __init__(self, backend: Any) -> None:
@@ -101,6 +107,10 @@ class EngineWatch:
             self.backend.step(dt)
         finally:
             _SINKS.sink = outer
+        interrupt = swallowed_interrupt(self.swallowed)
+        if interrupt is not None:
+            self.swallowed.clear()
+            raise interrupt
 
     def check(self) -> tuple[FaultKind, str] | None:
         """``(kind, detail)`` of the first alarm raised since the last call, else ``None``."""
@@ -126,6 +136,19 @@ class EngineWatch:
         if bad_state:
             detail = "NaN/Inf/huge state, reset by MuJoCo: " + detail
         return (FaultKind.NAN if bad_state else FaultKind.ENGINE_WARNING), detail
+
+
+def swallowed_interrupt(swallowed: list[Any]) -> BaseException | None:
+    """The first interrupt among swallowed exceptions (``sys.unraisablehook`` arguments): an
+    exception that is a ``BaseException`` but not an ``Exception`` (``KeyboardInterrupt`` and
+    its subclasses, ``SystemExit``), ready to be raised again; ``None`` when there is none."""
+    for u in swallowed:
+        kind = getattr(u, "exc_type", None)
+        if isinstance(kind, type) and issubclass(kind, BaseException) and not issubclass(
+                kind, Exception):
+            value = getattr(u, "exc_value", None)
+            return value if isinstance(value, BaseException) else kind()
+    return None
 
 
 @dataclass(frozen=True)

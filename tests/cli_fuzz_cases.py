@@ -17,7 +17,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from cli_fuzz_inputs import OLD, Fixtures, output_path, write_input
+from cli_fuzz_inputs import OLD, SECRET, Fixtures, output_path, write_input
 
 COMMANDS = ("modes", "muspace", "plan", "validate", "simulate", "demo", "scenarios", "sweep",
             "report")
@@ -250,7 +250,7 @@ def case_sweep(fx: Fixtures, rng: random.Random, p: float) -> Case:
         if rng.random() < 0.2:
             argv.append("--check")
         if rng.random() < p / 8:
-            argv += ["--dask", ""]
+            argv += ["--dask", rng.choice(["", "not a url", "tcp://", "tcp://host:notaport"])]
             b3 = True
     return Case("sweep", argv, _combine(b0, b1, b2, b3), ((out, "file"),))
 
@@ -287,6 +287,9 @@ def generate(fx: Fixtures, seed: int, per_command: int, p_bad: float = 0.6,
 # ---------------------------------------------------------------------------------------------
 # Running a case and checking the contract.
 # ---------------------------------------------------------------------------------------------
+SPECIAL_KINDS = (stat.S_IFIFO, stat.S_IFSOCK, stat.S_IFCHR, stat.S_IFBLK, stat.S_IFLNK)
+
+
 def snapshot(root: Path) -> dict[str, object]:
     """Every entry under ``root``: regular files by content, folders, special files by kind."""
     out: dict[str, object] = {}
@@ -355,14 +358,17 @@ def partial_output(case: Case, code: int, before: dict[str, object], after: dict
     staging = [k for k in after if ".qsplan-staging-" in k or ".qsplan-old-" in k]
     if staging:
         return f"staging left: {staging[:2]}"
-    for special in ("fifo", "link_to_fifo", "dangling"):
-        if before.get(special) != after.get(special):
-            return f"special file {special} changed"
+    for key, kind in before.items():  # FIFOs, sockets, devices, symbolic links: never touched
+        if kind in SPECIAL_KINDS and after.get(key) != kind:
+            return f"special file {key} replaced or deleted"
     if code not in (0, 1):
         changed = sorted(k for k in set(before) | set(after) if before.get(k) != after.get(k))
         return f"failed run changed {changed[:3]}" if changed else ""
     if code == 0:
         for path, kind in case.outputs:
+            p = Path(path) if Path(path).is_absolute() else root / path
+            if kind == "file" and p.is_file() and SECRET in p.read_bytes():
+                return f"{path} holds the bytes of a file outside its inputs"
             if kind == "dir" and case.complete:
                 p = Path(path) if Path(path).is_absolute() else root / path
                 missing = [n for n in case.complete if not (p / n).is_file()

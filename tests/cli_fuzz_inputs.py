@@ -149,6 +149,8 @@ def write_input(fx: Fixtures, rng: random.Random, valid_path: Path) -> tuple[str
 # Hostile output paths.
 # ---------------------------------------------------------------------------------------------
 OLD = b"OLD CONTENT\n"
+SECRET = b"SECRET-BYTES-OUTSIDE-THE-RUN"
+"""Bytes of a file outside every run folder, linked into one: no output may contain them."""
 
 
 def output_path(fx: Fixtures, rng: random.Random, kind: str,

@@ -26,6 +26,7 @@ from pathlib import Path
 
 import pytest
 from cli_fuzz_cases import COMMANDS, generate, problems, run_case
+from cli_fuzz_formats import FORMAT_GENERATORS, generate_formats, make_formats
 from cli_fuzz_inputs import DATA, OLD, ROOT, make_fixtures
 
 
@@ -35,6 +36,11 @@ from cli_fuzz_inputs import DATA, OLD, ROOT, make_fixtures
 @pytest.fixture(scope="module")
 def fx(tmp_path_factory):
     return make_fixtures(tmp_path_factory.mktemp("fuzz_cli"))
+
+
+@pytest.fixture(scope="module")
+def ff(fx):
+    return make_formats(fx)
 
 
 @pytest.fixture(autouse=True)
@@ -56,6 +62,17 @@ def test_short_campaign(fx, command):
     assert problems(outcomes) == []
     codes = {o.code for o in outcomes}
     assert 2 in codes  # the campaign really reached the error paths
+
+
+@pytest.mark.parametrize("command", sorted(FORMAT_GENERATORS))
+def test_short_campaign_newer_formats(fx, ff, command):
+    """Geometry, chain and multi-body system files, hand files with a goal, version-2 plans,
+    ``scenarios run --set``, hostile run folders, special files inside output sets."""
+    cases = generate_formats(fx, ff, seed=sorted(FORMAT_GENERATORS).index(command),
+                             per_command=8, commands=(command,))
+    outcomes = [run_case(c, fx) for c in cases]
+    assert problems(outcomes) == []
+    assert 2 in {o.code for o in outcomes} or command == "report"
 
 
 def test_unexpected_exception_is_one_line_and_a_log(monkeypatch, capsys, tmp_path):

@@ -36,6 +36,7 @@ def test_show_lists_defaults_units_and_ranges(capsys) -> None:
     ("left=0.2", "--set left: expected a number in [-0.5, -0.01], got '0.2'"),
     ("mu_s=abc", "--set mu_s: expected a number in [0.0, 10.0], got 'abc'"),
     ("nope=1", "unknown parameter 'nope' of scenario 'ruler_static_kinetic'; expected one of"),
+    ("nope=1", "; got 'nope'"),
     ("left", "--set: expected key=value, got 'left'"),
 ])
 def test_bad_settings_exit_2_naming_expected_and_got(setting, message, tmp_path, capsys) -> None:

@@ -55,11 +55,14 @@ def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> Path:
         # mkstemp creates 0600; give the file the permissions a plain open() would (umask).
         os.chmod(tmp, 0o666 & ~current_umask())
         os.replace(tmp, target)
-    except BaseException:
+    except BaseException as exc:
         try:
             os.unlink(tmp)
-        except FileNotFoundError:
+        except OSError:
             pass
+        if isinstance(exc, OSError) and exc.filename is None and exc.errno is not None:
+            # a full disk or a lost permission while writing: name the file (write() does not)
+            raise OSError(exc.errno, exc.strerror, str(target)) from exc
         raise
     return target
 

@@ -8,7 +8,18 @@ One set of rules for every format:
 * UTF-8 text (a leading byte-order mark is allowed and dropped);
 * strict JSON: the non-standard constants ``NaN``, ``Infinity``, ``-Infinity``, numbers that
   overflow to infinity (``1e999``) and duplicate keys in one object are refused;
-* nesting at most :data:`MAX_JSON_DEPTH` containers deep.
+* nesting at most :data:`MAX_JSON_DEPTH` containers deep;
+* within the memory budget, checked before anything is allocated: parsing is refused when the
+  file's size times :data:`PARSE_BYTES_PER_BYTE` (the most memory a JSON text of that size can
+  take while parsed, measured) exceeds :func:`memory_budget`; and a loader that passes
+  ``cost=`` to :func:`read_json` has what it will allocate from the parsed value (dense
+  matrices, grids) checked before it builds anything.
+
+The memory budget of the process (:func:`memory_budget`): set by the command line from
+``--memory-gib`` (:func:`set_memory_budget`), else ``$QSPLAN_MEMORY_GIB`` [GiB], else
+:data:`DEFAULT_MEMORY_GIB`.  :func:`check_memory` refuses a request beyond it, saying how much
+it would need; every refusal is an :class:`planner.errors.InputError` (exit 2), raised before
+the allocation, never a ``MemoryError`` after it.
 
 Every problem raises :class:`planner.errors.FileFormatError` (an :class:`InputError`, so the
 command line exits with code 2) whose message names the file, what was expected and what came.
@@ -21,10 +32,11 @@ import json
 import math
 import os
 import stat
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from planner.errors import FileFormatError
+from planner.errors import FileFormatError, InputError
 
 #: Largest file any loader accepts (bytes): 64 MiB.
 MAX_JSON_BYTES = 64 * 1024 * 1024
@@ -33,6 +45,63 @@ MAX_JSON_BYTES = 64 * 1024 * 1024
 MAX_JSON_DEPTH = 64
 
 _UTF8_BOM = b"\xef\xbb\xbf"
+
+GIB = 2 ** 30
+DEFAULT_MEMORY_GIB = 4.0
+"""Default memory budget of one command in GiB (``--memory-gib`` or ``QSPLAN_MEMORY_GIB``)."""
+MEMORY_ENV = "QSPLAN_MEMORY_GIB"
+PARSE_BYTES_PER_BYTE = 50
+"""Peak memory of parsing JSON per byte of text, an upper bound: measured with tracemalloc on
+200,000-element arrays (docs/robustness.md): 9 for floats, 9 for a system file, 23 for
+``[0.5, 0.5]`` pairs, 43-49 for arrays of ``[1]``, ``[]`` or ``{}`` (a small container per
+2-3 bytes of text), the worst JSON has."""
+
+_BUDGET: list[int | None] = [None]  # set by set_memory_budget (the command line)
+
+
+def set_memory_budget(n_bytes: int | None) -> None:
+    """The process's memory budget in bytes (None: back to ``$QSPLAN_MEMORY_GIB`` or the
+    default)."""
+    _BUDGET[0] = None if n_bytes is None else int(n_bytes)
+
+
+def memory_budget() -> int:
+    """The memory budget in bytes: :func:`set_memory_budget`'s, else ``$QSPLAN_MEMORY_GIB``
+    [GiB], else :data:`DEFAULT_MEMORY_GIB`."""
+    if _BUDGET[0] is not None:
+        return _BUDGET[0]
+    env = os.environ.get(MEMORY_ENV, "").strip()
+    if not env:
+        return int(DEFAULT_MEMORY_GIB * GIB)
+    try:
+        gib = float(env)
+    except ValueError:
+        gib = math.nan
+    if not 0.0 <= gib <= 1e6:
+        raise InputError(f"{MEMORY_ENV}: expected a number in [0, 1e+06], got {env!r}")
+    return int(gib * GIB)
+
+
+def check_memory(need_bytes: float, what: str, hint: str = "",
+                 budget_bytes: int | None = None) -> None:
+    """Refuse a request that would need more than the budget (default :func:`memory_budget`),
+    saying how much it would need (``what`` describes the request, ``hint`` what to do
+    instead)."""
+    budget = memory_budget() if budget_bytes is None else budget_bytes
+    if need_bytes > budget:
+        raise InputError(
+            f"expected a request within the memory budget ({budget / GIB:.3g} GiB), got "
+            f"{what}, which would need {need_bytes / GIB:.3g} GiB"
+            f"{'; ' + hint if hint else ''} (or raise --memory-gib)"
+        )
+
+
+def dense_bytes(*shape: int, itemsize: int = 8) -> int:
+    """Bytes of a dense array of ``shape`` (float64 by default), as an exact integer."""
+    n = itemsize
+    for k in shape:
+        n *= max(int(k), 0)
+    return n
 
 
 def _kind(mode: int) -> str:
@@ -47,11 +116,15 @@ def _kind(mode: int) -> str:
     return "not a regular file"
 
 
-def read_json(path: str | os.PathLike[str], what: str) -> Any:
+def read_json(path: str | os.PathLike[str], what: str,
+              cost: Callable[[Any], tuple[float, str]] | None = None) -> Any:
     """Read and parse the JSON file at ``path`` under the rules of the module docstring.
 
     ``what`` names the kind of file in messages (e.g. ``"system file"``, ``"plan file"``).
-    Returns the parsed value (any JSON type; the caller checks its shape).
+    ``cost(value) -> (bytes, description)``: what the loader will allocate from the parsed
+    value (e.g. ``dense_bytes(2 * n_c, 2 * n_c)`` for a Jacobian), checked against the budget
+    before the value is returned.  Returns the parsed value (any JSON type; the caller checks
+    its shape).
     """
     p = Path(path)
     name = f"{what} {str(p)!r}"
@@ -63,22 +136,30 @@ def read_json(path: str | os.PathLike[str], what: str) -> Any:
         raise FileFormatError(f"{name}: expected a readable file, got {exc.strerror}") from None
     if not stat.S_ISREG(st.st_mode):
         raise FileFormatError(f"{name}: expected a regular file, got {_kind(st.st_mode)}")
-    if st.st_size > MAX_JSON_BYTES:
-        raise FileFormatError(
-            f"{name}: expected at most {MAX_JSON_BYTES} bytes, got {st.st_size}"
-        )
     try:
         # O_NONBLOCK: should the path be swapped for a FIFO after the check, open() cannot hang.
         fd = os.open(p, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
     except OSError as exc:
         raise FileFormatError(f"{name}: expected a readable file, got {exc.strerror}") from None
     with os.fdopen(fd, "rb") as fh:
-        if not stat.S_ISREG(os.fstat(fh.fileno()).st_mode):
+        st = os.fstat(fh.fileno())  # the file actually opened
+        if not stat.S_ISREG(st.st_mode):
             raise FileFormatError(f"{name}: expected a regular file, got {_kind(st.st_mode)}")
-        raw = fh.read(MAX_JSON_BYTES + 1)
-    if len(raw) > MAX_JSON_BYTES:
-        raise FileFormatError(f"{name}: expected at most {MAX_JSON_BYTES} bytes, got more")
-    return parse_json(raw, name)
+        if st.st_size > MAX_JSON_BYTES:
+            raise FileFormatError(
+                f"{name}: expected at most {MAX_JSON_BYTES} bytes, got {st.st_size}"
+            )
+        check_memory(st.st_size * PARSE_BYTES_PER_BYTE,
+                     f"{name} of {st.st_size} bytes, whose parsing", "use a smaller file")
+        raw = fh.read(st.st_size + 1)  # never more than the file had when opened, plus one
+    if len(raw) > st.st_size:
+        raise FileFormatError(f"{name}: expected a file that does not grow while read, got "
+                              f"more than the {st.st_size} bytes it had when opened")
+    data = parse_json(raw, name)
+    if cost is not None:
+        need, request = cost(data)
+        check_memory(need, f"{name}: {request}", "use a smaller problem")
+    return data
 
 
 def parse_json(text: str | bytes, source: str) -> Any:

@@ -115,6 +115,11 @@ class DaskExecutor:
                 raise InputError(
                     f"dask: expected a reachable scheduler at {self.address!r}, got {exc}"
                 ) from exc
+            except ValueError as exc:  # distributed cannot parse the address
+                raise InputError(
+                    f"dask: expected a scheduler address such as tcp://host:8786, got "
+                    f"{self.address!r} ({exc})"
+                ) from None
             self._own = True
 
     def map(

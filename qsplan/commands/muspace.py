@@ -41,6 +41,8 @@ exit codes: 0 written, 2 bad input."""
 
 
 MAX_PANELS = 64
+OUTPUTS = ("muspace.json", "muspace.png")
+"""The entries ``--out`` gets (checked before any work, replaced together)."""
 BYTES_PER_POINT_CONTACT = 16
 """Memory of a grid point per contact (the mu vector plus the feasibility columns)."""
 
@@ -73,7 +75,7 @@ def run(args: argparse.Namespace) -> int:
     check_int(args.panels, "--panels", 1, MAX_PANELS)
     n = args.n if args.n is not None else (200 if len(tokens) == 2 else 40)
     check_int(n, "--n", 1)
-    with output_set(args.out, "dir") as work:
+    with output_set(args.out, "dir", entries=OUTPUTS) as work:
         with input_warnings("muspace"):
             system = load_system(args.system)
         n_c = system.n_contacts

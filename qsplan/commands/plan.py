@@ -14,6 +14,10 @@ from qsplan.options import MU_MAX, check_int, fmt, parse_number, parse_range
 from scenarios.registry import shipped_file
 
 MAX_WAYPOINTS = 10_000
+FIGURES = ("fig10_bounds_mu_lo.png", "fig11_bounds_mu_hi.png", "fig12_rival_bounds_mu_hi.png",
+           "fig13_guaranteed.png")
+"""The entries ``--figures`` gets (``planner.plots.bounds.plot_bounds``), checked before any
+work."""
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -70,7 +74,7 @@ def parse_interval(text: str | None) -> tuple[float, float] | list[tuple[float, 
 
 def run(args: argparse.Namespace) -> int:
     from planner.errors import DegenerateError
-    from planner.files.outputs import output_set
+    from planner.files.outputs import output_set, uninterruptible
     from planner.plan.plan_file import save_plan
     from planner.plan.segment_planner import plan_hand
 
@@ -84,7 +88,8 @@ def run(args: argparse.Namespace) -> int:
     if _is_task(shipped_file(args.scenario)):
         return _run_task(args, mu, t0)
     with contextlib.ExitStack() as stack:
-        fig_dir = stack.enter_context(output_set(args.figures, "dir", "--figures")) \
+        fig_dir = stack.enter_context(output_set(args.figures, "dir", "--figures",
+                                                 entries=FIGURES)) \
             if args.figures is not None else None
         plan_tmp = stack.enter_context(output_set(args.out, "file", "--out"))
         try:
@@ -99,6 +104,9 @@ def run(args: argparse.Namespace) -> int:
             from planner.plots.bounds import plot_bounds
 
             figs = [Path(args.figures) / f.name for f in plot_bounds(plan, fig_dir)]
+        commits = stack.pop_all()  # the plan and its figures: committed in one step
+    with uninterruptible():
+        commits.close()
     path = Path(args.out)
     quiet = getattr(args, "quiet", False)
     if not quiet:
