@@ -1,6 +1,6 @@
 """Chain manipulators in both simulators (issues 14 and 16): every case, its negative control.
 
-* Region plans of the chain-finger hands (``plan_regions`` on the hand file's segment and
+* Plans of the chain-finger hands (``plan_segment`` on the hand file's segment and
   friction interval) run at the interval's ends and middle on both engines
   (:func:`sim.region_run.run_region_plan`), and once with torques outside every region
   (:func:`sim.region_run.outside_torques`) or, for a hand without an effort joint, at
@@ -25,7 +25,7 @@ import numpy as np
 from planner.files.atomic import atomic_write_json
 from planner.files.hand_file import load_hand_file
 from planner.files.system_file import load_system
-from planner.plan.region_planner import plan_regions
+from planner.plan.segment_planner import plan_segment
 from sim.region_run import outside_torques, run_region_plan
 from sim.system_run import simulate_system
 
@@ -56,9 +56,10 @@ def hand_rows(engines=ENGINES):
         hf = load_hand_file(ROOT / "scenarios" / "data" / f"{name}.json")
         s = hf.segment
         mu = [list(p) for p in hf.mu_interval]
-        rp = plan_regions(hf.hand, hf.q0, drive=s.drives, speed=s.speeds, mode=s.mode,
-                          mu=mu if len(mu) > 1 else mu[0], max_time=s.max_time,
-                          steps=s.steps, waypoints=s.waypoints)
+        rp = plan_segment(hf.hand, hf.q0, data=hf.data, drive=s.drives, speed=s.speeds,
+                          mode=s.mode, mu=mu if len(mu) > 1 else mu[0],
+                          model="independent" if len(mu) > 1 else "common",
+                          max_time=s.max_time, steps=s.steps, waypoints=s.waypoints)
         lo, hi = np.array([p[0] for p in mu]), np.array([p[1] for p in mu])
         for frac in (0.0, 0.5, 1.0):
             m = lo + frac * (hi - lo)

@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from planner.files.atomic import atomic_write_json
-from planner.plan.plan_file import Plan
+from planner.plan.model import Segment
 from scenarios.registry import Expect, Scenario, register, shipped_file
 from sim.backends import ENGINES
 
@@ -27,10 +27,10 @@ HAND = "two_finger_hand"
 
 
 @lru_cache(maxsize=4)
-def _plan(policy: str) -> Plan:
-    from planner.plan.segment_planner import plan_hand
+def _plan(policy: str) -> Segment:
+    from planner.plan.hand_planner import plan_hand
 
-    return plan_hand(shipped_file(HAND), mu=(0.0, 0.2), policy=policy)
+    return plan_hand(shipped_file(HAND), mu=(0.0, 0.2), policy=policy).segments[0]
 
 
 def run_hand(out_dir: Path, *, name: str, expect: Expect, policy: str, mu: float,

@@ -1,6 +1,6 @@
 """Run a plan in a simulator and judge what happens against what the plan says (Sec. 5.2).
 
-Reads only the plan (:class:`planner.plan.plan_file.Plan`: the hand it embeds, the control
+Reads only the plan segment (:class:`planner.plan.model.Segment`: the hand it embeds, the control
 partition, the per-waypoint commands, predicted modes and poses); nothing from the planner's
 internals. The plan's hand is parsed once (:func:`plan_hand_model`); its mode labels are parsed
 once into :class:`planner.model.modes.Mode` objects (:meth:`Schedule.from_plan`).
@@ -31,7 +31,7 @@ from planner.errors import InputError
 from planner.model.hand import Hand
 from planner.model.modes import Mode
 from planner.model.validation import as_friction
-from planner.plan.plan_file import Plan
+from planner.plan.model import Segment
 from sim.backends import EngineSettings, check_engine, make_backend
 from sim.classify import Thresholds, judged_mask
 from sim.compare import (
@@ -59,9 +59,9 @@ __all__ = ["ENGINE_SETTINGS", "PlanRun", "Schedule", "contact_drive_speed",
            "plan_hand_model", "run_plan", "run_schedule"]
 
 
-def plan_hand_model(plan: Plan) -> tuple[Hand, np.ndarray]:
-    """The hand a plan embeds, parsed once: ``(hand, q0)`` (the closed initial configuration);
-    :attr:`planner.plan.plan_file.Plan.hand_model` parses and caches it per plan."""
+def plan_hand_model(plan: Segment) -> tuple[Hand, np.ndarray]:
+    """The hand a plan segment embeds, parsed once: ``(hand, q0)`` (the closed initial
+    configuration); :attr:`planner.plan.model.Segment.hand_model` parses and caches it."""
     hand, q0 = plan.hand_model
     return hand, q0
 
@@ -91,27 +91,34 @@ class Schedule:
     commands: tuple[tuple[float, ...], ...] = ()
 
     @classmethod
-    def from_plan(cls, plan: Plan, n_contacts: int) -> Schedule:
-        """The plan's commands and predictions; mode labels parsed once (``n_contacts`` each)."""
+    def from_plan(cls, plan: Segment, n_contacts: int, torques: np.ndarray | None = None
+                  ) -> Schedule:
+        """A plan segment's commands and predictions; mode labels parsed once (``n_contacts``
+        each).  ``torques`` (n, p) replaces the planned efforts (a negative control)."""
         def parse(label: str) -> Mode:
             return Mode.parse(label, n_contacts)
 
         claim = parse(plan.claim)
         controls = tuple(plan.control)
-        commands: tuple[tuple[float, ...], ...] = ()
-        if plan.waypoints and getattr(plan.waypoints[0], "velocity_commands", ()):
-            # a task plan's segment: one command per joint, in joint order (several velocity-
-            # or effort-controlled joints; the single fields hold only the first of each)
-            rows = []
-            for w in plan.waypoints:
-                vel, tau = iter(w.velocity_commands), iter(w.torque_commands)
-                rows.append(tuple(float(next(vel) if c == "velocity" else next(tau))
-                                  for c in controls))
-            commands = tuple(rows)
+        cmd = plan.joint_commands()
+        E = list(plan.effort_joints)
+        if torques is not None:
+            tau = np.asarray(torques, dtype=float)
+            if tau.shape != (len(plan.waypoints), len(E)):
+                raise InputError(f"torques: expected ({len(plan.waypoints)}, {len(E)}), got "
+                                 f"{np.shape(torques)}")
+            cmd[:, E] = tau
+        commands = tuple(tuple(float(v) for v in row) for row in cmd)
+
+        def first(c: str) -> tuple[float, ...]:
+            j = controls.index(c) if c in controls else None
+            return tuple(float(v) for v in (cmd[:, j] if j is not None
+                                            else np.zeros(len(cmd))))
+
         return cls(
             times=tuple(float(w.t) for w in plan.waypoints),
-            velocity=tuple(float(w.velocity_command) for w in plan.waypoints),
-            torque=tuple(float(w.torque_command) for w in plan.waypoints),
+            velocity=first("velocity"),
+            torque=first("effort"),
             poses=tuple((float(w.pose[0]), float(w.pose[1]), float(w.pose[2]))
                         for w in plan.waypoints),
             claim=claim,
@@ -119,42 +126,6 @@ class Schedule:
             predicted=tuple(frozenset(parse(lab) for lab in w.predicted) or frozenset({claim})
                             for w in plan.waypoints),
             commands=commands,
-        )
-
-    @classmethod
-    def from_region_plan(cls, plan: Any, n_contacts: int,
-                         torques: np.ndarray | None = None) -> Schedule:
-        """The commands and predictions of a :class:`planner.plan.region_planner.RegionPlan`
-        (any hand): per waypoint the velocity joints' rates and the effort joints' torque
-        vector (the region's Chebyshev centre); the claim is the only predicted mode (the
-        region excludes every rival over the friction box). ``torques`` (n, p) replaces the
-        planned torque vectors (a negative control: torques outside the regions)."""
-        wps = plan.waypoints
-        n_j = len(plan.velocity_joints) + len(plan.effort_joints)
-        tau = np.array([w.torque_command for w in wps], dtype=float).reshape(len(wps), -1)
-        if torques is not None:
-            tau = np.asarray(torques, dtype=float).reshape(len(wps), -1)
-            if tau.shape[1] != len(plan.effort_joints):
-                raise InputError(f"torques: expected ({len(wps)}, {len(plan.effort_joints)}), "
-                                 f"got {np.shape(torques)}")
-        cmd = np.zeros((len(wps), n_j))
-        cmd[:, list(plan.velocity_joints)] = [np.asarray(w.velocity_commands, dtype=float)
-                                              for w in wps]
-        cmd[:, list(plan.effort_joints)] = tau
-        claim = Mode.parse(plan.claim, n_contacts)
-        controls = tuple("velocity" if j in plan.velocity_joints else "effort"
-                         for j in range(n_j))
-        def first(c: str) -> np.ndarray:
-            return cmd[:, controls.index(c)] if c in controls else np.zeros(len(wps))
-
-        return cls(
-            times=tuple(float(w.t) for w in wps),
-            velocity=tuple(float(v) for v in first("velocity")),
-            torque=tuple(float(v) for v in first("effort")),
-            poses=tuple((float(w.q[0]), float(w.q[1]), float(w.q[2])) for w in wps),
-            claim=claim, controls=controls,
-            predicted=tuple(frozenset({claim}) for _ in wps),
-            commands=tuple(tuple(float(v) for v in row) for row in cmd),
         )
 
     def joint_commands(self) -> np.ndarray:
@@ -325,7 +296,7 @@ def judge_recording(rec: Recording, observed: list[ObservedMode], th: Thresholds
 
 
 def run_plan(
-    plan: Plan,
+    plan: Segment,
     engine: str,
     mu: float | Sequence[float] | np.ndarray,
     out_dir: str | Path | None = None,

@@ -1,7 +1,7 @@
 """Run a region plan of any hand in a simulator and judge it (issue 16, Sec. 5.2 generalised).
 
-A :class:`planner.plan.region_planner.RegionPlan` (from
-:func:`~planner.plan.region_planner.plan_regions`: any number of fingers, chains of revolute
+A planned :class:`planner.plan.model.Segment` (from
+:func:`~planner.plan.segment_planner.plan_segment`: any number of fingers, chains of revolute
 and prismatic links, several effort-controlled joints, fixed environment surfaces) is executed
 like a plan file (:func:`sim.hand_run.run_schedule`): the velocity-controlled joints at their
 planned rates and the effort-controlled joints at the waypoint's torque vector (the Chebyshev
@@ -56,7 +56,7 @@ def run_region_plan(plan: Any, hand: Hand, q0: np.ndarray, engine: str,
     if exp is Expect.INFO:
         raise InputError("expect: expected 'agree' or 'disagree' for a plan run, got 'info'")
     check_engine(engine)
-    sched = Schedule.from_region_plan(plan, hand.n_contacts, torques)
+    sched = Schedule.from_plan(plan, hand.n_contacts, torques)
     if waypoints is not None:
         sched = sched.truncated(waypoints)
     drive = contact_drive_speed(hand, q0, sched.controls, sched.joint_commands())
@@ -99,7 +99,7 @@ def outside_torques(plan: Any, hand: Hand, mu: float | Sequence[float] | np.ndar
     planner's own prediction (:func:`planner.predict.feasibility.feasible_modes`) at ``mu``
     does not contain the claim (a rival instead). Raises :class:`InputError` for a plan without
     effort joints or a waypoint where no such point is found."""
-    from planner.plan.region_planner import joint_inputs
+    from planner.plan.partition import joint_inputs
     from planner.predict.feasibility import feasible_modes
 
     E = list(plan.effort_joints)
@@ -107,9 +107,8 @@ def outside_torques(plan: Any, hand: Hand, mu: float | Sequence[float] | np.ndar
         raise InputError("outside_torques: expected a plan with effort-controlled joints, got "
                          "none (a velocity-only plan has no torque to move outside)")
     out = []
-    for w in plan.waypoints:
-        reg = w.region
-        c = np.asarray(w.torque_command, dtype=float)
+    for w, reg in zip(plan.waypoints, plan.regions):
+        c = np.asarray(w.torque_commands, dtype=float)
         A, b = np.asarray(reg.A, dtype=float), np.asarray(reg.b, dtype=float)
         norms = np.linalg.norm(A, axis=1)
         slack = (b - A @ c) / np.where(norms > 0, norms, np.inf)

@@ -1,7 +1,7 @@
 """Run a whole-task plan in one continuous simulation per engine, and judge each segment and
 the whole (issue 16).
 
-Reads only the plan (:class:`planner.plan.task_file.TaskPlanFile`, version 2 or 1).
+Reads only the plan (:class:`planner.plan.model.Plan`, any file version).
 :func:`run_task` builds one scene holding every contact of every segment
 (:mod:`sim.task_scene`): the contacts a later segment gains start apart
 (``RunSettings.open_at_start``: not a fault), joints whose control differs between segments
@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 
 from planner.errors import DegenerateError, InputError
-from planner.plan.task_file import TaskPlanFile
+from planner.plan.model import Plan
 from sim.backends import EngineSettings, check_engine
 from sim.compare import POSE_TOLERANCE_OF_TRAVEL, Outcome, Verdict, fault_verdict
 from sim.hand_run import Schedule, judge_recording, run_schedule
@@ -52,7 +52,7 @@ class TaskRun:
     recording: Recording | None = None
 
 
-def run_task(plan: TaskPlanFile, engine: str, mu: float | Sequence[float], *,
+def run_task(plan: Plan, engine: str, mu: float | Sequence[float], *,
              settings: EngineSettings | None = None) -> TaskRun:
     """Run ``plan`` in ``engine`` at friction ``mu`` (every contact, or one per contact of the
     hand) as one continuous simulation, and judge every segment and the whole (module
@@ -136,7 +136,7 @@ def run_task(plan: TaskPlanFile, engine: str, mu: float | Sequence[float], *,
     return TaskRun(tuple(verdicts), whole, summary, rec)
 
 
-def _union_dicts(plan: TaskPlanFile) -> list[Any]:
+def _union_dicts(plan: Plan) -> list[Any]:
     out: list[Any] = []
     for cs in plan.contacts:
         out.extend(c for c in cs if c not in out)
@@ -192,7 +192,7 @@ def _judge_segment(sub: Recording, sched: Schedule, hand: Any, drive_speed: floa
         Outcome.INCONCLUSIVE, ("no step could be judged",))
 
 
-def run_task_segments(plan: TaskPlanFile, engine: str, mu: float, *,
+def run_task_segments(plan: Plan, engine: str, mu: float, *,
                       settings: EngineSettings | None = None) -> TaskRun:
     """Run ``plan`` in ``engine`` at friction ``mu`` (every contact), segment after segment
     from the simulated state, and judge every segment and the whole (module docstring)."""
@@ -243,7 +243,7 @@ def run_task_segments(plan: TaskPlanFile, engine: str, mu: float, *,
     return TaskRun(tuple(verdicts), whole, summary)
 
 
-def _whole(plan: TaskPlanFile, verdicts: list[Verdict], final: np.ndarray | None) -> Verdict:
+def _whole(plan: Plan, verdicts: list[Verdict], final: np.ndarray | None) -> Verdict:
     outcomes = [v.outcome for v in verdicts]
     reasons = [f"segment {k + 1}: {v.outcome.value}" + (f" ({v.reason})" if v.reasons else "")
                for k, v in enumerate(verdicts) if v.outcome is not Outcome.AGREED]

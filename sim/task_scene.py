@@ -1,7 +1,7 @@
 """One scene for a whole task: every contact of every segment, the joints' commands over the
 whole plan and the times their control mode switches (issue 16, a continuous validation).
 
-Reads only the plan (:class:`planner.plan.task_file.TaskPlanFile`). The contacts of all
+Reads only the plan (:class:`planner.plan.model.Plan`). The contacts of all
 segments are united in order of first appearance (a contact is the same in two segments when
 its hand-file contact object is); pair ``c<i>`` of the scene is the ``i``-th contact of that
 union. A contact of the first segment is placed pre-loaded at the plan's start; a contact a
@@ -29,7 +29,7 @@ import numpy as np
 
 from planner.errors import InputError
 from planner.model.hand import Hand
-from planner.plan.task_file import TaskPlanFile
+from planner.plan.model import Plan
 from sim.hand_run import Schedule
 from sim.scene import BodyState, Command
 
@@ -108,7 +108,7 @@ def _task_command(times: np.ndarray, values: np.ndarray, fresh: np.ndarray,
     return command
 
 
-def task_layout(plan: TaskPlanFile) -> TaskLayout:
+def task_layout(plan: Plan) -> TaskLayout:
     """The :class:`TaskLayout` of ``plan`` (module docstring)."""
     keys: list[str] = []
     specs: list[Any] = []

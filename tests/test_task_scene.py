@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from planner.plan.task_file import plan_hand_task
+from planner.plan.hand_planner import plan_hand
 from sim.scenes.hand import hand_scene
 from sim.task_scene import task_layout
 
@@ -18,7 +18,7 @@ DATA = Path(__file__).resolve().parents[1] / "scenarios" / "data"
 
 @pytest.fixture(scope="module")
 def task_plan():
-    return plan_hand_task(DATA / "figure9_task_hand.json", waypoints=5)
+    return plan_hand(DATA / "figure9_task_hand.json", waypoints=5)
 
 
 def test_the_layout_unites_the_segments_contacts(task_plan):

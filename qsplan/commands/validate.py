@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import Any
 
 from planner.errors import InputError
 from planner.model.validation import FrictionValue
@@ -26,9 +27,9 @@ def register(sub: argparse._SubParsersAction) -> None:
             "Run PLAN.json (written by `qsplan plan`) in slow motion in the chosen engine, "
             "classify the observed contact modes from contact data and compare them and the "
             "workpiece poses with the plan: the claimed mode on >= 95% of the segment and the "
-            "final position within 2% of the travel. A version-2 plan (a whole task) runs "
-            "in one continuous simulation (every segment's contacts in one scene, joints "
-            "switching control at segment boundaries), sliced per segment for a verdict per "
+            "final position within 2% of the travel. A plan of several segments (a whole "
+            "task) runs in one continuous simulation (every segment's contacts in one scene, "
+            "joints switching control at segment boundaries), sliced per segment for a verdict per "
             "segment and one for the whole. Exit 0 pass, 1 fail, 2 bad input, "
             "3 simulator fault."
         ),
@@ -106,16 +107,17 @@ def run(args: argparse.Namespace) -> int:
 def _run(args: argparse.Namespace, path: Path, mus: list[FrictionValue] | None,
          work: Path | None) -> int:
     """Validate the plan at ``path``; outputs go to ``work`` (the staging folder of --out)."""
-    from planner.files.reader import read_json
     from planner.plan.plan_file import load_plan
-    from planner.plan.task_file import TASK_PLAN_VERSION
 
-    head = read_json(path, "plan file")
-    if isinstance(head, dict) and head.get("version") == TASK_PLAN_VERSION:
-        return _run_task(args, path, mus, work)
     plan = load_plan(path)  # FileFormatError (a ValueError) -> exit 2 in cli.main
+    if not plan.segments:
+        raise InputError(f"plan: expected at least one segment to run, got a partial plan that "
+                         f"stops before its first ({str(path)!r})")
+    if len(plan.segments) > 1 or "goal" in plan.hand:
+        return _run_task(args, plan, mus, work)
+    segment = plan.segments[0]  # a plan of one segment (a hand file's segment section)
     mus = _mu_values(mus, plan.validate_mu)
-    check_contacts(mus, len(plan.mu_intervals))
+    check_contacts(mus, len(segment.mu_intervals))
     from sim.compare import Outcome
     from sim.hand_run import run_plan
 
@@ -124,7 +126,7 @@ def _run(args: argparse.Namespace, path: Path, mus: list[FrictionValue] | None,
         out = None
         if work is not None:
             out = work if len(mus) == 1 else work / f"mu_{mu_text(mu).replace('/', '-')}"
-        res = run_plan(plan, args.engine, mu, out, render=not args.no_render)
+        res = run_plan(segment, args.engine, mu, out, render=not args.no_render)
         v = res.verdict
         statuses.append(v.outcome)
         wall = f"[{res.summary['settings']['wall_time_s']:.1f} s]"
@@ -163,14 +165,12 @@ def _exit_code(statuses: list) -> int:
     return 0 if all(s is Outcome.AGREED for s in statuses) else 1
 
 
-def _run_task(args: argparse.Namespace, path: Path, mus: list[FrictionValue] | None,
+def _run_task(args: argparse.Namespace, plan: Any, mus: list[FrictionValue] | None,
               work: Path | None) -> int:
-    """A version-2 plan: one continuous simulation of the whole task (:mod:`sim.task_run`),
-    a verdict per segment and for the whole."""
+    """A whole task (a plan with a goal or several segments): one continuous simulation
+    (:mod:`sim.task_run`), a verdict per segment and for the whole."""
     from planner.files.atomic import atomic_write_json
-    from planner.plan.task_file import load_task_plan
 
-    plan = load_task_plan(path)
     mus = _mu_values(mus, plan.validate_mu)
     check_contacts(mus, len(plan.segments[0].mu_intervals))
     from sim.compare import Outcome
