@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from planner.errors import DegenerateError, InputError
+from planner.errors import InputError
 from planner.model.hand import Hand
 from planner.plan.guarantee import Guarantee, guarantee
 from planner.plan.intervals import EMPTY, Interval
@@ -114,24 +114,15 @@ def choose_pieces(gs: list[Guaranteed]) -> list[Interval]:
 
 
 def relative_margin(gd: Guaranteed) -> float:
-    """How far the guaranteed set is from its edges relative to the command's size:
-    ``p = 1`` half the widest piece's width over its middle's magnitude (1 for an unbounded
-    piece); else the region's radius over its centre's norm (1 without effort joints or with
-    an unbounded radius).  The partition with the largest worst value is used."""
-    if gd.guarantee is not None:
-        piece = gd.guarantee.best()
-        width = piece.upper - piece.lower
-        if not math.isfinite(width):
-            return 1.0
-        mid = 0.5 * (piece.lower + piece.upper)
-        return 0.5 * width / max(abs(mid), 1e-300)
+    """How far the command is from the guaranteed set's edges relative to its size: the
+    region's radius over its centre's norm (with one effort joint: half the widest piece's
+    width over its middle's magnitude; a one-sided piece's radius is the step in from its finite
+    end, :func:`planner.plan.polytope.band_region`); the radius itself (a normalised Coulomb
+    slack) without effort joints; 1 for an unbounded radius.  The partition with the largest
+    worst value is used."""
     reg = gd.region
-    if not len(reg.effort_joints) or not math.isfinite(reg.margin):
+    if not math.isfinite(reg.margin):
         return 1.0
+    if not len(reg.effort_joints):
+        return reg.margin
     return reg.margin / max(float(np.linalg.norm(reg.centre)), 1e-300)
-
-
-def check_rates(rates: np.ndarray, scale: float, t: float) -> None:
-    """Raise :class:`DegenerateError` when no velocity-controlled joint moves at time ``t``."""
-    if np.all(np.abs(rates) <= 1e-12 * max(1.0, scale)):
-        raise DegenerateError(f"no velocity-controlled joint moves at t = {t:.3g} s")

@@ -11,7 +11,8 @@
    that guarantee the mode and exclude every rival over the friction set (eq. 28;
    :func:`planner.plan.partition.guaranteed_at`).  A partition is usable when every waypoint
    has them; among usable partitions the one with the largest worst relative margin
-   (:func:`planner.plan.partition.relative_margin`) is used;
+   (:func:`planner.plan.partition.relative_margin`) is used, on a tie the one that
+   velocity-controls the driven joints;
 3. choose the commands (:mod:`planner.plan.commands`: policy ``midband``, ``constant`` or the
    negative control ``rival:MODE``) and, with one effort joint, the band curves of Figures
    10-13 (:mod:`planner.plan.curves`).
@@ -135,7 +136,7 @@ def plan_segment(hand: Hand, q0: Any, *, data: Mapping[str, Any], drive: Drive, 
                          "'independent'")
     traj = trajectory if trajectory is not None else integrate_segment(
         hand, q0, drive=drive, speed=speed, mode=mode, max_time=max_time, steps=steps)
-    parts = sorted(control_partitions(hand.n_joints, traj.mode))
+    parts = control_partitions(hand.n_joints, traj.mode)
     if control is not None:
         parts = [(V, E) for V, E in parts if V == tuple(int(j) for j in control)]
         if not parts:
@@ -149,7 +150,9 @@ def plan_segment(hand: Hand, q0: Any, *, data: Mapping[str, Any], drive: Drive, 
     usable = [r for r in results if r.usable]
     shortfall = None
     if usable:
-        best = max(usable, key=lambda r: r.worst)
+        # ties (e.g. one-sided bands everywhere) go to the partition that velocity-controls
+        # the driven joints: its rate commands are the segment's own constant rates
+        best = max(usable, key=lambda r: (r.worst, set(traj.drives) <= set(r.V)))
         times, gs = best.times, best.gs
     else:
         why = "; ".join(f"{_partition_words(hand, r.V)}: {r.reason}" for r in results)
