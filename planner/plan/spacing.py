@@ -6,30 +6,29 @@ workpiece position within :data:`POSE_TOLERANCE_OF_TRAVEL` of its travel.  What 
 decides, and how it is chosen:
 
 * **Position.** The closure that keeps the contacts touching determines the configuration from
-  the velocity-controlled joints' coordinates (:meth:`planner.model.hand.Hand.close`, the
+  the velocity-controlled joints' coordinates (:meth:`planner.model.hand.Hand.close`; the
   mode's velocities are linear in their rates, eq. 24), and the held rate of a joint is its
   mean rate over the hold interval (:func:`planner.plan.commands.velocity_commands`), so a
   rigid quasistatic execution passes through every waypoint's planned configuration whatever
   the spacing; the planned configurations themselves are integrated states projected onto that
   closure (:mod:`planner.plan.trajectory`), exact to the closure's tolerance.  Holding the
   rate *at* ``t_k`` instead is off by ``1/2 dt_k^2 |d rate/dt|`` per interval, which adds up to
-  ``1/2 dt sum |rate_{k+1} - rate_k|`` (first order in the spacing; measured in
-  docs/planning.md).
+  ``1/2 dt sum |rate_{k+1} - rate_k|``: first order in the spacing.
 * **Mode.** The held effort must stay guaranteed over the whole hold interval; the planner sees
-  the guaranteed set only at waypoints.  An interval is accepted when the set guaranteed at both
-  of its ends still holds a ball of at least :data:`MARGIN_KEPT` of the smaller end's own
-  (:func:`hold_ratio`): the set moves over the interval by at most that share of its size, so a
-  variation that is linear over the interval leaves the held command at least that share of its
-  margin, and the interval's second-order bulge -- which a midpoint sample would show -- is
-  small against it when the set moves this little.  The held velocity commands must also keep
-  the claimed mode kinematically admissible at the waypoint (their mean rate has the sign of the
-  rate there).  An interval that fails is split at its middle, down to :data:`SHORTEST` of the
-  segment's duration: where the guaranteed set jumps (a rival's band appears within one
-  interval) no spacing helps, and the held command is then outside the guaranteed set for at
-  most that long -- a fifth of the judged steps' allowance (``1 - MODE_FRACTION``) for up to
-  :data:`SHORTEST_COUNT` such jumps.  Such intervals are reported (``Spacing.unresolved``).
+  the guaranteed set only at waypoints.  An interval is accepted when the sets guaranteed at its
+  two ends still hold a common ball of at least :data:`MARGIN_KEPT` of the larger end's own
+  radius (:func:`hold_ratio`): from one end to the other the set moves, shrinks or grows by at
+  most that share of its size, so a variation that is linear over the interval leaves the held
+  command at least that share of its margin, and the interval's second-order bulge -- which a
+  midpoint sample would show -- is small against it when the set changes this little.  The
+  held rates must also keep the claimed mode kinematically admissible at the waypoint (their
+  mean has the sign of the rate there).  An interval that fails is split at its middle, down to
+  :data:`SHORTEST` of the segment's duration: where the guaranteed set jumps or collapses within
+  one interval no spacing helps, and the held command is then outside it for at most that long
+  -- :data:`SHORTEST_COUNT` such intervals use a fifth of the judged steps' allowance
+  (``1 - MODE_FRACTION``).  They are reported (``Spacing.unresolved``).
 
-The initial grid is the trajectory's integration step (``max_time / steps``): the resolution at
+The initial grid is the trajectory's integration step (``max_time / steps``), the resolution at
 which the motion itself was followed.  Units: s.
 """
 
@@ -99,15 +98,19 @@ def initial_times(duration: float, step: float) -> np.ndarray:
 
 
 def hold_ratio(a: TorqueRegion, b: TorqueRegion) -> float:
-    """Radius of the largest ball in both regions over the smaller of their own radii
-    (``inf`` when both are unbounded; ``<= 0`` when they do not meet)."""
-    own = min(a.margin, b.margin)
-    if not own > 0:
+    """Radius of the largest ball in both regions over the larger of their own radii: at least
+    :data:`MARGIN_KEPT` when the guaranteed set neither moves nor shrinks or grows by more than
+    that share of its size from one end of a hold interval to the other (``<= 0`` when they
+    do not meet; 1 without effort joints, where a region is a point that holds or not)."""
+    if not min(a.margin, b.margin) > 0:
         return -math.inf
-    if a.A.shape[1] == 0:  # no effort joint: the mode holds at both ends or not
+    if a.A.shape[1] == 0:
         return 1.0
     _, r = chebyshev_centre(np.vstack([a.A, b.A]), np.concatenate([a.b, b.b]))
-    return r / own if math.isfinite(own) else (math.inf if r > 0 else -math.inf)
+    own = max(a.margin, b.margin)
+    if not math.isfinite(own):
+        return 1.0 if r > 0 else -math.inf
+    return r / own
 
 
 def interval_regions(hand: Hand, states: Trajectory, V: tuple[int, ...],
