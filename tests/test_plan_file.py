@@ -270,7 +270,7 @@ def test_cli_plan_writes_plan_and_figures(tmp_path, capsys):
     text = capsys.readouterr().out
     assert "claim S+1 S+2 S-3 S-4" in text
     assert "the workpiece moves 15.2 mm left, without turning" in text
-    assert "new contact (vertex 4 meets the left finger)" in text
+    assert "(new contact): vertex 4 meets the left finger" in text
 
 
 @pytest.mark.parametrize("args, match", [

@@ -290,10 +290,10 @@ def _nearest_failure(rejections: list[Rejection], depth: int) -> Rejection | Non
 
 def _what(root: Hand, c: _Child) -> str:
     """A tried child in plain words: what it releases and drives, which way the workpiece
-    moves, in which mode and until what."""
+    moves, in which mode and how it ends."""
     tr = c.trajectory
     rel = ", ".join(contact_words(root, r) for r in c.released)
     return (f"{'release ' + rel + ' and ' if rel else ''}drive "
             f"{drive_words(root, c.drive, c.speed)}: the workpiece "
-            f"{motion_words(tr.q[0], tr.q[-1], root.length_scale)} in {tr.mode} until "
-            f"{tr.event.detail} ({tr.event.kind} at t = {tr.event.t:.3g} s)")
+            f"{motion_words(tr.q[0], tr.q[-1], root.length_scale)} in {tr.mode}; it ends at "
+            f"t = {tr.event.t:.3g} s ({tr.event.kind}): {tr.event.detail}")

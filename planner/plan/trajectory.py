@@ -219,8 +219,8 @@ def integrate_segment(
 
     def step(qq: np.ndarray, dt: float) -> tuple[np.ndarray | None, str]:
         """``(state after dt, "")`` or ``(None, why)``: ``"mode"`` when the mode is not
-        admissible at an intermediate state, ``"closure"`` when the contacts cannot all stay
-        closed."""
+        admissible at an intermediate state, ``"closure: ..."`` (the closure's own message)
+        when the contacts cannot all stay closed."""
         k1 = rate(qq)
         k2 = rate(qq + 0.5 * dt * k1[0]) if k1 is not None else None
         k3 = rate(qq + 0.5 * dt * k2[0]) if k2 is not None else None
@@ -232,8 +232,8 @@ def integrate_segment(
             nxt[3 + d] = qq[3 + d] + v * dt
         try:
             return hand.close(nxt, fixed=fixed), ""
-        except DegenerateError:
-            return None, "closure"
+        except DegenerateError as exc:
+            return None, f"closure: {exc}"
 
     def event_at(qq: np.ndarray | None, why: str) -> tuple[Event | None, Rate | None]:
         """``(event or None, rate at qq)``; the rate is reused when the state is accepted.
@@ -319,9 +319,11 @@ def _event_words(hand: Hand, q: np.ndarray, q_past: np.ndarray | None, ev: Event
                                                                                at)
     if ev.kind != "mode change":
         return ev.detail
-    if ev.detail == "closure":
-        return ("past this point the contacts cannot all stay closed: the closure of "
-                + ", ".join(contact_words(hand, c) for c in hand.contacts) + " is singular")
+    if ev.detail.startswith("closure"):
+        why = ev.detail.removeprefix("closure: close: ")
+        return ("past this point the constraints of the contacts "
+                + ", ".join(contact_words(hand, c) for c in hand.contacts)
+                + f" become singular or ill-conditioned (the closure fails: {why})")
     return f"{label} stops being kinematically admissible: " + mode_change_words(
         hand, label, _admissible_near(hand, q, drives, speeds))
 

@@ -160,7 +160,7 @@ def _report(plan: Any, out: Path, seconds: float, figs: list[Path], verbose: boo
         unit = effort_unit(hand, seg.effort_joints)
         print(f"  {k + 1}. t = {fmt(start, '.3g')} s: claim {seg.claim}; control "
               f"{', '.join(seg.control)}; the workpiece {moves}; ends at t = "
-              f"{fmt(seg.duration(), '.3g')} s: {seg.event.kind} ({seg.event.detail}); "
+              f"{fmt(seg.duration(), '.3g')} s ({seg.event.kind}): {seg.event.detail}; "
               f"{len(seg.waypoints)} waypoints; smallest margin {fmt(seg.margins().min(), '.3g')}"
               + (f" {unit}" if unit else ""))
         unresolved = seg.extra.get("spacing", {}).get("unresolved_s", [])
@@ -186,25 +186,26 @@ def _report(plan: Any, out: Path, seconds: float, figs: list[Path], verbose: boo
 
 def diagnosis_lines(d: Any) -> list[str]:
     """A partial plan's diagnosis in plain words; fields that are absent are not printed."""
-    dist = d.get("distance_to_goal")
     why = "; ".join(str(n) for n in d.get("notes") or [] if n)
-    head = "stops short of the goal"
-    if isinstance(dist, (int, float)):
-        head += f" (distance {fmt(dist, '.3g')} in goal units"
-        head += f"; {why})" if why else ")"
-    elif why:
+    head = f"stops short of the goal after {d.get('after_segments', 0)} segment(s)"
+    if why:
         head += f" ({why})"
-    lines = [head + f" after {d.get('after_segments', 0)} segment(s)"]
+    dist = d.get("distance_to_goal")
+    if isinstance(dist, (int, float)):
+        head += (f"; distance to the goal {fmt(dist, '.3g')} (position error over the "
+                 "workpiece size + angle error over 90 deg + missing goal contacts)")
+    lines = [head]
     failed = d.get("failed")
     if not failed:
-        lines.append("no segment was tried there: none can start from this contact set")
+        lines.append("no segment could be tried there: none can start from this contact set")
         return lines
     if failed.get("what"):
         lines.append(f"furthest try: {failed['what']}")
     if failed.get("why"):
         at = failed.get("t")
-        lines.append("fails" + (f" at t = {fmt(at, '.3g')} s" if isinstance(at, (int, float))
-                                else "") + f": {failed['why']}")
+        lines.append("its guarantee fails" + (f" at t = {fmt(at, '.3g')} s"
+                                              if isinstance(at, (int, float)) else "")
+                     + f": {failed['why']}")
     widest = failed.get("widest_mu")
     if widest:
         lo, hi = widest
