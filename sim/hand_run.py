@@ -76,9 +76,8 @@ class Schedule:
     the next waypoint); ``poses`` (n, 3) predicted workpiece pose; ``predicted`` (n,)
     predicted label sets; ``claim``; ``controls`` (n_theta,) per joint ``"velocity"`` /
     ``"effort"`` (one per finger for single-link fingers). ``commands`` (n, n_theta): every
-    joint's command [rad/s, m/s, N m or N] per waypoint, for hands with several velocity or
-    effort joints (:meth:`from_region_plan`); empty: each joint takes ``velocity`` or
-    ``torque`` by its control (a plan file's one velocity and one effort joint).
+    joint's command [rad/s, m/s, N m or N] per waypoint (:meth:`from_plan`: the segment's
+    ``joint_commands()``); empty: each joint takes ``velocity`` or ``torque`` by its control.
     """
 
     times: tuple[float, ...]
