@@ -360,3 +360,13 @@ def test_the_segment_hand_is_parsed_once(saved, monkeypatch):
     assert seg.hand_model is seg.hand_model and calls == ["plan.hand"]  # cached
     assert hand.n_fingers == len(seg.control) and hand.n_contacts == len(seg.mu_intervals)
     np.testing.assert_allclose(q0[3:], seg.waypoints[0].angles, atol=1e-12)
+
+
+def test_cli_figures_of_a_segment_without_one_effort_joint(tmp_path, capsys):
+    """A velocity-only segment (the table push) has no Figures 10-13: its effort regions
+    (here the margin along the travel) are drawn instead."""
+    rc = main(["plan", "table_push_hand", "--out", str(tmp_path / "p.json"), "--figures",
+               str(tmp_path / "fig")])
+    assert rc == 0
+    assert [p.name for p in (tmp_path / "fig").iterdir()] == ["regions.png"]
+    assert "figure: " in capsys.readouterr().out

@@ -124,13 +124,18 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _figures(plan: Any, work: Path, final: Path) -> list[Path]:
-    """Figures 10-13 of a one-segment plan with one effort joint; a task's pictures."""
-    if len(plan.segments) == 1 and "curves" in plan.segments[0].extra:
-        from planner.plots.bounds import plot_bounds
-
-        return [final / f.name for f in plot_bounds(plan.segments[0], work)]
+    """Figures 10-13 of a one-segment plan with one effort joint, the effort regions of one
+    with several (or none), a task's pictures."""
     if not plan.segments:
         return []
+    if len(plan.segments) == 1 and "goal" not in plan.hand:
+        from planner.plots.bounds import plot_bounds, plot_regions
+
+        seg = plan.segments[0]
+        if "curves" in seg.extra:
+            return [final / f.name for f in plot_bounds(seg, work)]
+        return [final / f.name for f in plot_regions(seg, work,
+                                                     seg.hand_model.hand.joint_names())]
     from planner.files.hand_file import hand_file_from_dict
     from planner.plots.task import plot_task_regions, plot_task_story
 
