@@ -15,7 +15,7 @@ Each plan is validated at every value of its ``mu.validate`` list (the plan's ow
 agreed. The negative control (:func:`control_for`): the same plan at a friction outside its box
 where the planner's own prediction at the first waypoint no longer contains the claim (the
 box's ends scaled by :data:`CONTROL_FACTORS`), else the plan with its torques reversed
-(:func:`planner.plan.task_file.negative_control`); a control that agrees while the plan agreed
+(:func:`planner.plan.model.negative_control`); a control that agrees while the plan agreed
 is a false agreement.
 
 A plan whose run would last longer than :data:`MAX_RUN_S` simulated seconds (``slow motion``:
@@ -118,9 +118,9 @@ def planned(index: int, seed: int, folder: Path) -> dict[str, Any]:
 
 
 def _load(plan: str) -> Any:
-    from planner.plan.task_file import load_task_plan
+    from planner.plan.plan_file import load_plan
 
-    return load_task_plan(plan)
+    return load_plan(plan)
 
 
 def run_length(plan: str, engine: str, mu: Any) -> float:
@@ -271,10 +271,11 @@ def run_hand(index: int, engine: str, seed: int, root: Path, near: float, slip: 
         row["control_mu"] = cmu
         ctrl_plan = plan
     else:
-        from planner.plan.task_file import negative_control, save_task_plan
+        from planner.plan.model import negative_control
+        from planner.plan.plan_file import save_plan
 
         ctrl_plan = str(folder / "control_plan.json")
-        save_task_plan(negative_control(p), ctrl_plan)
+        save_plan(negative_control(p), ctrl_plan)
         cmu = np.asarray(p.validate_mu[len(p.validate_mu) // 2]).tolist()
     if run_length(ctrl_plan, engine, cmu) <= MAX_RUN_S:
         c = validate(ctrl_plan, engine, cmu, folder / engine / "control")

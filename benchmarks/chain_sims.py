@@ -1,6 +1,6 @@
 """Chain manipulators in both simulators: every case, its negative control.
 
-* Region plans of the chain-finger hands (``plan_regions`` on the hand file's segment and
+* Plans of the chain-finger hands (``plan_segment`` on the hand file's segment and
   friction interval) run at the interval's ends and middle on both engines
   (:func:`scenarios.runs.validate_plan`), and once with torques outside every region
   (:func:`planner.plan.negative_controls.outside_torques`) or, for a hand without an effort
@@ -26,7 +26,7 @@ from planner.files.atomic import atomic_write_json
 from planner.files.hand_file import load_hand_file
 from planner.files.system_file import load_system
 from planner.plan.negative_controls import outside_torques
-from planner.plan.region_planner import plan_regions
+from planner.plan.segment_planner import plan_segment
 from scenarios.runs import simulate_system, validate_plan
 from sim.settings import ENGINES
 
@@ -56,16 +56,17 @@ def hand_rows(engines=ENGINES):
         hf = load_hand_file(ROOT / "scenarios" / "data" / f"{name}.json")
         s = hf.segment
         mu = [list(p) for p in hf.mu_interval]
-        rp = plan_regions(hf.hand, hf.q0, drive=s.drives, speed=s.speeds, mode=s.mode,
-                          mu=mu if len(mu) > 1 else mu[0], max_time=s.max_time,
-                          steps=s.steps, waypoints=s.waypoints)
+        rp = plan_segment(hf.hand, hf.q0, data=hf.data, drive=s.drives, speed=s.speeds,
+                          mode=s.mode, mu=mu if len(mu) > 1 else mu[0],
+                          model="independent" if len(mu) > 1 else "common",
+                          max_time=s.max_time, steps=s.steps, waypoints=s.waypoints)
         lo, hi = np.array([p[0] for p in mu]), np.array([p[1] for p in mu])
         for frac in (0.0, 0.5, 1.0):
             m = lo + frac * (hi - lo)
             m_arg = m.tolist() if len(m) > 1 else float(m[0])
             for engine in engines:
                 t0 = time.perf_counter()
-                run = validate_plan(rp, engine, m_arg, hand=hf.hand, q0=hf.q0)
+                run = validate_plan(rp, engine, m_arg)
                 rows.append(_plan_row(name, rp, engine, m_arg, run, time.perf_counter() - t0))
                 print(rows[-1], flush=True)
         mid = 0.5 * (lo + hi)
@@ -73,13 +74,13 @@ def hand_rows(engines=ENGINES):
         for engine in engines:
             t0 = time.perf_counter()
             if rp.effort_joints:
-                run = validate_plan(rp, engine, m_arg, hand=hf.hand, q0=hf.q0,
+                run = validate_plan(rp, engine, m_arg,
                                     expect="disagree",
                                     torques=outside_torques(rp, hf.hand, m_arg))
                 kind = "negative: torques outside the regions"
             else:
                 m_arg2 = VELOCITY_ONLY_NEGATIVE
-                run = validate_plan(rp, engine, m_arg2, hand=hf.hand, q0=hf.q0,
+                run = validate_plan(rp, engine, m_arg2,
                                     expect="disagree")
                 kind = f"negative: mu {m_arg2}"
             rows.append(_plan_row(name, rp, engine, m_arg, run, time.perf_counter() - t0, kind))

@@ -22,7 +22,7 @@ from planner.files.atomic import atomic_write_json
 from planner.files.hand_file import load_hand
 from planner.plan.bounds import intervals, mode_rows
 from planner.plan.guarantee import guarantee
-from planner.plan.segment_planner import plan_hand
+from planner.plan.hand_planner import plan_hand
 from planner.plan.trajectory import integrate_segment
 from scenarios.registry import DATA_DIR
 
@@ -34,7 +34,7 @@ def main() -> None:
     times = []
     for _ in range(args.repeats):
         t0 = time.perf_counter()
-        plan = plan_hand(DATA_DIR / "two_finger_hand.json", mu=(0.0, 0.2))
+        plan = plan_hand(DATA_DIR / "two_finger_hand.json", mu=(0.0, 0.2)).segments[0]
         times.append(time.perf_counter() - t0)
     hand, q0, data = load_hand(DATA_DIR / "two_finger_hand.json")
     seg_spec = data["segment"]

@@ -20,8 +20,8 @@ from pathlib import Path
 
 from planner.files.atomic import atomic_write_json
 from planner.files.reader import read_json
+from planner.plan.hand_planner import plan_hand
 from planner.plan.plan_file import load_plan, save_plan
-from planner.plan.segment_planner import plan_hand
 from scenarios.registry import DATA_DIR
 
 

@@ -1,9 +1,9 @@
-"""Guaranteed torque regions checked by dense friction sampling on random hands (issue 16).
+"""Guaranteed torque regions checked by dense friction sampling on random hands.
 
 Random hands (:func:`planner.sweeps.random_hands.random_hand`: shipped hand files scaled,
 mirrored, jittered, with random friction boxes -- half of them drawn in ``[0.3, 0.9]``) are
-planned with :func:`planner.plan.region_planner.plan_regions` (``partial=True``: the waypoints a
-region exists for).  At every waypoint, torques inside the region -- its Chebyshev centre, the
+planned with :func:`planner.plan.segment_planner.plan_segment` (``partial=True``: the waypoints
+a region exists for).  At every waypoint, torques inside the region -- its Chebyshev centre, the
 held command, and points along random and axis directions 60-98 % of the way to the boundary
 (the last ones next to the vertices) -- are checked at friction vectors of the box (corners,
 a grid and uniform samples; one shared coefficient when the plan's model is ``common``) with
@@ -38,7 +38,9 @@ from planner.errors import FileFormatError, QsplanError
 from planner.files.atomic import atomic_write_json
 from planner.files.hand_file import hand_file_from_dict
 from planner.plan.bounds import box_points
-from planner.plan.region_planner import RegionPlan, joint_inputs, plan_regions
+from planner.plan.model import Segment
+from planner.plan.partition import joint_inputs
+from planner.plan.segment_planner import plan_segment
 from planner.predict.feasibility import feasible_modes
 from planner.sweeps.random_hands import random_hand
 
@@ -99,19 +101,27 @@ def bad_samples(system: Any, E: tuple[int, ...], tau: np.ndarray, mus: np.ndarra
     return out
 
 
-def check_plan(hand: Any, rp: RegionPlan, lo: np.ndarray, hi: np.ndarray,
+def region_model(rp: Segment, lo: np.ndarray, hi: np.ndarray) -> str:
+    """The friction set a planned segment's regions hold for: one shared coefficient with one
+    effort joint and one interval for every contact (the common model's band), else the box."""
+    one = len(rp.effort_joints) == 1 and np.all(lo == lo[0]) and np.all(hi == hi[0])
+    return "common" if one else "box"
+
+
+def check_plan(hand: Any, rp: Segment, lo: np.ndarray, hi: np.ndarray,
                rng: np.random.Generator, *, n_tau: int = 4, n_mu: int = 40,
                outside: bool = True) -> dict[str, Any]:
-    """Counts and violations of one plan (module docstring)."""
+    """Counts and violations of one planned segment (module docstring)."""
     V, E = rp.velocity_joints, rp.effort_joints
-    row: dict[str, Any] = {"claim": rp.claim, "p": len(E), "model": rp.mu_model,
+    model = region_model(rp, lo, hi)
+    row: dict[str, Any] = {"claim": rp.claim, "p": len(E), "model": model,
                            "waypoints": len(rp.waypoints), "torques": 0, "samples": 0,
                            "violations": [], "outside_factor": []}
-    for w in rp.waypoints:
+    for w, reg in zip(rp.waypoints, rp.regions, strict=True):
         base = hand.system(w.q, 0.0, joint_inputs(hand, V, w.velocity_commands))
-        reg = w.region
-        mus = frictions(lo, hi, rng, n_mu, rp.mu_model)
-        taus = torques_inside(reg.A, reg.b, reg.centre, rng, n_tau) + [w.torque_command]
+        mus = frictions(lo, hi, rng, n_mu, model)
+        taus = torques_inside(reg.A, reg.b, reg.centre, rng, n_tau) + [
+            np.array(w.torque_commands)]
         for tau in taus:
             bad = bad_samples(base, E, tau, mus, rp.claim)
             row["torques"] += 1
@@ -136,13 +146,14 @@ def check_plan(hand: Any, rp: RegionPlan, lo: np.ndarray, hi: np.ndarray,
     return row
 
 
-def plan_hand(d: dict[str, Any]) -> tuple[Any, RegionPlan, np.ndarray, np.ndarray]:
+def plan_hand(d: dict[str, Any]) -> tuple[Any, Segment, np.ndarray, np.ndarray]:
     hf = hand_file_from_dict(d)
     s, n_c = hf.segment, hf.hand.n_contacts
     mu = [list(p) for p in hf.mu_interval]
-    rp = plan_regions(hf.hand, hf.q0, drive=s.drives, speed=s.speeds, mode=s.mode,
-                      mu=mu if len(mu) > 1 else mu[0], max_time=s.max_time, steps=s.steps,
-                      waypoints=min(s.waypoints, 11), partial=True)
+    rp = plan_segment(hf.hand, hf.q0, data=d, drive=s.drives, speed=s.speeds, mode=s.mode,
+                      mu=mu if len(mu) > 1 else mu[0],
+                      model="independent" if len(mu) > 1 else "common", max_time=s.max_time,
+                      steps=s.steps, waypoints=min(s.waypoints, 11), partial=True)
     lo = np.array([p[0] for p in mu] * (n_c if len(mu) == 1 else 1))
     hi = np.array([p[1] for p in mu] * (n_c if len(mu) == 1 else 1))
     return hf.hand, rp, lo, hi

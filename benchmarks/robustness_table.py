@@ -269,8 +269,9 @@ def plan_campaign(n: int, seed: int, workdir: Path) -> Campaign:
         c.accepted += 1
         if kind != "re-signed" and not tfp.same_plan_content(plan, base_path):
             c.wrong_answer("tampered or corrupted plan accepted", example)
-        if kind == "re-signed" and not (np.all(np.isfinite(plan.poses()))
-                                        and np.all(np.diff(plan.times()) > 0)):
+        if kind == "re-signed" and not all(np.all(np.isfinite(s.poses()))
+                                           and np.all(np.diff(s.times()) > 0)
+                                           for s in plan.segments):
             c.wrong_answer("re-signed plan with non-finite poses or unordered times", example)
     c.notes.append(f"inputs per kind: {kinds}")
     return c

@@ -1,6 +1,6 @@
 """Benchmark: planning the whole two-finger task of Figure 9 (issue 16; target <= 10 s).
 
-Times :func:`planner.plan.task_file.plan_hand_task` on ``scenarios/data/figure9_task_hand.json``
+Times :func:`planner.plan.hand_planner.plan_hand` on ``scenarios/data/figure9_task_hand.json``
 (the best-first search over chains of guaranteed segments, every region over mu in [0, 0.2])
 and, in the same run, the single first segment (``plan_hand``) for scale.  Records the machine
 load.  Writes benchmarks/results/task_bench.json.
@@ -18,8 +18,7 @@ import time
 from pathlib import Path
 
 from planner.files.atomic import atomic_write_json
-from planner.plan.segment_planner import plan_hand
-from planner.plan.task_file import plan_hand_task
+from planner.plan.hand_planner import plan_hand
 from scenarios.registry import DATA_DIR
 
 
@@ -31,7 +30,7 @@ def main() -> None:
     plan = None
     for _ in range(args.repeats):
         t0 = time.perf_counter()
-        plan = plan_hand_task(DATA_DIR / "figure9_task_hand.json")
+        plan = plan_hand(DATA_DIR / "figure9_task_hand.json")
         task.append(time.perf_counter() - t0)
         t0 = time.perf_counter()
         plan_hand(DATA_DIR / "two_finger_hand.json", waypoints=21)

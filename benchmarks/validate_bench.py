@@ -1,7 +1,7 @@
 """Benchmark: plan the two-finger hand segment with uncertain-mu torque bounds, then
 validate the plan in pymunk and MuJoCo; writes ``benchmarks/results/validate_bench.json``.
 
-Reports the best of 3 wall times of :func:`planner.plan.segment_planner.plan_hand` (mu in [0, 0.2],
+Reports the best of 3 wall times of :func:`planner.plan.hand_planner.plan_hand` (mu in [0, 0.2],
 exact bounds; target <= 5 s), and per engine and per ``mu.validate`` value the wall time of
 :func:`scenarios.runs.validate_plan` on the full segment without drawing (target: one plan validated
 in both engines <= 60 s), with the simulated-seconds-per-wall-second ratio and the outcome
@@ -18,7 +18,7 @@ import time
 from pathlib import Path
 
 from planner.files.atomic import atomic_write_json
-from planner.plan.segment_planner import plan_hand
+from planner.plan.hand_planner import plan_hand
 from scenarios.registry import shipped_file
 from sim.settings import ENGINES
 
@@ -41,6 +41,7 @@ def main() -> None:
         plan = plan_hand(shipped_file("two_finger_hand"), mu=(0.0, 0.2), policy="midband")
         times.append(time.perf_counter() - t)
     mus = ([float(x) for x in args.mu.split(",")] if args.mu else list(plan.validate_mu))
+    plan = plan.segments[0]  # the plan's one segment
     runs = []
     for engine in ENGINES:
         for mu in mus:

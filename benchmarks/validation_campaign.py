@@ -61,7 +61,7 @@ from campaign_hands import hand_entries, refresh_where, run_hand  # noqa: E402
 
 NEAR = 0.03
 #: MuJoCo backend settings of every run (``--mujoco-backend-defaults``; ``None``: the system
-#: scenes' own, ``sim.system_run.SYSTEM_SETTINGS``)
+#: scenes' own, ``sim.settings.SETTINGS``)
 MUJOCO_SETTINGS: Any = None
 #: The classifier's slip threshold as a fraction of the drive speed (``sim.classify``).
 SLIP = 0.05

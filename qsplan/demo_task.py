@@ -1,8 +1,8 @@
 """The whole-task part of ``qsplan demo``: the Figure 9 task from the initial to the goal grasp,
 and the demo's runs and checks.
 
-* :func:`plan_task` -- plan ``figure9_task_hand`` (:func:`planner.plan.task_file.plan_hand_task`),
-  write ``task/plan_task.json`` (version 2), its negative control (every torque reversed, still
+* :func:`plan_task` -- plan ``figure9_task_hand`` (:func:`planner.plan.hand_planner.plan_hand`),
+  write ``task/plan_task.json``, its negative control (every torque reversed, still
   claiming every segment's mode: ``negative_control/task/plan_task_negative.json``) and the
   story pictures (``story/task_story.png``: start, segments, goal; ``story/task_regions.png``:
   the torque regions);
@@ -35,14 +35,16 @@ def plan_task(out: Path, render: bool) -> dict[str, Any]:
     """Plan the task and write its files below ``out``; returns ``plan``, ``path``,
     ``negative_path``, ``seconds``, ``goal`` (pose or None) and ``figures`` (names)."""
     from planner.files.hand_file import load_hand_file
-    from planner.plan.task_file import negative_control, plan_hand_task, save_task_plan
+    from planner.plan.hand_planner import plan_hand
+    from planner.plan.model import negative_control
+    from planner.plan.plan_file import save_plan
 
     t0 = time.perf_counter()
-    plan = plan_hand_task(shipped_file(TASK_SCENARIO))
+    plan = plan_hand(shipped_file(TASK_SCENARIO))
     seconds = time.perf_counter() - t0
-    path = save_task_plan(plan, out / "task" / "plan_task.json")
-    neg = save_task_plan(negative_control(plan),
-                         out / "negative_control" / "task" / "plan_task_negative.json")
+    path = save_plan(plan, out / "task" / "plan_task.json")
+    neg = save_plan(negative_control(plan),
+                    out / "negative_control" / "task" / "plan_task_negative.json")
     goal = load_hand_file(shipped_file(TASK_SCENARIO)).goal
     pose = None if goal is None or goal.pose is None else goal.pose
     figures = []
@@ -78,15 +80,14 @@ def run_demo_job(job: DemoRun) -> dict[str, Any]:
     """One run through the pipeline (:func:`scenarios.runs.validate_plan`); writes and returns
     its summary (plus, for the R2S control, where the rival was observed)."""
     from planner.plan.plan_file import load_plan
-    from planner.plan.task_file import load_task_plan
     from scenarios.runs import validate_plan, write_run
 
-    plan = load_task_plan(job.plan) if job.task else load_plan(job.plan)
+    plan = load_plan(job.plan)
     res = validate_plan(plan, job.engine, job.mu, waypoints=job.waypoints, name=job.name,
                         source=job.plan, expect=job.expect)
     extra: dict[str, Any] = {"folder": job.folder, "task": job.task}
     if job.expect == "disagree" and not job.task:
-        extra.update(_rival_stats(plan, res, job.waypoints))
+        extra.update(_rival_stats(plan.segments[0], res, job.waypoints))
     summary = write_run(res, job.out, render=job.render and not job.task, extra=extra)
     return summary
 
@@ -209,7 +210,7 @@ def task_report_lines(task: dict[str, Any], results: list[dict[str, Any]]) -> li
          *(["![start, segments and goal](story/task_story.png)\n"] if task["figures"] else []),
          f"Planned by the segment search (docs/planning.md) in {task['seconds']:.2f} s: "
          f"{len(plan.segments)} segments, goal reached: {plan.reached}. Plan: "
-         "`task/plan_task.json` (version 2).\n",
+         "`task/plan_task.json`.\n",
          "| segment | starts | claim | control | contacts kept | released | ends | smallest "
          "margin [N m] |", "|---|---|---|---|---|---|---|---|"]
     names = [f.get("name", f"finger {k}") for k, f in enumerate(plan.hand.get("fingers", []))]
@@ -218,7 +219,7 @@ def task_report_lines(task: dict[str, Any], results: list[dict[str, Any]]) -> li
         rel = "; ".join(_contact_text(c, names) for c in plan.released[k]) or "-"
         m = min(w.margin for w in seg.waypoints)
         L.append(f"| {k + 1} | {t0:.1f} s | `{seg.claim}` | {', '.join(seg.control)} | {kept} "
-                 f"| {rel} | {seg.event['kind']} ({seg.event['detail']}) | {m:.2e} |")
+                 f"| {rel} | {seg.event.kind} ({seg.event.detail}) | {m:.2e} |")
     L.append("")
     if task["figures"]:
         L.append("Torque regions along the task (commanded torque and its guaranteed ball):\n")

@@ -180,7 +180,7 @@ def _plans_table(root: Path, plans: tuple[Path, ...]) -> str:
                         "</tr>")
             continue
         segments = data.get("segments")
-        if isinstance(segments, list):  # version 2: one row per segment
+        if isinstance(segments, list):  # versions 2 and 3: one row per segment
             for k, seg in enumerate(segments):
                 if isinstance(seg, dict):
                     rows.append(_plan_row(f"{shown(rel)} segment {k + 1}", {**data, **seg}))
@@ -191,7 +191,7 @@ def _plans_table(root: Path, plans: tuple[Path, ...]) -> str:
 
 
 def _plan_row(name: str, data: dict) -> str:
-    """One plans-table row of a version-1 plan, or of a version-2 segment merged with the
+    """One plans-table row of a version-1 plan, or of a later version's segment merged with the
     plan's top level."""
     esc = html.escape
     wps = data.get("waypoints")

@@ -11,14 +11,15 @@ from scenarios.registry import Expect, Scenario, register, shipped_file
 
 def _plan(out_dir: Path, policy: str, **options: Any) -> dict[str, Any]:
     from planner.files.atomic import atomic_write_json
+    from planner.plan.hand_planner import plan_hand
     from planner.plan.plan_file import save_plan
-    from planner.plan.segment_planner import plan_hand
     from planner.plots.bounds import margin_summary, plot_bounds
 
-    plan = plan_hand(shipped_file("two_finger_hand"), mu=tuple(options.get("mu", (0.0, 0.2))),
-                     policy=policy, waypoints=options.get("waypoints"))
+    whole = plan_hand(shipped_file("two_finger_hand"), mu=tuple(options.get("mu", (0.0, 0.2))),
+                      policy=policy, waypoints=options.get("waypoints"))
     out_dir = Path(out_dir)
-    path = save_plan(plan, out_dir / "plan.json")
+    path = save_plan(whole, out_dir / "plan.json")
+    plan = whole.segments[0]
     figs = plot_bounds(plan, out_dir)
     curves = plan.extra["curves"]["modes"]
     r2s = curves.get("R1 B2 S-3 S-4", {}).get("at_hi", [])
@@ -27,7 +28,7 @@ def _plan(out_dir: Path, policy: str, **options: Any) -> dict[str, Any]:
     summary = {
         "scenario": "hand_plan" if policy == "midband" else "hand_plan_r2s",
         "status": "info", "plan": str(path), "figures": [str(f) for f in figs], "claim": plan.claim,
-        "control": list(plan.control), "policy": plan.policy, "event": dict(plan.event),
+        "control": list(plan.control), "policy": plan.policy, "event": plan.event.to_dict(),
         "travel_mm": 1e3 * plan.travel(), "exact": plan.exact,
         "r2s_feasible_until_fraction_of_travel": (travel[last] / travel[-1]
                                                   if last is not None else None),
@@ -57,22 +58,22 @@ register(Scenario(name="hand_plan_r2s", summary="negative-control plan: R2S-band
 
 
 def run_hand_task_plan(out_dir: Path, **options: Any) -> dict[str, Any]:
-    """Plan the whole Figure 9 task (docs/planning.md): the version-2 plan, the story figures
+    """Plan the whole Figure 9 task (docs/planning.md): the plan, the story figures
     and a summary (segments, claims, events, smallest margins, reached)."""
     from planner.files.atomic import atomic_write_json
-    from planner.plan.task_file import plan_hand_task, save_task_plan
+    from planner.plan.hand_planner import plan_hand
+    from planner.plan.plan_file import save_plan
     from planner.plots.task import plot_task_regions, plot_task_story
 
-    plan = plan_hand_task(shipped_file("figure9_task_hand"),
-                          mu=tuple(options.get("mu", (0.0, 0.2))))
+    plan = plan_hand(shipped_file("figure9_task_hand"), mu=tuple(options.get("mu", (0.0, 0.2))))
     out_dir = Path(out_dir)
-    path = save_task_plan(plan, out_dir / "plan_task.json")
+    path = save_plan(plan, out_dir / "plan_task.json")
     figs = [plot_task_story(plan, out_dir), plot_task_regions(plan, out_dir)]
     summary = {
         "scenario": "hand_task_plan", "status": "info", "plan": str(path),
         "figures": [str(f) for f in figs], "reached": plan.reached,
         "segments": [{"claim": seg.claim, "control": list(seg.control),
-                      "event": dict(seg.event), "start_s": float(t0),
+                      "event": seg.event.to_dict(), "start_s": float(t0),
                       "smallest_margin": min(w.margin for w in seg.waypoints)}
                      for seg, t0 in zip(plan.segments, plan.start_times())],
         "diagnosis": plan.diagnosis,

@@ -64,14 +64,14 @@ def simulate_system(system: System, engine: str, *, mu: Any = None, mu_kinetic: 
 
 
 def validate_plan(plan: Any, engine: str, mu: Any, *, waypoints: int | None = None,
-                  hand: Any = None, q0: Any = None, torques: np.ndarray | None = None,
+                  torques: np.ndarray | None = None,
                   name: str | None = None, source: str | None = None,
                   expect: Expect | str = Expect.AGREE) -> RunResult:
-    """Run ``plan`` (a whole task, one segment, or a region plan of ``hand`` at ``q0``) in
-    ``engine`` at friction ``mu`` and judge every segment and the whole; ``torques`` replaces
-    a region plan's torques and ``waypoints`` shortens a one-segment plan (negative controls and
-    short runs)."""
-    return execute(job_for_plan(plan, engine, mu, hand=hand, q0=q0, torques=torques,
+    """Run ``plan`` (a :class:`planner.plan.model.Plan` or one of its segments) in ``engine``
+    at friction ``mu`` and judge every segment and the whole; ``torques`` replaces a
+    one-segment plan's efforts and ``waypoints`` shortens it (negative controls and short
+    runs)."""
+    return execute(job_for_plan(plan, engine, mu, torques=torques,
                                 waypoints=waypoints, name=name or "validate", source=source,
                                 expect=Expect.parse(expect)))
 
@@ -182,7 +182,7 @@ def _shipped_plan(source: str, mu: tuple[float, ...], policy: str) -> Any:
     process)."""
     key = (source, tuple(mu), policy)
     if key not in _PLANS:
-        from planner.plan.segment_planner import plan_hand
+        from planner.plan.hand_planner import plan_hand
         from scenarios.registry import shipped_file
 
         _PLANS[key] = plan_hand(shipped_file(source), mu=tuple(mu), policy=policy)

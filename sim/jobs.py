@@ -32,7 +32,6 @@ from typing import Any
 import numpy as np
 
 from planner.errors import InputError
-from planner.model.hand import Hand
 from planner.model.system import System
 from planner.model.wedge import wedge_pairs
 from sim.backends import make_backend
@@ -257,15 +256,15 @@ def job_for_system(system: System, engine: str, prediction: Any, *,
 
 
 # ---- plans --------------------------------------------------------------------------------
-def job_for_plan(plan: Any, engine: str, mu: Any, *, hand: Hand | None = None, q0: Any = None,
-                 torques: np.ndarray | None = None, waypoints: int | None = None,
+def job_for_plan(plan: Any, engine: str, mu: Any, *, torques: np.ndarray | None = None,
+                 waypoints: int | None = None,
                  name: str = "", source: str | None = None, expect: Expect = Expect.AGREE,
                  parameters: dict[str, Any] | None = None) -> SimJob:
-    """The job of running ``plan`` (a whole task, one segment, or a region plan of ``hand``
-    at ``q0``) in ``engine`` at friction ``mu`` (one coefficient, or one per contact of the
+    """The job of running ``plan`` (a :class:`planner.plan.model.Plan` or one of its
+    segments) in ``engine`` at friction ``mu`` (one coefficient, or one per contact of the
     plan's contact union) and judging every segment and the whole. ``torques`` replaces a
-    region plan's torque vectors (a negative control); ``waypoints`` runs only the first so
-    many waypoints of a one-segment plan. Slow motion: a plan whose fastest contact would move
+    one-segment plan's efforts (a negative control); ``waypoints`` runs only the first so
+    many waypoints of it. Slow motion: a plan whose fastest contact would move
     faster than the settings' drive speed runs that many times slower (every rate divided,
     every time multiplied: the quasistatic modes do not change)."""
     from planner.model.validation import as_friction
@@ -273,7 +272,7 @@ def job_for_plan(plan: Any, engine: str, mu: Any, *, hand: Hand | None = None, q
 
     kind = SceneKind.HAND
     es = settings_for(kind, engine)
-    lay = plan_layout(plan, hand=hand, q0=q0, torques=torques, waypoints=waypoints)
+    lay = plan_layout(plan, torques=torques, waypoints=waypoints)
     h = lay.hand
     size = h.length_scale
     s = scene_scale(size)

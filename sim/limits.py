@@ -49,7 +49,7 @@ COORD_MAX = 1e10
 across, coordinates 2e11 m; Chipmunk aborts from about 1e154 m)."""
 STEP_OF_SCALE = 1e-6
 """The smallest motion per step the project simulates, relative to ``length_scale``: slow
-motion at 1e-3 length scales per second (``sim.system_run.RATE`` is 5e-3-2e-2) with 1 ms
+motion at 1e-3 length scales per second (the system scenes' drive, ``sim.settings``, is 5e-3-2e-2) with 1 ms
 steps."""
 COORD_OF_SCALE = 1e-3 * STEP_OF_SCALE / np.finfo(float).eps
 """Largest coordinate magnitude relative to ``length_scale`` (4.5e6): the rounding of a

@@ -1,8 +1,8 @@
 """A plan as a run: one scene holding every contact of every segment, each joint's command over
 the whole plan, the times its control mode switches, and what each segment predicts.
 
-Reads only the plan (a whole-task plan, a one-segment plan, or a region plan of any hand with
-its hand): nothing of the planner's internals. A single-segment plan is a task of one segment.
+Reads only the plan (:class:`planner.plan.model.Plan` or one of its segments): nothing of the
+planner's internals. A single-segment plan is a task of one segment.
 
 Contacts: the union of all segments' contacts, in order of first appearance (a contact is the
 same when its hand-file object is); pair ``c<i>`` of the scene is the ``i``-th contact of that
@@ -55,55 +55,30 @@ class SegmentSchedule:
     poses: np.ndarray
 
     @classmethod
-    def from_segment(cls, seg: Any, n_contacts: int) -> SegmentSchedule:
-        """A plan segment's commands and predictions (mode labels parsed once): per waypoint
-        ``t``, ``pose``, ``predicted`` and the joints' commands (``velocity_commands`` /
-        ``torque_commands`` in joint order by control, or the one ``velocity_command`` and
-        ``torque_command`` of a single-partition segment)."""
+    def from_segment(cls, seg: Any, n_contacts: int,
+                     torques: np.ndarray | None = None) -> SegmentSchedule:
+        """A plan segment's commands and predictions (:class:`planner.plan.model.Segment`;
+        mode labels parsed once): per waypoint ``t``, ``pose``, ``predicted`` and every joint's
+        command (``Segment.joint_commands``). ``torques`` (n, p) replaces the planned efforts
+        of the ``p`` effort-controlled joints (a negative control)."""
         claim = Mode.parse(seg.claim, n_contacts)
         controls = tuple(seg.control)
-        rows = []
-        for w in seg.waypoints:
-            vel = list(getattr(w, "velocity_commands", ()) or [w.velocity_command])
-            tau = list(getattr(w, "torque_commands", ()) or [w.torque_command])
-            v_it, t_it = iter(vel), iter(tau)
-            rows.append([float(next(v_it) if c == "velocity" else next(t_it))
-                         for c in controls])
+        cmd = np.asarray(seg.joint_commands(), dtype=float).reshape(len(seg.waypoints),
+                                                                    len(controls))
+        if torques is not None:
+            E = [j for j, c in enumerate(controls) if c == "effort"]
+            tau = np.asarray(torques, dtype=float)
+            if tau.shape != (len(seg.waypoints), len(E)):
+                raise InputError(f"torques: expected ({len(seg.waypoints)}, {len(E)}), got "
+                                 f"{tau.shape}")
+            cmd = cmd.copy()
+            cmd[:, E] = tau
         return cls(
-            times=np.array([float(w.t) for w in seg.waypoints]),
-            commands=np.array(rows, dtype=float).reshape(len(rows), len(controls)),
+            times=np.array([float(w.t) for w in seg.waypoints]), commands=cmd,
             controls=controls, claim=claim,
             predicted=tuple(frozenset(Mode.parse(lab, n_contacts) for lab in w.predicted)
                             or frozenset({claim}) for w in seg.waypoints),
             poses=np.array([[float(x) for x in w.pose[:3]] for w in seg.waypoints]),
-        )
-
-    @classmethod
-    def from_region_plan(cls, plan: Any, n_contacts: int,
-                         torques: np.ndarray | None = None) -> SegmentSchedule:
-        """The commands and predictions of a region plan (any hand): per waypoint the
-        velocity joints' rates and the effort joints' torque vector; the claim is the only
-        predicted mode (the region excludes every rival over the friction box). ``torques``
-        (n, p) replaces the planned torque vectors (a negative control)."""
-        wps = plan.waypoints
-        n_j = len(plan.velocity_joints) + len(plan.effort_joints)
-        tau = np.array([w.torque_command for w in wps], dtype=float).reshape(len(wps), -1)
-        if torques is not None:
-            tau = np.asarray(torques, dtype=float).reshape(len(wps), -1)
-            if tau.shape[1] != len(plan.effort_joints):
-                raise InputError(f"torques: expected ({len(wps)}, {len(plan.effort_joints)}), "
-                                 f"got {np.shape(torques)}")
-        cmd = np.zeros((len(wps), n_j))
-        cmd[:, list(plan.velocity_joints)] = [np.asarray(w.velocity_commands, dtype=float)
-                                              for w in wps]
-        cmd[:, list(plan.effort_joints)] = tau
-        claim = Mode.parse(plan.claim, n_contacts)
-        return cls(
-            times=np.array([float(w.t) for w in wps]), commands=cmd,
-            controls=tuple("velocity" if j in plan.velocity_joints else "effort"
-                           for j in range(n_j)),
-            claim=claim, predicted=tuple(frozenset({claim}) for _ in wps),
-            poses=np.array([np.asarray(w.q, dtype=float)[:3] for w in wps]),
         )
 
     def slowed(self, factor: float) -> SegmentSchedule:
@@ -225,29 +200,25 @@ class PlanLayout:
                             self.hand.length_scale)
 
 
-def plan_layout(plan: Any, *, hand: Hand | None = None, q0: Any = None,
-                torques: np.ndarray | None = None, waypoints: int | None = None) -> PlanLayout:
-    """The :class:`PlanLayout` of ``plan``: a whole-task plan (``segments``, ``contacts``), a
-    one-segment plan (``hand_model``, ``waypoints``) or a region plan of ``hand`` at ``q0``
-    (``torques`` replaces its planned torque vectors: a negative control). ``waypoints``: run
-    only the first so many waypoints of a one-segment plan (a shorter run of it)."""
-    if hasattr(plan, "velocity_joints") and hasattr(plan, "effort_joints"):  # a region plan
-        if hand is None or q0 is None:
-            raise InputError("plan_layout: a region plan needs its hand and start q0")
-        sched = SegmentSchedule.from_region_plan(plan, hand.n_contacts, torques)
-        parts = [(hand, np.asarray(q0, dtype=float), sched, tuple(range(hand.n_contacts)))]
-    else:
-        segs = list(plan.segments) if hasattr(plan, "segments") else [plan]
-        lists = (list(plan.contacts) if hasattr(plan, "segments")
-                 else [list(plan.hand.get("contacts", []))])
-        parts = []
-        for seg, cs in zip(segs, lists):
-            h, q = seg.hand_model
-            if len(cs) != h.n_contacts:
-                raise InputError(f"plan: expected {h.n_contacts} contact objects for a "
-                                 f"segment, got {len(cs)}")
-            parts.append((h, np.asarray(q, dtype=float),
-                          SegmentSchedule.from_segment(seg, h.n_contacts), tuple(cs)))
+def plan_layout(plan: Any, *, torques: np.ndarray | None = None,
+                waypoints: int | None = None) -> PlanLayout:
+    """The :class:`PlanLayout` of ``plan``: a :class:`planner.plan.model.Plan` (any file
+    version) or one of its :class:`~planner.plan.model.Segment` (a plan of one segment).
+    ``torques`` (n, p) replaces the planned efforts of a one-segment plan (a negative control);
+    ``waypoints``: run only its first so many waypoints (a shorter run of it)."""
+    segs = list(plan.segments) if hasattr(plan, "segments") else [plan]
+    if (torques is not None or waypoints is not None) and len(segs) != 1:
+        raise InputError(f"torques, waypoints: expected a one-segment plan, got {len(segs)} "
+                         "segments")
+    parts = []
+    for seg in segs:
+        h, q = seg.hand_model
+        cs = list(seg.contacts)
+        if len(cs) != h.n_contacts:
+            raise InputError(f"plan: expected {h.n_contacts} contact objects for a "
+                             f"segment, got {len(cs)}")
+        parts.append((h, np.asarray(q, dtype=float),
+                      SegmentSchedule.from_segment(seg, h.n_contacts, torques), tuple(cs)))
     if waypoints is not None:
         if len(parts) != 1:
             raise InputError(f"waypoints: expected a one-segment plan, got {len(parts)} "

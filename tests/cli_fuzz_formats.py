@@ -55,10 +55,10 @@ def make_formats(fx: Fixtures, task_plan: Path | None = None) -> Formats:
         copies[name] = root / f"{name}.json"
         copies[name].write_bytes(src.read_bytes())
     if task_plan is None:
-        from planner.plan.task_file import plan_hand_task, save_task_plan
+        from planner.plan.hand_planner import plan_hand
+        from planner.plan.plan_file import save_plan
 
-        task_plan = save_task_plan(plan_hand_task(copies["any_hand"], waypoints=3),
-                                   root / "task_plan.json")
+        task_plan = save_plan(plan_hand(copies["any_hand"], waypoints=3), root / "task_plan.json")
     else:
         task_plan = Path(task_plan)
     run = root / "hostile_run"

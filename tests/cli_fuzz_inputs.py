@@ -33,8 +33,8 @@ class Fixtures:
 
 def make_fixtures(root: Path) -> Fixtures:
     """Valid system, hand and plan files (a 4-waypoint plan), special files and a run folder."""
+    from planner.plan.hand_planner import plan_hand
     from planner.plan.plan_file import save_plan
-    from planner.plan.segment_planner import plan_hand
 
     root.mkdir(parents=True, exist_ok=True)
     system = root / "system.json"

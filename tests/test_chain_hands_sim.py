@@ -1,11 +1,11 @@
-"""Hands with chain fingers in both simulators (issue 16): geometry, joint efforts, region plans.
+"""Hands with chain fingers in both simulators: geometry, joint efforts, region plans.
 
 * Every link built as a body sits where the planner's forward kinematics
   (:meth:`planner.model.hand.Hand.links_at`) puts it, at the start and after the joints moved
   at known rates (both engines), and :func:`sim.scenes.hand.joint_coordinates` inverts it.
 * An effort on a joint between two links accelerates the child link as ``u / I_joint``
   (revolute) or ``u / m`` (prismatic): sign and size of the chain efforts.
-* Region plans of the chain hands (:func:`planner.plan.region_planner.plan_regions`) run in
+* Plans of the chain hands (:func:`planner.plan.segment_planner.plan_segment`) run in
   both engines and agree; the same run with torque vectors outside every region (where the
   planner predicts a rival) disagrees.
 """
@@ -21,7 +21,8 @@ import pytest
 from planner.errors import InputError
 from planner.files.hand_file import load_hand_file
 from planner.plan.negative_controls import outside_torques
-from planner.plan.region_planner import joint_inputs, plan_regions
+from planner.plan.partition import joint_inputs
+from planner.plan.segment_planner import plan_segment
 from planner.predict.feasibility import feasible_modes
 from scenarios.runs import validate_plan
 from sim.backends import ENGINES, EngineSettings, make_backend
@@ -152,9 +153,10 @@ def _region_plan(name):
     hand, q0, hf = _hand(name)
     s = hf.segment
     mu = [list(p) for p in hf.mu_interval]
-    rp = plan_regions(hand, q0, drive=s.drives, speed=s.speeds, mode=s.mode,
-                      mu=mu if len(mu) > 1 else mu[0], max_time=s.max_time, steps=s.steps,
-                      waypoints=s.waypoints)
+    rp = plan_segment(hand, q0, data=hf.data, drive=s.drives, speed=s.speeds, mode=s.mode,
+                      mu=mu if len(mu) > 1 else mu[0],
+                      model="independent" if len(mu) > 1 else "common", max_time=s.max_time,
+                      steps=s.steps, waypoints=s.waypoints)
     lo = np.array([p[0] for p in mu])
     hi = np.array([p[1] for p in mu])
     mid = 0.5 * (lo + hi)
@@ -176,7 +178,7 @@ def test_the_squeeze_force_stiffens_mujoco_hand_contacts():
     """effort_force: |tau| / longest normal lever (eq. 3 without friction), by hand; the
     MuJoCo masses follow it, pymunk's do not."""
     hand, q0, rp, _ = _region_plan("three_finger_hand")
-    sched = SegmentSchedule.from_region_plan(rp, hand.n_contacts)
+    sched = SegmentSchedule.from_segment(rp, hand.n_contacts)
     cmd = sched.commands
     J = hand.jacobian(q0)
     by_hand = max(float(np.max(np.abs(cmd[:, j]))) / float(np.max(np.abs(J[:, 0, j])))
@@ -199,7 +201,7 @@ def test_the_squeeze_force_stiffens_mujoco_hand_contacts():
 
 def _check_agrees(name, engine, waypoints):
     hand, q0, rp, mu = _region_plan(name)
-    run = validate_plan(rp, engine, mu, hand=hand, q0=q0, waypoints=waypoints)
+    run = validate_plan(rp, engine, mu, waypoints=waypoints)
     assert run.verdict.outcome is Outcome.AGREED, run.verdict.reasons
     assert run.summary.passed and run.summary.predicted["claims"] == [rp.claim]
     assert run.verdict.judged_steps > 100
@@ -223,9 +225,9 @@ def test_torques_outside_the_region_disagree(name, engine):
     hand, q0, rp, mu = _region_plan(name)
     tau = outside_torques(rp, hand, mu)
     # the negative control is one: outside every region, the planner predicts a rival there
-    for w, t in zip(rp.waypoints, tau):
-        assert not w.region.contains(t)
-    run = validate_plan(rp, engine, mu, hand=hand, q0=q0, torques=tau, expect="disagree")
+    for reg, t in zip(rp.regions, tau):
+        assert not reg.contains(t)
+    run = validate_plan(rp, engine, mu, torques=tau, expect="disagree")
     assert run.verdict.outcome is Outcome.DISAGREED, run.verdict.reasons
     assert run.summary.passed
 
@@ -240,20 +242,21 @@ def test_velocity_only_plan_at_friction_outside_its_box_disagrees(engine):
     w = rp.waypoints[0]
     system = hand.system(w.q, mu, joint_inputs(hand, rp.velocity_joints, w.velocity_commands))
     assert rp.claim not in feasible_modes(system).labels
-    run = validate_plan(rp, engine, mu, hand=hand, q0=q0, expect="disagree", waypoints=3)
+    run = validate_plan(rp, engine, mu, expect="disagree", waypoints=3)
     assert run.verdict.outcome is Outcome.DISAGREED, run.verdict.reasons
 
 
 def test_region_schedule_commands_every_joint():
     hand, q0, rp, _ = _region_plan("three_finger_hand")
-    sched = SegmentSchedule.from_region_plan(rp, hand.n_contacts)
+    sched = SegmentSchedule.from_segment(rp, hand.n_contacts)
     cmd = sched.commands
     assert cmd.shape == (len(rp.waypoints), 3)
-    assert np.allclose(cmd[:, list(rp.effort_joints)], [w.torque_command for w in rp.waypoints])
+    assert np.allclose(cmd[:, list(rp.effort_joints)], [w.torque_commands for w in rp.waypoints])
+    assert np.array_equal(cmd, rp.joint_commands())
     assert sched.controls == ("velocity", "effort", "effort")
     slow = sched.slowed(4.0)
     assert np.allclose(slow.commands[:, 0], cmd[:, 0] / 4.0)
     assert np.allclose(slow.commands[:, 1:], cmd[:, 1:])
     assert slow.times[-1] == pytest.approx(4.0 * sched.times[-1])
     with pytest.raises(InputError, match=r"torques: expected \(11, 2\)"):
-        SegmentSchedule.from_region_plan(rp, hand.n_contacts, np.zeros((11, 3)))
+        SegmentSchedule.from_segment(rp, hand.n_contacts, np.zeros((11, 3)))

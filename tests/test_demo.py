@@ -18,7 +18,7 @@ R2S = "R1 B2 S-3 S-4"
 
 @pytest.fixture(scope="module")
 def small_plans():
-    from planner.plan.segment_planner import plan_hand
+    from planner.plan.hand_planner import plan_hand
 
     return {p: plan_hand(HAND_FILE, mu=(0.0, 0.2), policy=p, waypoints=5)
             for p in ("midband", "rival:R2S")}
@@ -26,9 +26,9 @@ def small_plans():
 
 @pytest.fixture(scope="module")
 def task_plan():
-    from planner.plan.task_file import plan_hand_task
+    from planner.plan.hand_planner import plan_hand
 
-    return plan_hand_task(DATA_DIR / "figure9_task_hand.json", waypoints=5)
+    return plan_hand(DATA_DIR / "figure9_task_hand.json", waypoints=5)
 
 
 def _stub(negative_passes: bool, segment_fails: bool):
@@ -68,12 +68,13 @@ def test_demo_expectations(small_plans, task_plan, monkeypatch, tmp_path, capsys
                            negative_passes, segment_fails, code):
     """All expectations held -> 0; a negative control that passes validation, or one segment
     of the whole task that disagrees -> 1."""
-    import planner.plan.segment_planner as hp
-    import planner.plan.task_file as tf
+    import planner.plan.hand_planner as hp
     import qsplan.commands.demo as demo
 
-    monkeypatch.setattr(hp, "plan_hand", lambda s, mu, policy: small_plans[policy])
-    monkeypatch.setattr(tf, "plan_hand_task", lambda path: task_plan)
+    def planned(source, mu=None, policy=None):
+        return task_plan if policy is None else small_plans[policy]
+
+    monkeypatch.setattr(hp, "plan_hand", planned)
     monkeypatch.setattr(demo, "run_demo_job", _stub(negative_passes, segment_fails))
     out = tmp_path / "report"
     assert main(["demo", "--out", str(out), "--jobs", "1", "--no-render"]) == code

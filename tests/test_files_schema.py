@@ -77,7 +77,7 @@ def doc_examples() -> list[tuple[str, str, dict, bool]]:
 
 @pytest.fixture(scope="module")
 def plan_dict(tmp_path_factory) -> dict:
-    from planner.plan.segment_planner import plan_hand
+    from planner.plan.hand_planner import plan_hand
 
     path = save_plan(plan_hand(DATA / "two_finger_hand.json", waypoints=3),
                      tmp_path_factory.mktemp("plan") / "plan.json")
@@ -225,22 +225,43 @@ def _hand_cases() -> list[tuple[str, Any, bool]]:
     ]
 
 
+V1 = json.loads((ROOT / "tests" / "data" / "plan_v1_two_finger.json").read_text())
+V2 = json.loads((ROOT / "tests" / "data" / "plan_v2_three_finger.json").read_text())
+
+
 def _plan_cases(p: dict) -> list[tuple[str, Any, bool]]:
+    def seg(d):
+        return d["segments"][0]
+
+    def wp(d):
+        return d["segments"][0]["waypoints"][0]
+
     return [
         ("written", p, True),
-        ("without optional keys", _edit(p, lambda d: [d.pop(k) for k in ("exact", "notes",
-                                                                           "extra")]), True),
+        ("version 1", V1, True),
+        ("version 2", V2, True),
+        ("version 1 without optional keys",
+         _edit(V1, lambda d: [d.pop(k) for k in ("exact", "notes", "extra")]), True),
+        ("version 1, two efforts", _edit(V1, lambda d: d.update(control=["effort", "effort"])),
+         False),
+        ("version 1, band of 3", _edit(V1, lambda d: d["waypoints"][0].update(band=[0, 1, 2])),
+         False),
+        ("version 2, no band", _edit(V2, lambda d: seg(d)["waypoints"][0].pop("band")), False),
+        ("without segment notes", _edit(p, lambda d: seg(d).pop("notes")), False),
         ("unknown top key", _edit(p, lambda d: d.update(author="me")), False),
-        ("unknown waypoint key", _edit(p, lambda d: d["waypoints"][0].update(force=1)), False),
-        ("waypoint without margin", _edit(p, lambda d: d["waypoints"][0].pop("margin")), False),
-        ("event without t", _edit(p, lambda d: d["event"].pop("t")), False),
+        ("unknown waypoint key", _edit(p, lambda d: wp(d).update(force=1)), False),
+        ("waypoint without margin", _edit(p, lambda d: wp(d).pop("margin")), False),
+        ("version-2 waypoint keys", _edit(p, lambda d: wp(d).update(torque_command=0.0)), False),
+        ("event without t", _edit(p, lambda d: seg(d)["event"].pop("t")), False),
+        ("unknown event kind", _edit(p, lambda d: seg(d)["event"].update(kind="bump")), False),
         ("unknown mu key", _edit(p, lambda d: d["mu"].update(grid=5)), False),
-        ("two efforts", _edit(p, lambda d: d.update(control=["effort", "effort"])), False),
-        ("no effort", _edit(p, lambda d: d.update(control=["velocity", "velocity"])), False),
+        ("no velocity joint", _edit(p, lambda d: seg(d).update(control=["effort", "effort"])),
+         False),
         ("model box", _edit(p, lambda d: d["mu"].update(model="box")), False),
         ("md5", _edit(p, lambda d: d["digest"].update(algorithm="md5")), False),
-        ("one waypoint", _edit(p, lambda d: d.update(waypoints=d["waypoints"][:1])), False),
-        ("band of 3", _edit(p, lambda d: d["waypoints"][0].update(band=[0, 1, 2])), False),
+        ("one waypoint", _edit(p, lambda d: seg(d).update(waypoints=seg(d)["waypoints"][:1])),
+         False),
+        ("band of 3", _edit(p, lambda d: wp(d).update(bands=[[0, 1, 2]])), False),
         ("prismatic hand", _edit(p, lambda d: d["hand"]["fingers"][0].update(type="prismatic")),
          False),
         ("hand unknown key", _edit(p, lambda d: d["hand"].update(tabel=1)), False),

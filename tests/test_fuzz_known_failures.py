@@ -15,7 +15,7 @@ DATA = ROOT / "scenarios" / "data"
 
 HAND_FILE = ("planner/files/hand_file.py (formats owner): validate the field at load time and "
              "raise FileFormatError naming it, expected vs got, exit 2")
-PLAN_LOADER = ("planner/plan (plan-loader owner): load_task_plan must check the plan's internal "
+PLAN_LOADER = ("planner/plan (plan-loader owner): load_plan must check the plan's internal "
                "consistency and refuse it (FileFormatError, exit 2)")
 
 
@@ -91,13 +91,13 @@ def test_unbounded_segment_steps_are_bad_input(tmp_path):
 
 @pytest.fixture(scope="module")
 def task_plan(tmp_path_factory):
-    from planner.plan.task_file import plan_hand_task, save_task_plan
+    from planner.plan.hand_planner import plan_hand
+    from planner.plan.plan_file import save_plan
 
-    root = tmp_path_factory.mktemp("v2")
+    root = tmp_path_factory.mktemp("plan")
     hand = root / "hand.json"
     hand.write_bytes((DATA / "table_push_hand.json").read_bytes())
-    return json.loads(save_task_plan(plan_hand_task(hand, waypoints=3),
-                                     root / "plan.json").read_text())
+    return json.loads(save_plan(plan_hand(hand, waypoints=3), root / "plan.json").read_text())
 
 
 def _resigned(data, tmp_path):
@@ -117,10 +117,6 @@ def _set_waypoint(key, value):
 
 
 @pytest.mark.parametrize("edit", [
-    pytest.param(_set_waypoint("torque_command", 1e308),
-                 marks=pytest.mark.xfail(strict=True, reason=f"torque_command differs from "
-                                                             f"torque_commands[0]: {PLAN_LOADER} "
-                                                             "(one field per value)")),
     pytest.param(_set_waypoint("margin", 5.0),
                  marks=pytest.mark.xfail(strict=True, reason=f"a margin that contradicts the "
                                                              f"band: {PLAN_LOADER}")),
@@ -130,15 +126,15 @@ def _set_waypoint(key, value):
     pytest.param(lambda d: d["segments"][0]["event"].__setitem__("kind", "teleport"),
                  marks=pytest.mark.xfail(strict=True, reason=f"an unknown event.kind: "
                                                              f"{PLAN_LOADER}")),
-], ids=["torque_command", "margin", "released", "event_kind"])
-def test_inconsistent_version_2_plans_are_refused(task_plan, tmp_path, edit):
+], ids=["margin", "released", "event_kind"])
+def test_inconsistent_plans_are_refused(task_plan, tmp_path, edit):
     from planner.errors import InputError
-    from planner.plan.task_file import load_task_plan
+    from planner.plan.plan_file import load_plan
 
     data = copy.deepcopy(task_plan)
     edit(data)
     with pytest.raises(InputError):
-        load_task_plan(_resigned(data, tmp_path))
+        load_plan(_resigned(data, tmp_path))
 
 
 @pytest.mark.xfail(strict=True, reason="the system loader builds the dense (2 n_c, 2 n_c) "
@@ -178,11 +174,11 @@ def test_system_loader_checks_the_budget_before_allocating(tmp_path):
 def test_validate_refuses_a_special_entry_before_simulating(tmp_path, monkeypatch, capsys):
     import os
 
-    import sim.hand_run
+    import scenarios.runs
     from qsplan.cli import main
 
     ran = []
-    monkeypatch.setattr(sim.hand_run, "run_plan", lambda *a, **k: ran.append(1) or 1 / 0)
+    monkeypatch.setattr(scenarios.runs, "validate_plan", lambda *a, **k: ran.append(1) or 1 / 0)
     out = tmp_path / "out"
     out.mkdir()
     os.mkfifo(out / "summary.json")
@@ -191,9 +187,6 @@ def test_validate_refuses_a_special_entry_before_simulating(tmp_path, monkeypatc
     assert code == 2 and not ran, capsys.readouterr().err
 
 
-@pytest.mark.xfail(strict=True, reason="qsplan/commands/simulate.py (lead): summary.json's "
-                                       "'files' names the staging folder; write "
-                                       "planner.files.outputs.final_path(path) instead")
 def test_simulate_summary_never_names_the_staging_folder(tmp_path):
     from qsplan.cli import main
 

@@ -32,7 +32,8 @@ from test_fuzz import NASTY_VALUES, _deep, mutate_text, mutate_tree
 
 from planner import QsplanError
 from planner.errors import FileFormatError
-from planner.plan.plan_file import Plan, digest, load_plan, plan_from_dict, plans_equal, save_plan
+from planner.plan.model import Plan
+from planner.plan.plan_file import digest, load_plan, plan_from_dict, plans_equal, save_plan
 from scenarios.registry import DATA_DIR
 
 HAND_FILE = DATA_DIR / "two_finger_hand.json"
@@ -43,7 +44,7 @@ LONG = settings(max_examples=10_000, deadline=None, suppress_health_check=list(H
 
 @functools.lru_cache(maxsize=1)
 def _base_plan() -> Plan:
-    from planner.plan.segment_planner import plan_hand
+    from planner.plan.hand_planner import plan_hand
 
     return plan_hand(HAND_FILE, waypoints=5)
 
@@ -102,7 +103,8 @@ def test_valid_plan_round_trips(plan_path, tmp_path):
     plan = load_plan(plan_path)
     again = load_plan(save_plan(plan, tmp_path / "again.json"))
     assert plans_equal(plan, again) and plans_equal(plan, _base_plan())
-    assert len(plan.waypoints) == 5 and all(math.isfinite(t) for t in plan.times())
+    seg = plan.segments[0]
+    assert len(seg.waypoints) == 5 and all(math.isfinite(t) for t in seg.times())
     assert not list(tmp_path.glob(".*.tmp"))  # no temporary file left behind
 
 
@@ -119,8 +121,10 @@ def _resigned_case(seed: int, base: dict, folder: Path) -> None:
     data = resign(mutate_tree(base, rng))
     loaded = _load_documented(_write(folder / "resigned.json", data))
     if loaded is not None:
-        assert isinstance(loaded, Plan) and np.all(np.isfinite(loaded.poses()))
-        assert np.all(np.diff(loaded.times()) > 0)
+        assert isinstance(loaded, Plan)
+        for seg in loaded.segments:
+            assert np.all(np.isfinite(seg.poses())) and np.all(np.diff(seg.times()) > 0)
+            assert seg.joint_commands().shape == (len(seg.waypoints), len(seg.control))
 
 
 def _bytes_case(seed: int, base_path: Path, folder: Path) -> None:
@@ -177,25 +181,36 @@ def _edited(plan_dict: dict, edit, sign: bool) -> dict:
     return resign(d) if sign else d
 
 
+def _seg(d: dict) -> dict:
+    return d["segments"][0]
+
+
+def _wps(d: dict) -> list:
+    return d["segments"][0]["waypoints"]
+
+
 @pytest.mark.parametrize("edit,sign,match", [
-    (lambda d: d["waypoints"][2].__setitem__("torque_command", 0.123), False, "digest mismatch"),
-    (lambda d: d["waypoints"][2]["pose"].__setitem__(0, 1.0), False, "digest mismatch"),
-    (lambda d: d.__setitem__("claim", "R1 R2 B3 B4"), False, "digest mismatch"),
+    (lambda d: _wps(d)[2].__setitem__("torque_commands", [0.123]), False, "digest mismatch"),
+    (lambda d: _wps(d)[2]["pose"].__setitem__(0, 1.0), False, "digest mismatch"),
+    (lambda d: _seg(d).__setitem__("claim", "R1 R2 B3 B4"), False, "digest mismatch"),
     (lambda d: d["mu"]["intervals"].pop(), False, "digest mismatch"),
     (lambda d: d.pop("digest"), False, "expected key 'digest'"),
-    (lambda d: d.__setitem__("version", 2), True, "expected plan version 1, got 2"),
-    (lambda d: d.__setitem__("version", "1"), True, "expected plan version 1, got '1'"),
+    (lambda d: d.__setitem__("version", 4), True, "expected plan version 1, 2, 3, got 4"),
+    (lambda d: d.__setitem__("version", "3"), True, "expected plan version 1, 2, 3, got '3'"),
     (lambda d: d.__setitem__("format", "qsplan-system"), True, "expected format 'qsplan-plan'"),
-    (lambda d: d["waypoints"][1].__setitem__("t", "1.0"), True, "expected a finite number"),
-    (lambda d: d["waypoints"][1].__setitem__("t", 1e308), True, "strictly increasing"),
-    (lambda d: d["waypoints"][1].__setitem__("pose", [0.0, 0.0]), True, "list of 3 numbers"),
-    (lambda d: d["waypoints"][1].__setitem__("band", [1.0, -1.0]), True, "lower <= upper"),
-    (lambda d: d["waypoints"][1].__setitem__("predicted", [None]), True, "list of strings"),
-    (lambda d: d.__setitem__("waypoints", d["waypoints"][:1]), True, ">= 2 waypoints"),
+    (lambda d: _wps(d)[1].__setitem__("t", "1.0"), True, "expected a finite number"),
+    (lambda d: _wps(d)[1].__setitem__("t", 1e308), True, "strictly increasing"),
+    (lambda d: _wps(d)[1].__setitem__("pose", [0.0, 0.0]), True, "list of 3 numbers"),
+    (lambda d: _wps(d)[1].__setitem__("bands", [[1.0, -1.0]]), True, "lower <= upper"),
+    (lambda d: _wps(d)[1].__setitem__("predicted", [None]), True, "list of strings"),
+    (lambda d: _seg(d).__setitem__("waypoints", _wps(d)[:1]), True, ">= 2 waypoints"),
     (lambda d: d["mu"].__setitem__("intervals", [[0.2, 0.1]]), True, "0 <= lo <= hi"),
     (lambda d: d["mu"].__setitem__("validate", [-0.1]), True, "coefficients >= 0"),
-    (lambda d: d.__setitem__("control", ["velocity", "velocity"]), True, "one 'effort' joint"),
-    (lambda d: d.__setitem__("exact", 1), True, "expected true or false"),
+    (lambda d: _seg(d).__setitem__("control", ["effort", "effort"]), True,
+     "at least one 'velocity'"),
+    (lambda d: _seg(d).__setitem__("exact", 1), True, "expected true or false"),
+    (lambda d: d["hand"].__setitem__("workpiece", 7), True, r"segments\[0\]\.hand: expected a "
+                                                             "hand file"),
 ])
 def test_targeted_plan_edits(plan_dict, tmp_path, edit, sign, match):
     path = _write(tmp_path / "edited.json", _edited(plan_dict, edit, sign))
@@ -244,9 +259,9 @@ def test_loader_never_executes_content(plan_dict, tmp_path):
 
 
 def test_huge_integer_literal_in_a_resigned_plan(plan_dict, tmp_path):
-    d = _edited(plan_dict, lambda d: d["waypoints"][1].__setitem__("torque_command", 10**400),
+    d = _edited(plan_dict, lambda d: _wps(d)[1].__setitem__("torque_commands", [10**400]),
                 sign=True)
-    with pytest.raises(FileFormatError, match="torque_command"):
+    with pytest.raises(FileFormatError, match="torque_commands"):
         load_plan(_write(tmp_path / "huge.json", d))
 
 

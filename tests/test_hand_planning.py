@@ -109,7 +109,7 @@ def test_segment_keeps_every_contact_and_ends_edge_to_edge(hand, segment):
     h, _, _ = hand
     assert segment.mode == CLAIM
     assert segment.event.kind == "new contact"
-    assert "vertex 4 - left" in segment.event.detail
+    assert segment.event.detail == "vertex 4 meets the left finger"
     for q in segment.q:
         assert np.max(np.abs(h.gaps(q))) < 1e-10
     _, _, s = h.contact_geometry(segment.q[-1])

@@ -70,15 +70,24 @@ def test_bad_shapes_rejected():
 
 # ---- plans ---------------------------------------------------------------------------------------
 @pytest.fixture(scope="module")
-def plans():
-    from planner.plan.segment_planner import plan_hand
+def whole_plans():
+    from planner.plan.hand_planner import plan_hand
 
     return {p: plan_hand(HAND_FILE, mu=(0.0, 0.2), policy=p)
             for p in ("midband", "rival:R2S")}
 
 
+@pytest.fixture(scope="module")
+def plans(whole_plans):
+    """The one segment of each plan."""
+    return {p: plan.segments[0] for p, plan in whole_plans.items()}
+
+
 def _short(plan, n=SHORT):
-    return dataclasses.replace(plan, waypoints=plan.waypoints[:n])
+    """The plan with its one segment cut to its first ``n`` waypoints."""
+    seg = plan.segments[0]
+    return dataclasses.replace(plan, segments=(dataclasses.replace(
+        seg, waypoints=seg.waypoints[:n], regions=seg.regions[:n]),))
 
 
 @pytest.mark.parametrize("engine", ["pymunk", "mujoco"])
@@ -129,12 +138,12 @@ def test_run_plan_input_errors(plans):
 
 # ---- qsplan validate -----------------------------------------------------------------------------
 @pytest.fixture(scope="module")
-def plan_files(plans, tmp_path_factory):
+def plan_files(whole_plans, tmp_path_factory):
     from planner.plan.plan_file import save_plan
 
     d = tmp_path_factory.mktemp("plans")
-    return {"good": save_plan(_short(plans["midband"], 3), d / "good.json"),
-            "neg": save_plan(_short(plans["rival:R2S"], 3), d / "neg.json")}
+    return {"good": save_plan(_short(whole_plans["midband"], 3), d / "good.json"),
+            "neg": save_plan(_short(whole_plans["rival:R2S"], 3), d / "neg.json")}
 
 
 def test_validate_exit_codes(plan_files, tmp_path, capsys):
@@ -156,7 +165,7 @@ def test_validate_bad_input(plan_files, tmp_path, capsys):
     assert main(["validate", str(plan_files["good"]), "--mu", "-0.1"]) == 2
     # tampered: one torque changed by hand -> digest mismatch
     data = json.loads(plan_files["good"].read_text())
-    data["waypoints"][1]["torque_command"] = -0.0001
+    data["segments"][0]["waypoints"][1]["torque_commands"] = [-0.0001]
     bad = tmp_path / "tampered.json"
     bad.write_text(json.dumps(data))
     assert main(["validate", str(bad), "--no-render"]) == 2
@@ -204,10 +213,10 @@ def test_plan_for_a_wider_band_holds_at_its_top(engine):
     """The plan guaranteed for mu in [0, 0.4], validated at mu = 0.3 and 0.4 over the full
     segment (before the window classifier MuJoCo read 87 % and 0 %: contact 2 slid at 1 mm/s
     but its label stayed frozen)."""
-    from planner.plan.segment_planner import plan_hand
+    from planner.plan.hand_planner import plan_hand
     from scenarios.runs import validate_plan
 
-    plan = plan_hand(HAND_FILE, mu=(0.0, 0.4), policy="midband")
+    plan = plan_hand(HAND_FILE, mu=(0.0, 0.4), policy="midband").segments[0]
     for mu in (0.3, 0.4):
         v = validate_plan(plan, engine, mu).verdict
         assert v.outcome is Outcome.AGREED and v.plan is not None, (mu, v.reasons)

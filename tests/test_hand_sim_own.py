@@ -50,18 +50,18 @@ def mirrored(data: dict) -> dict:
 
 @pytest.fixture(scope="module")
 def mirrored_plan(tmp_path_factory):
-    from planner.plan.segment_planner import plan_hand
+    from planner.plan.hand_planner import plan_hand
 
     path = tmp_path_factory.mktemp("hand") / "mirrored_hand.json"
     path.write_text(json.dumps(mirrored(json.loads(HAND_FILE.read_text()))))
-    return plan_hand(path, mu=(0.0, 0.2), policy="midband", waypoints=6)
+    return plan_hand(path, mu=(0.0, 0.2), policy="midband", waypoints=6).segments[0]
 
 
 @pytest.fixture(scope="module")
 def shipped_plan():
-    from planner.plan.segment_planner import plan_hand
+    from planner.plan.hand_planner import plan_hand
 
-    return plan_hand(HAND_FILE, mu=(0.0, 0.2), policy="midband")
+    return plan_hand(HAND_FILE, mu=(0.0, 0.2), policy="midband").segments[0]
 
 
 @pytest.mark.parametrize("engine", ["pymunk", "mujoco"])
@@ -108,7 +108,7 @@ def test_torque_outside_the_band_disagrees(shipped_plan, engine):
     from scenarios.runs import validate_plan
 
     plan = dataclasses.replace(shipped_plan, waypoints=tuple(
-        dataclasses.replace(w, torque_command=-w.torque_command)
+        dataclasses.replace(w, torque_commands=tuple(-x for x in w.torque_commands))
         for w in shipped_plan.waypoints))
     v = validate_plan(plan, engine, 0.1, waypoints=8, expect="disagree").verdict
     assert v.outcome is Outcome.DISAGREED, v.reasons

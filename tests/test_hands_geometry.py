@@ -1,8 +1,9 @@
-"""Hands of any shape (issue 16, step 1): multi-link and prismatic fingers, environment surfaces.
+"""Hands of any shape: multi-link and prismatic fingers, environment surfaces.
 
 The Jacobians are checked against finite differences of the gaps (eq. 5), the link geometry
 against :class:`planner.model.kinematics.Chain`, and the shipped two-finger plan against the plan
-produced on main before the change (to a few ulps: BLAS kernels differ by CPU).
+recorded in ``tests/data/two_finger_plan_main.json`` by the single-effort planner (to a few ulps:
+BLAS kernels differ by CPU): the one planner for any number of effort joints reproduces it.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ import pytest
 
 from planner.errors import InputError
 from planner.files.hand_file import hand_from_dict
-from planner.plan.segment_planner import plan_hand
+from planner.plan.hand_planner import plan_hand
 
 ROOT = Path(__file__).resolve().parents[1]
 HAND_FILE = ROOT / "scenarios" / "data" / "two_finger_hand.json"
@@ -56,15 +57,17 @@ def _same(value: object, golden: str) -> bool:
     return a == b or abs(a - b) <= 1e-12 * max(abs(a), abs(b)) + 1e-15
 
 
-def test_shipped_plan_is_the_plan_of_main():
-    plan = plan_hand(HAND_FILE)
+def test_shipped_plan_is_the_recorded_plan():
+    plan = plan_hand(HAND_FILE).segments[0]
+    assert plan.control == ("effort", "velocity")
     assert len(plan.waypoints) == len(GOLDEN["waypoints"])
     for w, g in zip(plan.waypoints, GOLDEN["waypoints"]):
         assert _same(w.t, g["t"])
-        assert _same(w.torque_command, g["torque_command"])
-        assert _same(w.velocity_command, g["velocity_command"])
-        assert len(w.band) == len(g["band"])
-        assert all(_same(x, y) for x, y in zip(w.band, g["band"]))
+        (tau,), (rate,), (band,) = w.torque_commands, w.velocity_commands, w.bands
+        assert _same(tau, g["torque_command"])
+        assert _same(rate, g["velocity_command"])
+        assert len(band) == len(g["band"])
+        assert all(_same(x, y) for x, y in zip(band, g["band"]))
         assert list(w.predicted) == g["predicted"]
         assert len(w.angles) == len(g["angles"])
         assert all(_same(x, y) for x, y in zip(w.angles, g["angles"]))

@@ -1,4 +1,4 @@
-"""Planning hands of any shape (issue 16): each guaranteed region checked by dense friction sampling.
+"""Planning hands of any shape: each guaranteed region checked by dense friction sampling.
 
 The check is independent of the planner's region: at torques drawn inside the region (its centre
 and points out to 90 % of the way to its boundary along random directions) and friction vectors at
@@ -9,6 +9,7 @@ full mode enumeration, not the region's rows) must find the claimed mode and not
 from __future__ import annotations
 
 import functools
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -17,22 +18,37 @@ import pytest
 from planner.files.hand_file import load_hand_file
 from planner.plan.bounds import box_points, mode_bands
 from planner.plan.guarantee import guarantee
+from planner.plan.partition import control_partitions, joint_inputs
 from planner.plan.polytope import chebyshev_centre, torque_region
-from planner.plan.region_planner import control_partitions, joint_inputs, plan_regions
+from planner.plan.segment_planner import plan_segment
 from planner.predict.feasibility import feasible_modes
 
 DATA = Path(__file__).resolve().parents[1] / "scenarios" / "data"
 HANDS = ["three_finger_hand", "prismatic_finger_hand", "two_link_finger_hand", "table_push_hand"]
 
 
+def _segment(hf, **kw):
+    """``plan_segment`` of a hand file's segment section (``kw`` overrides)."""
+    s = hf.segment
+    mu = [list(p) for p in hf.mu_interval]
+    args = dict(data=hf.data, drive=s.drives, speed=s.speeds, mode=s.mode,
+                mu=mu if len(mu) > 1 else mu[0], model="independent" if len(mu) > 1 else "common",
+                max_time=s.max_time, steps=s.steps, waypoints=s.waypoints)
+    return plan_segment(hf.hand, hf.q0, **{**args, **kw})
+
+
+def _model(rp, lo, hi):
+    """The friction set a segment's regions hold for: one shared coefficient with one effort
+    joint and one interval for all (the band of the common model), else the box."""
+    one = len(rp.effort_joints) == 1 and np.all(lo == lo[0]) and np.all(hi == hi[0])
+    return "common" if one else "box"
+
+
 @functools.cache
 def _plan(name):
     hf = load_hand_file(DATA / f"{name}.json")
-    s = hf.segment
     mu = [list(p) for p in hf.mu_interval]
-    rp = plan_regions(hf.hand, hf.q0, drive=s.drives, speed=s.speeds, mode=s.mode,
-                      mu=mu if len(mu) > 1 else mu[0], max_time=s.max_time, steps=s.steps,
-                      waypoints=s.waypoints)
+    rp = _segment(hf)
     lo = np.array([p[0] for p in mu] * (hf.hand.n_contacts if len(mu) == 1 else 1))
     hi = np.array([p[1] for p in mu] * (hf.hand.n_contacts if len(mu) == 1 else 1))
     return hf, rp, lo, hi
@@ -76,14 +92,14 @@ def test_every_region_holds_under_dense_friction_sampling(planned):
     rng = np.random.default_rng(16)
     V, E = rp.velocity_joints, rp.effort_joints
     checked = 0
-    for w in rp.waypoints[::3]:
+    for w, reg in list(zip(rp.waypoints, rp.regions))[::3]:
         base = hand.system(w.q, 0.0, joint_inputs(hand, V, w.velocity_commands))
-        assert w.region.contains(w.region.centre, 1e-12)
-        for tau in _torques_inside(w.region, rng, 4):
+        assert reg.contains(reg.centre, 1e-12)
+        for tau in _torques_inside(reg, rng, 4):
             inputs = np.array(base.joint_inputs)
             inputs[list(E)] = tau
             system = base.with_joint_inputs(inputs)
-            for mu in _frictions(lo, hi, rng, 24, rp.mu_model):
+            for mu in _frictions(lo, hi, rng, 24, _model(rp, lo, hi)):
                 labels = feasible_modes(system, mu).labels
                 assert labels == [rp.claim], (name, w.t, tau, mu, labels)
                 checked += 1
@@ -97,9 +113,12 @@ def test_commands_and_partition_shape(planned):
     assert len(rp.effort_joints) == k_eff
     assert len(rp.velocity_joints) + k_eff == hf.hand.n_joints
     assert all(w.margin > 0 for w in rp.waypoints)
-    for w in rp.waypoints:
-        assert w.torque_command.shape == (k_eff,)
-        assert w.region.contains(w.torque_command, 1e-9)
+    assert len(rp.regions) == len(rp.waypoints)
+    for w, reg in zip(rp.waypoints, rp.regions):
+        assert len(w.torque_commands) == len(w.bands) == k_eff
+        assert reg.contains(w.torque_commands, 1e-9)
+        for j, (lo_j, hi_j) in enumerate(w.bands):  # each effort's range, the others held
+            assert lo_j < w.torque_commands[j] < hi_j
 
 
 def test_a_command_far_outside_the_region_lets_a_rival_in():
@@ -112,7 +131,7 @@ def test_a_command_far_outside_the_region_lets_a_rival_in():
     rng = np.random.default_rng(0)
     seen = [feasible_modes(system, mu).labels for mu in _frictions(lo, hi, rng, 10)]
     assert any(labels != [rp.claim] for labels in seen)
-    assert not w.region.contains(np.zeros(2))
+    assert not rp.regions[0].contains(np.zeros(2))
 
 
 def test_one_effort_joint_region_is_todays_band():
@@ -156,16 +175,18 @@ def test_chebyshev_centre_of_a_box_and_of_an_empty_set():
     assert r == -np.inf
 
 
-def test_qsplan_plan_refuses_hands_a_version_1_plan_cannot_hold():
-    from planner.errors import InputError
-    from planner.plan.segment_planner import plan_hand
+def test_the_one_planner_plans_one_or_several_effort_joints_alike():
+    """``plan_hand`` (the hand file entry point) gives the same segment as ``plan_segment``, for
+    two effort joints as for one: one planner, one segment type."""
+    from planner.plan.hand_planner import plan_hand
+    from planner.plan.plan_file import plans_equal
 
-    with pytest.raises(InputError, match=r"three_finger_hand.json: plan files \(qsplan-plan "
-                                         r"version 1\) hold one velocity- and one effort-controlled "
-                                         r"joint, expected a hand with 2 joints and one driven "
-                                         r"joint, got 3 joints and drive 1; plan it with "
-                                         r"planner.plan.region_planner.plan_regions"):
-        plan_hand(DATA / "three_finger_hand.json")
+    for name in ("three_finger_hand", "two_link_finger_hand"):
+        hf, rp, _, _ = _plan(name)
+        plan = plan_hand(DATA / f"{name}.json")
+        seg = plan.segments[0]
+        assert seg.waypoints == rp.waypoints and seg.control == rp.control
+        assert plans_equal(plan, replace(plan, segments=(replace(rp, extra=seg.extra),)))
 
 
 def test_an_empty_region_says_why():
@@ -188,30 +209,31 @@ def test_an_empty_region_says_why():
             sys_t = system.with_joint_inputs(inputs)
             assert any(feasible_modes(sys_t, mu).labels != [reg.claim] for mu in corners)
     with pytest.raises(DegenerateError, match=r"no control partition guarantees S\+1 S\+2 S-3 "
-                                              r"S-4 S\+5: velocity joints \[0\]: no guaranteed "
-                                              r"torque at t = 0 s"):
-        s = hf.segment
-        plan_regions(hf.hand, hf.q0, drive=s.drives, speed=s.speeds, mode=s.mode,
-                     mu=(0.0, 0.3), max_time=s.max_time, waypoints=5, control=(0,))
+                                              r"S-4 S\+5: with the left finger velocity-"
+                                              r"controlled: no guaranteed effort at t = 0 s"):
+        _segment(hf, mu=(0.0, 0.3), waypoints=5, control=(0,))
 
 
 def test_a_partial_plan_stops_where_no_region_exists_and_says_why():
     hf = load_hand_file(DATA / "three_finger_hand.json")
     hand, s = hf.hand, hf.segment
-    plan = plan_regions(hand, hf.q0, drive=s.drives, speed=s.speeds, mode=s.mode,
-                        mu=(0.0, 0.1), max_time=s.max_time, waypoints=s.waypoints,
-                        control=(2,), partial=True)
+    plan = _segment(hf, mu=(0.0, 0.1), control=(2,), partial=True)
     short = plan.shortfall
     assert short is not None and 0 < short.index == len(plan.waypoints) < s.waypoints
-    assert short.t == plan.segment.t[short.index] and short.velocity_joints == (2,)
+    full = np.linspace(0.0, plan.waypoints[-1].t * (s.waypoints - 1) / (short.index - 1),
+                       s.waypoints)
+    assert short.t == pytest.approx(full[short.index]) and short.velocity_joints == (2,)
     assert short.rival is not None and short.rival in short.reason
     assert short.widest_mu is not None
     lo, hi = (np.array(x) for x in short.widest_mu)
     assert np.all(lo == 0.0) and 0.0 < hi[0] < 0.1
     # The narrower interval works there: its region's centre, checked by the full enumeration.
-    q = plan.segment.q[short.index]
-    rates = plan.segment.thetadot[short.index, [2]]
-    system = hand.system(q, 0.0, joint_inputs(hand, (2,), rates))
+    from planner.plan.trajectory import integrate_segment
+
+    traj = integrate_segment(hand, hf.q0, drive=s.drives, speed=s.speeds, mode=s.mode,
+                             max_time=s.max_time, steps=s.steps)
+    at = traj.at_times(hand, np.array([short.t]))
+    system = hand.system(at.q[0], 0.0, joint_inputs(hand, (2,), at.thetadot[0, [2]]))
     reg = torque_region(system, plan.claim, np.stack([lo, hi], 1))
     assert not reg.empty
     inputs = np.array(system.joint_inputs)
@@ -222,10 +244,9 @@ def test_a_partial_plan_stops_where_no_region_exists_and_says_why():
         assert feasible_modes(sys_c, mu).labels == [plan.claim]
     # Without ``partial`` the same request is refused with every partition's reason.
     from planner.errors import DegenerateError
-    with pytest.raises(DegenerateError, match=r"velocity joints \[2\]: no guaranteed torque at "
-                                              r"t = 1.95 s: rival"):
-        plan_regions(hand, hf.q0, drive=s.drives, speed=s.speeds, mode=s.mode, mu=(0.0, 0.1),
-                     max_time=s.max_time, waypoints=s.waypoints, control=(2,))
+    with pytest.raises(DegenerateError, match=r"with the top finger velocity-controlled: no "
+                                              r"guaranteed effort at t = 1.95 s: rival"):
+        _segment(hf, mu=(0.0, 0.1), control=(2,))
 
 
 @pytest.mark.parametrize("name", ["three_finger_hand", "table_push_hand"])
@@ -236,11 +257,11 @@ def test_region_figures_are_written(tmp_path, name):
     paths = plot_regions(rp, tmp_path, hf.hand.joint_names())
     assert paths[0].stat().st_size > 1000
     if len(rp.effort_joints) == 2:
-        w = rp.waypoints[0]
-        poly = slice_polygon(w.region.A, w.region.b, w.torque_command, (0, 1))
+        w, reg = rp.waypoints[0], rp.regions[0]
+        poly = slice_polygon(reg.A, reg.b, np.array(w.torque_commands), (0, 1))
         assert len(poly) >= 3
         # every vertex lies on the region (within rounding), the command inside the polygon
-        assert np.all(w.region.A @ poly.T <= w.region.b[:, None] + 1e-9)
+        assert np.all(reg.A @ poly.T <= reg.b[:, None] + 1e-9)
 
 
 def test_slice_of_a_square():
@@ -259,11 +280,9 @@ def test_open_rows_mark_the_sides_where_no_mode_boundary_is():
     past it admits a rival or loses the mode.  The three-finger hand's open rows are its box of
     commands (``+-e_k``)."""
     hf = load_hand_file(DATA / "prismatic_finger_hand.json")
-    s = hf.segment
-    rp = plan_regions(hf.hand, hf.q0, drive=s.drives, speed=s.speeds, mode=s.mode,
-                      mu=[0.5, 0.6], max_time=s.max_time, steps=s.steps, waypoints=2)
+    rp = _segment(hf, mu=[0.5, 0.6], waypoints=2)
     w = rp.waypoints[0]
-    reg = w.region
+    reg = rp.regions[0]
     assert len(reg.open_rows) == 1
     real = 1 - reg.open_rows[0]
     end = reg.b[real] / reg.A[real, 0]
@@ -277,7 +296,7 @@ def test_open_rows_mark_the_sides_where_no_mode_boundary_is():
     assert any(labels != [rp.claim] for labels in seen)
 
     _, rp3, _, _ = _plan("three_finger_hand")
-    reg3 = rp3.waypoints[0].region
+    reg3 = rp3.regions[0]
     p = len(rp3.effort_joints)
     box = reg3.A[list(reg3.open_rows)]
     assert len(reg3.open_rows) == 2 * p

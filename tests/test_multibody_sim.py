@@ -1,5 +1,5 @@
 """Several workpieces in both engines (issue 17): the scene builder (sim/scenes/multibody.py)
-and the per-body judge (sim/multibody_run.py). The scenarios themselves -- stacked blocks pushed
+and the per-body judge (sim/judge.py). The scenarios themselves -- stacked blocks pushed
 at either block, a ruler carrying a block, a part pushed against a wall by a tool, at friction
 points in different regions, each with negative controls -- are registered in
 scenarios/multibody_sims.py and run on both engines by tests/test_scenarios.py; their expected

@@ -1,4 +1,4 @@
-"""Issue 16 benchmark in short: guaranteed regions of random hands under dense friction sampling.
+"""The region benchmark in short: guaranteed regions of random hands under dense friction sampling.
 
 benchmarks/region_check.py draws random hands (:mod:`planner.sweeps.random_hands`), plans them
 and checks, with the independent full mode enumeration (``feasible_modes``), that inside each
@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from planner.files.hand_file import hand_file_from_dict
-from planner.plan.region_planner import RegionPlan
+from planner.plan.model import Segment
 from planner.sweeps.random_hands import mirror_hand, random_hand
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -66,7 +66,7 @@ def test_mirror_is_an_involution_and_flips_the_drive():
 @pytest.mark.parametrize("name,seed", [("three_finger_hand", 0), ("two_link_finger_hand", 1)])
 def test_regions_of_random_hands_hold_under_friction_sampling(name, seed):
     hand, rp, lo, hi, rng = _plan(name, seed)
-    rp = dataclasses.replace(rp, waypoints=rp.waypoints[::5])
+    rp = dataclasses.replace(rp, waypoints=rp.waypoints[::5], regions=rp.regions[::5])
     row = rc.check_plan(hand, rp, lo, hi, rng, n_tau=2, n_mu=8, outside=False)
     assert row["samples"] >= 8 * 3 * len(rp.waypoints)
     assert row["violations"] == []
@@ -77,16 +77,15 @@ def test_a_widened_region_is_caught(three_finger):
     the check must then find a friction sample where the claimed mode is not the only one."""
     hand, rp, lo, hi, rng = three_finger
     w = rp.waypoints[0]
-    reg = w.region
+    reg = rp.regions[0]
     norms = np.linalg.norm(reg.A, axis=1)
     wide = dataclasses.replace(reg, b=reg.b + 2.0 * reg.margin * norms)
-    mutant: RegionPlan = dataclasses.replace(
-        rp, waypoints=(dataclasses.replace(w, region=wide),))
+    mutant: Segment = dataclasses.replace(rp, waypoints=(w,), regions=(wide,))
     row = rc.check_plan(hand, mutant, lo, hi, rng, n_tau=6, n_mu=8, outside=False)
     assert row["violations"], "a widened region passed the check"
     # ... and the outside probe of the real region finds a rival or a lost mode just past a face
-    real = rc.check_plan(hand, dataclasses.replace(rp, waypoints=(w,)), lo, hi, rng,
-                         n_tau=0, n_mu=8)
+    real = rc.check_plan(hand, dataclasses.replace(rp, waypoints=(w,), regions=(reg,)), lo, hi,
+                         rng, n_tau=0, n_mu=8)
     assert real["violations"] == [] and real["outside_factor"][0] is not None
 
 

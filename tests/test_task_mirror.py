@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from planner.plan.task_file import plan_hand_task
+from planner.plan.hand_planner import plan_hand
 from planner.sweeps.random_hands import mirror_hand
 from scenarios.runs import validate_plan
 from sim.verdict import Outcome
@@ -24,11 +24,11 @@ def flip(label: str) -> str:
 
 @pytest.fixture(scope="module")
 def plans(tmp_path_factory):
-    original = plan_hand_task(DATA / "figure9_task_hand.json")
+    original = plan_hand(DATA / "figure9_task_hand.json")
     path = tmp_path_factory.mktemp("mirror") / "figure9_mirrored.json"
     path.write_text(json.dumps(mirror_hand(json.loads(
         (DATA / "figure9_task_hand.json").read_text()))))
-    return original, plan_hand_task(path)
+    return original, plan_hand(path)
 
 
 def test_the_mirrored_task_is_the_mirror_image_of_the_plan(plans):

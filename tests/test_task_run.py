@@ -12,7 +12,9 @@ import numpy as np
 import pytest
 
 from planner.errors import InputError
-from planner.plan.task_file import negative_control, plan_hand_task, save_task_plan
+from planner.plan.hand_planner import plan_hand
+from planner.plan.model import negative_control
+from planner.plan.plan_file import save_plan
 from scenarios.runs import validate_plan
 from sim.verdict import Outcome
 
@@ -20,12 +22,13 @@ from sim.verdict import Outcome
 def verdicts(run):
     return [s.verdict for s in run.judgement.segments]
 
+
 DATA = Path(__file__).resolve().parents[1] / "scenarios" / "data"
 
 
 @pytest.fixture(scope="module")
 def task_plan():
-    return plan_hand_task(DATA / "figure9_task_hand.json")
+    return plan_hand(DATA / "figure9_task_hand.json")
 
 
 @pytest.mark.parametrize("mu", [0.0, 0.1])
@@ -90,7 +93,7 @@ def test_the_negative_control_fails(task_plan, engine):
 
 
 def test_validate_prints_a_verdict_per_segment(task_plan, tmp_path):
-    plan_path = save_task_plan(task_plan, tmp_path / "task.json")
+    plan_path = save_plan(task_plan, tmp_path / "task.json")
     r = subprocess.run([sys.executable, "-m", "qsplan.cli", "validate", str(plan_path),
                         "--engine", "pymunk", "--mu", "0.2", "--out", str(tmp_path / "val")],
                        capture_output=True, text=True, cwd=tmp_path)

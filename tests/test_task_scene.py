@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from planner.plan.task_file import plan_hand_task
+from planner.plan.hand_planner import plan_hand
 from sim.scenes.hand import hand_scene
 from sim.schedule import plan_layout as task_layout
 
@@ -18,7 +18,7 @@ DATA = Path(__file__).resolve().parents[1] / "scenarios" / "data"
 
 @pytest.fixture(scope="module")
 def task_plan():
-    return plan_hand_task(DATA / "figure9_task_hand.json", waypoints=5)
+    return plan_hand(DATA / "figure9_task_hand.json", waypoints=5)
 
 
 def test_the_layout_unites_the_segments_contacts(task_plan):
@@ -29,7 +29,13 @@ def test_the_layout_unites_the_segments_contacts(task_plan):
     ends = np.cumsum([s.waypoints[-1].t for s in task_plan.segments])
     assert lay.starts == pytest.approx((0.0, ends[0], ends[1]))
     assert lay.duration == pytest.approx(ends[-1])
-    assert lay.control_switches() == ()  # the Figure 9 task keeps its control partition
+    # segment 1 velocity-controls the right finger, segments 2 and 3 their driven joint, the
+    # left finger (a tie of the one-sided bands, docs/planning.md): both joints switch once
+    assert [s.control for s in task_plan.segments] == [("effort", "velocity"),
+                                                       ("velocity", "effort"),
+                                                       ("velocity", "effort")]
+    assert lay.control_switches() == ((lay.starts[1], "joint:left", "velocity"),
+                                      (lay.starts[1], "joint:right", "effort"))
     assert lay.hand.contact_frame(lay.q0, 4)[2] > 1e-4  # vertex 4 apart from the side at first
     assert not 0.0 <= lay.hand.contact_frame(lay.q0, 5)[3] <= 1.0  # the tip off edge 3 at first
     # a gained contact touches at its segment's planned start, where its site is placed
@@ -40,14 +46,14 @@ def test_the_layout_unites_the_segments_contacts(task_plan):
 
 def test_joint_commands_follow_the_segments_and_switch_without_a_ramp(task_plan):
     segs = list(task_plan.segments)
-    flipped = tuple("velocity" if c == "effort" else "effort" for c in segs[1].control)
-    plan = replace(task_plan, segments=(segs[0], replace(segs[1], control=flipped), segs[2]))
+    flipped = tuple("velocity" if c == "effort" else "effort" for c in segs[2].control)
+    plan = replace(task_plan, segments=(segs[0], segs[1], replace(segs[2], control=flipped)))
     lay = task_layout(plan)
     t1, t2 = lay.starts[1], lay.starts[2]
     names = lay.hand.joint_names()
     assert lay.control_switches() == tuple(
-        [(t1, f"joint:{n}", c) for n, c in zip(names, flipped)]
-        + [(t2, f"joint:{n}", c) for n, c in zip(names, segs[2].control)])
+        [(t1, f"joint:{n}", c) for n, c in zip(names, segs[1].control)]
+        + [(t2, f"joint:{n}", c) for n, c in zip(names, flipped)])
     ramp = 0.05
     cmds = lay.commands(ramp)
     for j in range(len(names)):
@@ -63,9 +69,9 @@ def test_joint_commands_follow_the_segments_and_switch_without_a_ramp(task_plan)
     # the unchanged plan: a joint keeping its control is ramped across the boundary
     same = task_layout(task_plan)
     c = same.commands(ramp)[0]
-    prev = same.schedules[0].commands[-2, 0]
-    new = same.schedules[1].commands[0, 0]
-    assert c(same.starts[1] + 0.5 * ramp, {}) == pytest.approx(0.5 * (prev + new))
+    prev = same.schedules[1].commands[-2, 0]
+    new = same.schedules[2].commands[0, 0]
+    assert c(same.starts[2] + 0.5 * ramp, {}) == pytest.approx(0.5 * (prev + new))
 
 
 def test_the_task_scene_has_a_pair_per_contact_of_the_task(task_plan):

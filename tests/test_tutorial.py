@@ -249,7 +249,8 @@ NOTATION_MODULES = ("model.system", "model.modes", "predict.stages", "predict.fe
                     "predict.indeterminate", "model.hand", "plan.trajectory", "plan.bounds",
                     "plan.segment_planner", "plan.plan_file", "files.system_file",
                     "plan.guarantee", "plan.intervals", "model.geometry", "files.hand_file",
-                    "plan.polytope", "plan.region_planner")
+                    "plan.polytope", "plan.partition", "plan.model", "plan.hand_planner",
+                    "plan.spacing")
 
 
 def _member(obj, name):

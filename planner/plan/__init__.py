@@ -1,3 +1,5 @@
-"""Planning (Sec. 5.2): torque bounds that guarantee a mode over a friction box, the hand
-trajectory, the segment planner and the plan file.
+"""Planning (Sections 3.2 and 5.2): the plan model (:mod:`planner.plan.model`), the segment
+planner for any number of effort-controlled joints (:mod:`planner.plan.segment_planner`), the task
+search (:mod:`planner.plan.task`), hand files to plans (:mod:`planner.plan.hand_planner`), and
+plan files (:mod:`planner.plan.plan_file`).
 """

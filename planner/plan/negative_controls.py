@@ -1,9 +1,10 @@
 """Negative controls of plans: commands the planner itself predicts to fail.
 
-:func:`outside_torques`: torque vectors outside every waypoint's guaranteed region of a region
-plan (any hand), where the planner predicts a mode other than the claim at the given friction
--- a simulator run of them must disagree with the plan. (The reversed-torque control of a whole
-task is :func:`planner.plan.task_file.negative_control`.)
+:func:`outside_torques`: torque vectors outside every waypoint's guaranteed region of a
+planned segment (:class:`planner.plan.model.Segment`, any hand), where the planner predicts a
+mode other than the claim at the given friction -- a simulator run of them must disagree with the
+plan. (The reversed-torque control of a whole
+task is :func:`planner.plan.model.negative_control`.)
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ def outside_torques(plan: Any, hand: Hand, mu: float | Sequence[float] | np.ndar
     planner's own prediction (:func:`planner.predict.feasibility.feasible_modes`) at ``mu``
     does not contain the claim (a rival instead). Raises :class:`InputError` for a plan without
     effort joints or a waypoint where no such point is found."""
-    from planner.plan.region_planner import joint_inputs
+    from planner.plan.partition import joint_inputs
     from planner.predict.feasibility import feasible_modes
 
     E = list(plan.effort_joints)
@@ -35,9 +36,11 @@ def outside_torques(plan: Any, hand: Hand, mu: float | Sequence[float] | np.ndar
         raise InputError("outside_torques: expected a plan with effort-controlled joints, got "
                          "none (a velocity-only plan has no torque to move outside)")
     out = []
-    for w in plan.waypoints:
-        reg = w.region
-        c = np.asarray(w.torque_command, dtype=float)
+    if len(plan.regions) != len(plan.waypoints):
+        raise InputError(f"outside_torques: expected a planned segment with one guaranteed region "
+                         f"per waypoint, got {len(plan.regions)} for {len(plan.waypoints)}")
+    for w, reg in zip(plan.waypoints, plan.regions):
+        c = np.asarray(w.torque_commands, dtype=float)
         A, b = np.asarray(reg.A, dtype=float), np.asarray(reg.b, dtype=float)
         norms = np.linalg.norm(A, axis=1)
         slack = (b - A @ c) / np.where(norms > 0, norms, np.inf)

@@ -49,7 +49,8 @@ from planner.errors import DegenerateError, InputError
 from planner.model.system import System
 from planner.model.validation import friction_interval
 from planner.plan.bounds import AffineRows, admissible_modes, affine_rows, box_points
-from planner.plan.guarantee import guarantee, resolve_claim
+from planner.plan.guarantee import Guarantee, guarantee, resolve_claim
+from planner.plan.intervals import Interval
 from planner.predict.indeterminate import (
     IndeterminateKinematics,
     coulomb_rows,
@@ -195,7 +196,7 @@ def torque_region(system: System, claim: str, mu: Any, *, model: str = "common",
     if label not in labels:
         why = ("force-indeterminate (relaxed utility): torque regions need a determinate mode"
                if label in [k.mode.label for k in kins] else "not kinematically admissible")
-        return _empty(label, p, E, {"reason": f"{label}: {why}"})
+        return empty_region(label, p, E, {"reason": f"{label}: {why}"})
     exact = True
     rows_g = None
 
@@ -219,7 +220,7 @@ def torque_region(system: System, claim: str, mu: Any, *, model: str = "common",
                      rc.s1[ok, jc][:, act].reshape(n_rows, p),
                      np.repeat(rc.scale[ok, jc], int(act.sum())), tol, keep=True)
     if hs is None:
-        return _empty(label, p, E, {"reason": f"{label}: a Coulomb row free of the torques "
+        return empty_region(label, p, E, {"reason": f"{label}: a Coulomb row free of the torques "
                                               "fails in the friction box"})
     A, b = hs
     if cap is None:
@@ -233,8 +234,9 @@ def torque_region(system: System, claim: str, mu: Any, *, model: str = "common",
         open_rows = tuple(range(len(b) - 2 * p, len(b)))  # later rows are appended after these
     centre, radius = chebyshev_centre(A, b)
     if not radius > 0:
-        return _empty(label, p, E, {"reason": f"{label} is not guaranteed over the friction box "
-                                              "for any torque (its own Coulomb rows conflict)"})
+        return empty_region(label, p, E, {
+            "reason": f"{label} is not guaranteed over the friction box for any torque (its own "
+                      "Coulomb rows conflict)"})
     excluded: list[str] = []
     for j, lab in enumerate(labels):
         if j == jc:
@@ -249,7 +251,7 @@ def torque_region(system: System, claim: str, mu: Any, *, model: str = "common",
                 options.append(hs_r)
         found = _best_option(A, b, options)
         if found is None:
-            return _empty(label, p, E, _covering(rr, j, pts, lab, centre, p), exact=exact)
+            return empty_region(label, p, E, _covering(rr, j, pts, lab, centre, p), exact=exact)
         A, b, centre, radius = found
         excluded.append(lab)
     for kin in kins:
@@ -269,7 +271,7 @@ def torque_region(system: System, claim: str, mu: Any, *, model: str = "common",
                     options.append((a[None], np.array([min(cut, 1e300)])))
         found = _best_option(A, b, options)
         if found is None:
-            return _empty(label, p, E, {"rival": kin.mode.label, "torque": centre.tolist(),
+            return empty_region(label, p, E, {"rival": kin.mode.label, "torque": centre.tolist(),
                                         "reason": f"force-indeterminate rival {kin.mode.label} "
                                                   "is possible at every command"}, exact=False)
         A, b, centre, radius = found
@@ -308,8 +310,9 @@ def _covering(rows: AffineRows, j: int, pts: np.ndarray, label: str, centre: np.
                       f"friction box; {where}"}
 
 
-def _empty(label: str, p: int, E: tuple[int, ...], diagnosis: dict[str, Any],
-           exact: bool = True) -> TorqueRegion:
+def empty_region(label: str, p: int, E: tuple[int, ...], diagnosis: dict[str, Any],
+                 exact: bool = True) -> TorqueRegion:
+    """The empty region of ``label`` (``p`` effort joints ``E``) with its ``diagnosis``."""
     return TorqueRegion(label, np.zeros((0, p)), np.zeros(0), np.full(p, np.nan), -np.inf, E,
                         exact, (), diagnosis)
 
@@ -335,10 +338,21 @@ def _from_band(system: System, claim: str, mu: Any, model: str, tol: float,
                E: tuple[int, ...]) -> TorqueRegion:
     """``p = 1``: the widest piece of today's band (:func:`planner.plan.guarantee.guarantee`)."""
     g = guarantee(system, claim, mu, model=model, tol=tol)
-    piece = g.best()
+    return band_region(system, g, g.best(), tol=tol)
+
+
+def band_region(system: System, g: Guarantee, piece: Interval, *, tol: float = DEFAULT_TOL
+                ) -> TorqueRegion:
+    """``p = 1``: the region of one ``piece`` of the guaranteed band ``g`` (Figure 13).
+
+    A finite piece ``[lo, hi]`` is ``A = [[1], [-1]]``, ``b = [hi, -lo]``, centred in its
+    middle.  A one-sided piece steps in from its finite end by the end's size or, when that end
+    is zero torque (to rounding), by :func:`torque_scale`; its infinite end is replaced by the
+    command's ball (an inner approximation, marked in ``open_rows``).  An empty piece gives an
+    empty region whose diagnosis names the rivals that cover the claim's guaranteed band."""
+    E = tuple(int(j) for j in system.effort_joints)
     if piece.empty:
-        return _empty(g.claim, 1, E, {"reason": f"no guaranteed torque for {g.claim}",
-                                      "rivals": list(g.rivals)}, exact=g.exact)
+        return empty_region(g.claim, 1, E, _band_diagnosis(g), exact=g.exact)
     lo, hi = piece.lower, piece.upper
     if np.isfinite(lo) and np.isfinite(hi):
         centre, radius = 0.5 * (lo + hi), 0.5 * (hi - lo)
@@ -356,3 +370,31 @@ def _from_band(system: System, claim: str, mu: Any, model: str, tol: float,
     open_rows = tuple(k for k, end in enumerate((hi, -lo)) if not np.isfinite(end))
     return TorqueRegion(g.claim, A, b, np.array([centre]), float(radius), E, g.exact,
                         tuple(g.rivals), open_rows=open_rows)
+
+
+def _band_diagnosis(g: Guarantee) -> dict[str, Any]:
+    """Why a one-effort band has no piece: the claim's own rows conflict over the friction
+    interval, or rivals that are possible over its guaranteed band (the widest first)."""
+    own = g.claim_band
+    if own is None:
+        return {"reason": f"{g.claim} is not kinematically admissible"}
+    if own.guaranteed.empty:
+        return {"reason": f"{g.claim} is not guaranteed for any effort over the friction "
+                          "interval (its own Coulomb rows conflict)"}
+    band = own.guaranteed
+    cover = [b for b in g.bands if b.label != g.claim and not b.possible.empty
+             and b.possible.lower <= band.upper and b.possible.upper >= band.lower]
+    cover.sort(key=lambda b: min(b.possible.upper, band.upper) - max(b.possible.lower,
+                                                                      band.lower), reverse=True)
+    if not cover:  # pragma: no cover - subtract() leaves a piece when nothing overlaps
+        return {"reason": f"no guaranteed effort for {g.claim}"}
+    words = "; ".join(f"rival {b.label} is possible for efforts in {_iv(b.possible)}"
+                      for b in cover)
+    return {"reason": f"{words}, covering the efforts {_iv(band)} that guarantee {g.claim}",
+            "rival": cover[0].label}
+
+
+def _iv(iv: Interval) -> str:
+    lo = f"{iv.lower:.3g}" if np.isfinite(iv.lower) else "-inf"
+    hi = f"{iv.upper:.3g}" if np.isfinite(iv.upper) else "inf"
+    return f"[{lo}, {hi}]"

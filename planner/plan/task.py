@@ -1,4 +1,4 @@
-"""Whole tasks: best-first search over chains of guaranteed segments to a goal (issue 16).
+"""Whole tasks: best-first search over chains of guaranteed segments to a goal.
 
 Section 5.2 says the paper's planner [39] took the workpiece of Figure 9 from its initial to its
 goal grasp in three ``4S`` segments, each executed by velocity-controlling one joint while
@@ -16,14 +16,15 @@ it touches.  Its *children* are the segments that can start there, one per choic
 each integrated (:func:`planner.plan.trajectory.integrate_segment`) to its first event (new
 contact, lost contact, mode change) or to the goal pose.  The search is greedy best-first on the
 distance to the goal at a child's end (workpiece position over the workpiece size, angle over
-pi/2, plus one per goal contact missing), ties to fewer segments; a child's torque regions
-(:func:`planner.plan.region_planner.plan_regions`: every control partition, the polytope over
-the friction box, its Chebyshev centre) are computed lazily, when the child is taken from the
-queue, and a child without a guaranteed region everywhere is not expanded: its diagnosis (the
+pi/2, plus one per goal contact missing), ties to fewer segments; a child is planned
+(:func:`planner.plan.segment_planner.plan_segment`: every control partition, the guaranteed
+efforts over the friction set, the waypoint spacing, the commands) lazily, when it is taken from
+the queue, and a child without a guaranteed set everywhere is not expanded: its diagnosis (the
 covering rival, the friction values, the widest interval that would work) is kept.  The search
 stops at the first node that meets the goal (pose within tolerance, goal contacts present), or
 when the queue empties or ``max_expansions`` is spent: then the plan is *partial*, the chain to
-the node nearest the goal, with the diagnosis of the best child that failed there.
+the node nearest the goal, with the diagnosis of the best child that failed there.  The result
+is a :class:`planner.plan.model.Plan`.
 
 What it can find: chains of single-drive segments at one speed magnitude, each ending at a
 contact event, the last one possibly cut at the goal pose.  What it cannot: segments that
@@ -38,8 +39,8 @@ from __future__ import annotations
 import heapq
 import itertools
 import math
-from collections.abc import Callable
-from dataclasses import dataclass, field
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -48,56 +49,38 @@ from planner.errors import DegenerateError, InputError
 from planner.files.hand_goal import Goal
 from planner.model.hand import ContactSpec, Hand
 from planner.model.modes import Mode, enumerate_modes
-from planner.plan.region_planner import (
-    NoRegionError,
-    RegionPlan,
-    Shortfall,
-    joint_inputs,
-    plan_regions,
-)
-from planner.plan.task_contacts import after_event, describe, releases, with_contacts
-from planner.plan.trajectory import Segment, integrate_segment
+from planner.model.validation import FrictionValue
+from planner.plan.model import Plan, Segment, Shortfall
+from planner.plan.partition import joint_inputs
+from planner.plan.segment_planner import NoRegionError, plan_segment
+from planner.plan.task_contacts import after_event, contact_dict, releases, with_contacts
+from planner.plan.trajectory import Trajectory, integrate_segment
+from planner.plan.wording import contact_words, drive_words, motion_words
 from planner.predict.stages import kinematic_stage
 
 
 @dataclass(frozen=True)
 class TaskOptions:
     """Search settings: ``speed`` of the driven joint (rad/s or m/s, both signs are tried),
-    ``mu`` the friction interval, ``model`` (``common``/``independent``), ``max_time`` (s) and
-    ``steps`` per segment, ``waypoints`` per planned segment, ``max_expansions``."""
+    ``mu`` the friction interval ``(lo, hi)`` shared by every contact, ``model``
+    (``common``/``independent``), ``max_time`` (s) and ``steps`` per segment (RK4 steps over
+    ``max_time``), ``waypoints`` per planned segment (None: the spacing rule,
+    :mod:`planner.plan.spacing`), ``max_expansions``."""
 
     speed: float
     mu: Any
     model: str = "common"
     max_time: float = 60.0
     steps: int = 120
-    waypoints: int = 21
+    waypoints: int | None = None
     max_expansions: int = 40
-
-
-@dataclass(frozen=True, eq=False)
-class TaskStep:
-    """One planned segment of a task: the ``hand`` with the contact set it keeps closed,
-    ``released`` (contacts of the previous set it opens), ``drive``/``speed``, the planned
-    :class:`RegionPlan` ``plan`` and the contact set after its event, ``contacts_after``."""
-
-    hand: Hand
-    released: tuple[ContactSpec, ...]
-    drive: int
-    speed: float
-    plan: RegionPlan
-    contacts_after: tuple[ContactSpec, ...]
-
-    @property
-    def event(self) -> dict[str, Any]:
-        ev = self.plan.segment.event
-        return {"kind": ev.kind, "detail": ev.detail, "t": ev.t}
 
 
 @dataclass(frozen=True)
 class Rejection:
     """A child segment that was tried and failed: after ``depth`` segments, ``what`` (release,
-    drive, mode) and ``why`` (the region's diagnosis), with its :class:`Shortfall` if any."""
+    drive, motion, mode) and ``why`` (the guarantee's diagnosis), with its :class:`Shortfall`
+    if any."""
 
     depth: int
     what: str
@@ -106,30 +89,12 @@ class Rejection:
 
 
 @dataclass(frozen=True, eq=False)
-class TaskPlan:
-    """A task plan: ``steps`` in order, ``reached`` (the goal holds at the end), the
-    ``goal``, ``distance`` to it at the end, ``rejections`` (every child that failed, in search
-    order), ``partial`` (for a plan that stops short: the failing child that got furthest --
-    its steps are *not* in ``steps``), ``expansions`` and ``segments_integrated``."""
-
-    steps: tuple[TaskStep, ...]
-    reached: bool
-    goal: Goal
-    distance: float
-    rejections: tuple[Rejection, ...] = ()
-    partial: Rejection | None = None
-    expansions: int = 0
-    segments_integrated: int = 0
-    notes: tuple[str, ...] = field(default_factory=tuple)
-
-
-@dataclass(frozen=True, eq=False)
 class _Child:
     hand: Hand
     released: tuple[ContactSpec, ...]
     drive: int
     speed: float
-    segment: Segment
+    trajectory: Trajectory
 
 
 def goal_distance(goal: Goal, hand: Hand, q: np.ndarray, contacts: tuple[ContactSpec, ...]
@@ -184,52 +149,68 @@ def _children(hand: Hand, q: np.ndarray, opts: TaskOptions,
                     continue  # a released contact would not open (B inadmissible)
                 n += 1
                 try:
-                    seg = integrate_segment(hk, q, drive=drive, speed=speed, mode=label,
-                                            max_time=opts.max_time, steps=opts.steps,
-                                            stop=stop(hk))
+                    tr = integrate_segment(hk, q, drive=drive, speed=speed, mode=label,
+                                           max_time=opts.max_time, steps=opts.steps,
+                                           stop=stop(hk))
                 except (DegenerateError, InputError):
                     continue
-                if seg.travel() + scale * float(np.ptp(seg.q[:, 2])) <= 1e-6 * scale:
+                if tr.travel() + scale * float(np.ptp(tr.q[:, 2])) <= 1e-6 * scale:
                     continue  # ends where it starts (a released contact closes at once)
-                out.append(_Child(hk, released, drive, speed, seg))
+                out.append(_Child(hk, released, drive, speed, tr))
     return out, n
 
 
-def plan_task(hand: Hand, q0: Any, goal: Goal, opts: TaskOptions) -> TaskPlan:
+def plan_task(hand: Hand, q0: Any, goal: Goal, opts: TaskOptions, *,
+              data: Mapping[str, Any], validate_mu: tuple[FrictionValue, ...] = ()) -> Plan:
     """Search a chain of guaranteed segments from ``(hand, q0)`` to ``goal`` (module docstring).
 
-    Returns a :class:`TaskPlan`; ``reached`` False means a partial plan (the chain to the node
-    nearest the goal) with its diagnosis.  Raises :class:`InputError` for bad options."""
+    ``data``: the hand file content ``hand`` was read from (embedded in the plan);
+    ``validate_mu``: friction values the plan is meant to be validated at.  Returns a
+    :class:`planner.plan.model.Plan`; ``reached`` False means a partial plan (the chain to the
+    node nearest the goal) with its ``diagnosis``.  Raises :class:`InputError` for bad
+    options."""
     if not (math.isfinite(opts.speed) and opts.speed > 0):
         raise InputError(f"speed: expected a positive joint rate, got {opts.speed!r}")
     if opts.max_expansions < 1:
         raise InputError(f"max_expansions: expected >= 1, got {opts.max_expansions}")
     q0 = hand.check_q(q0)
+    lo, hi = (float(x) for x in np.ravel(opts.mu)[:2])
 
     def stop(hk: Hand) -> Callable[[np.ndarray], bool] | None:
         if goal.pose is None or goal.missing_contacts(hk.contacts):
             return None
         return lambda q: goal.pose_error(q) <= 1.0
 
+    def result(chain: tuple[Segment, ...], reached: bool, distance: float,
+               failure: Rejection | None, notes: tuple[str, ...]) -> Plan:
+        diag = None if reached else _diagnosis(distance, notes, len(chain), failure)
+        return Plan(hand=dict(data), segments=chain, mu_model=opts.model,
+                    mu_intervals=((lo, hi),), validate_mu=tuple(validate_mu), reached=reached,
+                    diagnosis=diag, notes="; ".join(notes),
+                    extra={"expansions": expansions, "segments_integrated": integrated,
+                           "rejections": [{"after_segments": r.depth, "what": r.what,
+                                           "why": r.why} for r in rejections]})
+
     counter = itertools.count()
-    heap: list[tuple[float, int, int, _Child, tuple[TaskStep, ...]]] = []
+    heap: list[tuple[float, int, int, _Child, tuple[Segment, ...]]] = []
     seen: set[Any] = set()
     rejections: list[Rejection] = []
-    best_steps: tuple[TaskStep, ...] = ()
+    best_steps: tuple[Segment, ...] = ()
     best_d = goal_distance(goal, hand, q0, hand.contacts)
     expansions = integrated = 0
     if goal.reached(q0, hand.contacts):
-        return TaskPlan((), True, goal, 0.0, notes=("the goal holds at the start",))
+        raise InputError("goal: expected a goal the hand does not meet at its start, got one "
+                         "it meets already (nothing to plan)")
 
-    def expand(h: Hand, q: np.ndarray, steps: tuple[TaskStep, ...]) -> None:
+    def expand(h: Hand, q: np.ndarray, steps: tuple[Segment, ...]) -> None:
         nonlocal expansions, integrated
         expansions += 1
         kids, n = _children(h, q, opts, stop)
         integrated += n
         for c in kids:
-            end = c.segment.q[-1]
-            after = c.hand.contacts if c.segment.event.kind == "goal" else after_event(
-                c.hand, end, c.segment.event.kind)
+            end = c.trajectory.q[-1]
+            after = c.hand.contacts if c.trajectory.event.kind == "goal" else after_event(
+                c.hand, end, c.trajectory.event.kind)
             key = (after, tuple(np.round(end / (1e-4 * h.length_scale)).astype(int)))
             if key in seen:
                 continue
@@ -242,47 +223,77 @@ def plan_task(hand: Hand, q0: Any, goal: Goal, opts: TaskOptions) -> TaskPlan:
         d, depth, _, c, steps = heapq.heappop(heap)
         what = _what(hand, c)
         try:
-            rp = plan_regions(c.hand, c.segment.q[0], drive=c.drive, speed=c.speed,
-                              mode=c.segment.mode, mu=opts.mu, model=opts.model,
-                              waypoints=opts.waypoints, segment=c.segment, partial=True)
+            seg = plan_segment(
+                c.hand, c.trajectory.q[0], data=data, drive=c.drive, speed=c.speed,
+                mode=c.trajectory.mode, mu=(lo, hi), model=opts.model,
+                waypoints=opts.waypoints, max_time=opts.max_time, steps=opts.steps,
+                trajectory=c.trajectory, partial=True,
+                released=tuple(contact_dict(hand, r) for r in c.released))
         except NoRegionError as exc:
             rejections.append(Rejection(depth - 1, what, str(exc), exc.shortfall))
             continue
         except DegenerateError as exc:
             rejections.append(Rejection(depth - 1, what, str(exc)))
             continue
-        if rp.shortfall is not None:
-            rejections.append(Rejection(depth - 1, what, rp.shortfall.reason, rp.shortfall))
+        if seg.shortfall is not None:
+            rejections.append(Rejection(depth - 1, what, seg.shortfall.reason, seg.shortfall))
             continue
-        end = c.segment.q[-1]
-        after = c.hand.contacts if c.segment.event.kind == "goal" else after_event(
-            c.hand, end, c.segment.event.kind)
-        chain = (*steps, TaskStep(c.hand, c.released, c.drive, c.speed, rp, after))
+        end = c.trajectory.q[-1]
+        after = c.hand.contacts if c.trajectory.event.kind == "goal" else after_event(
+            c.hand, end, c.trajectory.event.kind)
+        chain = (*steps, seg)
         if goal.reached(end, after):
-            return TaskPlan(chain, True, goal, 0.0, tuple(rejections), None, expansions,
-                            integrated)
+            return result(chain, True, 0.0, None, ())
         if d < best_d:
             best_d, best_steps = d, chain
         if depth < goal.max_segments:
             expand(with_contacts(c.hand, after), end, chain)
-    why = ("search exhausted" if not heap else f"max_expansions {opts.max_expansions} spent")
-    return TaskPlan(best_steps, False, goal, best_d, tuple(rejections),
-                    _nearest_failure(rejections, len(best_steps)), expansions, integrated, (why,))
+    why = ("the search is exhausted: no further segment can start" if not heap else
+           f"max_expansions {opts.max_expansions} spent")
+    return result(best_steps, False, best_d, _nearest_failure(rejections, len(best_steps)),
+                  (why,))
+
+
+def _diagnosis(distance: float, notes: tuple[str, ...], after: int,
+               fail: Rejection | None) -> dict[str, Any]:
+    """The diagnosis of a partial plan (docs/plan-format.md): how far from the goal it ends,
+    why the search stopped, and the failure of the child that got furthest there."""
+    sf = fail.shortfall if fail is not None else None
+    failed = None if fail is None else {
+        "what": fail.what, "why": fail.why,
+        "t": None if sf is None else sf.t,
+        "rival": None if sf is None else sf.rival,
+        "mu": None if sf is None else [list(m) for m in sf.mu],
+        "widest_mu": None if sf is None or sf.widest_mu is None
+        else [list(sf.widest_mu[0]), list(sf.widest_mu[1])]}
+    return {"distance_to_goal": distance, "notes": list(notes), "after_segments": after,
+            "failed": failed}
 
 
 def _nearest_failure(rejections: list[Rejection], depth: int) -> Rejection | None:
     """The failure to report with a partial plan: among the children of its last node (else
-    all), one with a diagnosis that got furthest along its segment."""
+    all), one with a diagnosis that got furthest along its segment and, among those, the one
+    closest to working (the widest friction interval that would work there)."""
     pool = [r for r in rejections if r.depth == depth] or rejections
     if not pool:
         return None
-    return max(pool, key=lambda r: (r.shortfall is not None,
-                                    r.shortfall.index if r.shortfall is not None else -1))
+
+    def key(r: Rejection) -> tuple[bool, int, float]:
+        sf = r.shortfall
+        if sf is None:
+            return (False, -1, -math.inf)
+        widest = -math.inf if sf.widest_mu is None else float(np.sum(sf.widest_mu[1]))
+        return (True, sf.index, widest)
+
+    return max(pool, key=key)
 
 
 def _what(root: Hand, c: _Child) -> str:
-    rel = ", ".join(describe(root, r) for r in c.released)
-    name = root.joint_names()[c.drive]
-    return (f"{'release ' + rel + '; ' if rel else ''}drive {name} "
-            f"{'+' if c.speed > 0 else '-'}{abs(c.speed):g}; {c.segment.mode} "
-            f"({c.segment.event.kind}: {c.segment.event.detail})")
+    """A tried child in plain words: what it releases and drives, which way the workpiece
+    moves, in which mode and how it ends."""
+    tr = c.trajectory
+    rel = ", ".join(contact_words(root, r) for r in c.released)
+    return (f"{'release ' + rel + ' and ' if rel else ''}drive "
+            f"{drive_words(root, c.drive, c.speed)}: the workpiece "
+            f"{motion_words(tr.q[0], tr.q[-1], root.length_scale)} in {tr.mode}; it ends at "
+            f"t = {tr.event.t:.3g} s ({tr.event.kind}): {tr.event.detail}")

@@ -99,16 +99,3 @@ def contact_dict(hand: Hand, c: ContactSpec) -> dict[str, Any]:
             d["link"] = c.link
         return d
     return {"kind": "tip", "edge": c.edge, "finger": c.finger}
-
-
-def describe(hand: Hand, c: ContactSpec) -> str:
-    """A short name: ``vertex 3 on left``, ``right tip on edge 1``, ``vertex 0 on palm``."""
-    if c.kind == "palm":
-        return f"vertex {c.vertex} on palm"
-    if c.kind == "surface":
-        return f"vertex {c.vertex} on {hand.environment[c.surface][0]}"
-    f = hand.fingers[c.finger]
-    if c.kind == "side":
-        link = f" link {c.link}" if f.n_joints > 1 else ""
-        return f"vertex {c.vertex} on {f.name}{link}"
-    return f"{f.name} tip on edge {c.edge}"

@@ -38,24 +38,24 @@ import numpy as np
 from planner.errors import DegenerateError, InputError
 from planner.model.hand import Hand
 from planner.model.modes import Mode, enumerate_modes
+from planner.plan.model import Event
+from planner.plan.task_contacts import touching
+from planner.plan.wording import (
+    clearance_words,
+    contact_words,
+    meets_words,
+    mode_change_words,
+    runs_off_words,
+)
 from planner.predict.stages import DEFAULT_TOL, kinematic_stage
 
 #: ``(d/dt of the hand state, workpiece twist, joint rates)`` at one state of a segment.
 Rate = tuple[np.ndarray, np.ndarray, np.ndarray]
 
-@dataclass(frozen=True)
-class Event:
-    """Why a segment ended: ``kind`` (``new contact``, ``lost contact``, ``mode change``,
-    ``time limit``), a human-readable ``detail`` and the time ``t`` (s)."""
-
-    kind: str
-    detail: str
-    t: float
-
 
 @dataclass(frozen=True, eq=False)
-class Segment:
-    """A quasistatic segment sampled at ``n`` states.
+class Trajectory:
+    """The quasistatic motion of a segment sampled at ``n`` states.
 
     ``t (n,)`` s; ``q (n, 3 + F)`` configurations; ``qdot (n, 3)`` workpiece twist about the
     world origin; ``thetadot (n, F)`` joint rates; ``mode`` the label kept (with its sliding
@@ -87,11 +87,17 @@ class Segment:
         """Path length of the workpiece origin (m)."""
         return float(np.sum(np.linalg.norm(np.diff(self.q[:, :2], axis=0), axis=1)))
 
-    def resample(self, hand: Hand, n: int) -> Segment:
+    def resample(self, hand: Hand, n: int) -> Trajectory:
         """``n`` states evenly spaced in time, each re-closed on the contact manifold."""
         if n < 2:
             raise InputError(f"resample: expected n >= 2, got {n}")
-        ts = np.linspace(0.0, self.duration, n)
+        return self.at_times(hand, np.linspace(0.0, self.duration, n))
+
+    def at_times(self, hand: Hand, ts: np.ndarray) -> Trajectory:
+        """The states at times ``ts`` (s, increasing, within ``[0, duration]``): interpolated
+        linearly between the integrated states, the driven joints set to their exact
+        coordinates, re-closed on the contact manifold, with the mode's rates there."""
+        ts = np.asarray(ts, dtype=float)
         qs: list[np.ndarray] = []
         qd: list[np.ndarray] = []
         td: list[np.ndarray] = []
@@ -108,8 +114,8 @@ class Segment:
             qs.append(q)
             qd.append(vel[0])
             td.append(vel[1])
-        return Segment(ts, np.array(qs), np.array(qd), np.array(td), self.mode, self.drive,
-                       self.speed, self.event, self.drives, self.speeds)
+        return Trajectory(ts, np.array(qs), np.array(qd), np.array(td), self.mode, self.drive,
+                          self.speed, self.event, self.drives, self.speeds)
 
 
 Drive = int | Sequence[int]
@@ -177,7 +183,7 @@ def integrate_segment(
     max_time: float,
     steps: int = 400,
     stop: Callable[[np.ndarray], bool] | None = None,
-) -> Segment:
+) -> Trajectory:
     """Integrate the quasistatic motion of ``mode`` from ``q0`` with joint ``drive`` at
     ``speed`` (rad/s or m/s; or lists: several driven joints, a zero rate holds a joint) until
     an event or ``max_time`` (s); ``steps`` RK4 steps over ``max_time``.  ``stop(q)``: an
@@ -211,50 +217,50 @@ def integrate_segment(
         qd, td = vel
         return np.concatenate([hand.pose_rates_from_twist(qq, qd), td]), qd, td
 
-    def step(qq: np.ndarray, dt: float) -> np.ndarray | None:
+    def step(qq: np.ndarray, dt: float) -> tuple[np.ndarray | None, str]:
+        """``(state after dt, "")`` or ``(None, why)``: ``"mode"`` when the mode is not
+        admissible at an intermediate state, ``"closure: ..."`` (the closure's own message)
+        when the contacts cannot all stay closed."""
         k1 = rate(qq)
-        if k1 is None:
-            return None
-        k2 = rate(qq + 0.5 * dt * k1[0])
-        if k2 is None:
-            return None
-        k3 = rate(qq + 0.5 * dt * k2[0])
-        if k3 is None:
-            return None
-        k4 = rate(qq + dt * k3[0])
-        if k4 is None:
-            return None
+        k2 = rate(qq + 0.5 * dt * k1[0]) if k1 is not None else None
+        k3 = rate(qq + 0.5 * dt * k2[0]) if k2 is not None else None
+        k4 = rate(qq + dt * k3[0]) if k3 is not None else None
+        if k1 is None or k2 is None or k3 is None or k4 is None:
+            return None, "mode"
         nxt = qq + dt / 6.0 * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0])
         for d, v in zip(drives, speeds):
             nxt[3 + d] = qq[3 + d] + v * dt
         try:
-            return hand.close(nxt, fixed=fixed)
-        except DegenerateError:
-            return None
+            return hand.close(nxt, fixed=fixed), ""
+        except DegenerateError as exc:
+            return None, f"closure: {exc}"
 
-    def event_at(qq: np.ndarray) -> tuple[Event | None, Rate | None]:
-        """``(event or None, rate at qq)``; the rate is reused when the state is accepted."""
+    def event_at(qq: np.ndarray | None, why: str) -> tuple[Event | None, Rate | None]:
+        """``(event or None, rate at qq)``; the rate is reused when the state is accepted.
+        ``qq`` None: the step there failed for reason ``why`` (see :func:`step`)."""
+        if qq is None:
+            return Event("mode change", why, 0.0), None
         _, _, s = hand.contact_geometry(qq)
         off = np.flatnonzero((s < s_lo) | (s > s_hi))
         if off.size:
             i = int(off[0])
-            return Event("lost contact", f"contact {i + 1} ran off its feature (s = {s[i]:.3f})",
-                         0.0), None
+            return Event("lost contact", runs_off_words(hand, i, float(s[i])), 0.0), None
         cl = hand.clearances(qq)
         hit = [name for name, d in cl.items() if d <= (-slack if name in released else 0.0)]
         if hit:
-            return Event("new contact", f"{hit[0]} touches", 0.0), None
+            return Event("new contact", hit[0], 0.0), None
         if stop is not None and stop(qq):
             return Event("goal", "the goal is reached", 0.0), None
         r = rate(qq)
         if r is None:
-            return Event("mode change", f"{label} is no longer kinematically admissible", 0.0), None
+            return Event("mode change", "mode", 0.0), None
         return None, r
 
-    first, r0 = event_at(q)
+    first, r0 = event_at(q, "")
     if first is not None or r0 is None:
-        first = first or Event("mode change", "no rate at the start", 0.0)
-        raise DegenerateError(f"segment cannot start: {first.detail}")
+        first = first or Event("mode change", "mode", 0.0)
+        raise DegenerateError("segment cannot start: "
+                              + _event_words(hand, q, q, first, drives, speeds, label))
     ts, qs, qds, tds = [0.0], [q], [r0[1]], [r0[2]]
 
     def record(t_new: float, q_new: np.ndarray, r: Rate) -> None:
@@ -264,12 +270,11 @@ def integrate_segment(
         tds.append(r[2])
 
     t = 0.0
-    event = Event("time limit", f"reached max_time {max_time:g} s", max_time)
+    event = Event("time limit", f"the time limit, max_time {max_time:g} s, is reached", max_time)
     while t < max_time - 1e-12 * max_time:
         dt = min(h, max_time - t)
-        nxt = step(q, dt)
-        ev, r = event_at(nxt) if nxt is not None else (Event("mode change", "step failed", 0.0),
-                                                       None)
+        nxt, why = step(q, dt)
+        ev, r = event_at(nxt, why)
         if ev is None and nxt is not None and r is not None:
             t += dt
             q = nxt
@@ -280,21 +285,56 @@ def integrate_segment(
         # Bisect on the step length for the first event.
         a, b = 0.0, dt
         q_ok, r_ok = q, None
+        q_bad = nxt
         while b - a > 1e-9 * h:
             mid = 0.5 * (a + b)
-            qm = step(q, mid)
-            ev_m, r_m = event_at(qm) if qm is not None else (ev, None)
+            qm, why_m = step(q, mid)
+            ev_m, r_m = event_at(qm, why_m)
             if ev_m is None and qm is not None:
                 a, q_ok, r_ok = mid, qm, r_m
             else:
-                b = mid
+                b, ev, q_bad = mid, ev_m or ev, qm
         if a > 0 and r_ok is not None:
             t += a
             q = q_ok
             record(t, q, r_ok)
-        event = Event(ev.kind, ev.detail, t)
+        event = Event(ev.kind, _event_words(hand, q, q_bad, ev, drives, speeds, label), t)
         break
     if len(ts) < 2:
         raise DegenerateError(f"segment ended at its start: {event.detail}")
-    return Segment(np.array(ts), np.array(qs), np.array(qds), np.array(tds), label, drives[0],
-                   speeds[0], event, drives, speeds)
+    return Trajectory(np.array(ts), np.array(qs), np.array(qds), np.array(tds), label,
+                      drives[0], speeds[0], event, drives, speeds)
+
+
+def _event_words(hand: Hand, q: np.ndarray, q_past: np.ndarray | None, ev: Event,
+                 drives: tuple[int, ...], speeds: tuple[float, ...], label: str) -> str:
+    """The event's ``detail`` in plain words, contacts named by their features
+    (:mod:`planner.plan.wording`).  ``q``: the last state of the segment; ``q_past``: a state
+    just past the event (None when the step there failed)."""
+    if ev.kind == "new contact":
+        at = q_past if q_past is not None else q
+        new = [c for c in touching(hand, at, 1e-4 * hand.length_scale)
+               if c not in hand.contacts]
+        return "; ".join(meets_words(hand, c) for c in new) or clearance_words(hand, ev.detail,
+                                                                               at)
+    if ev.kind != "mode change":
+        return ev.detail
+    if ev.detail.startswith("closure"):
+        why = ev.detail.removeprefix("closure: close: ")
+        return ("past this point the constraints of the contacts "
+                + ", ".join(contact_words(hand, c) for c in hand.contacts)
+                + f" become singular or ill-conditioned (the closure fails: {why})")
+    return f"{label} stops being kinematically admissible: " + mode_change_words(
+        hand, label, _admissible_near(hand, q, drives, speeds))
+
+
+def _admissible_near(hand: Hand, q: np.ndarray, drives: tuple[int, ...],
+                     speeds: tuple[float, ...]) -> list[str]:
+    """Labels of the modes of ``hand``'s contacts (``B`` included) that are kinematically
+    admissible at ``q`` or on the boundary of admissibility there with a loosened tolerance
+    (at the end of a mode the next one starts on its boundary)."""
+    system = hand.system(q, 0.0, _drive_joints(hand, drives, speeds))
+    cand = enumerate_modes(system.n_contacts, system.dof)
+    ks = kinematic_stage(system, cand, tol=1e3 * DEFAULT_TOL)
+    return [Mode(tuple(int(c) for c in cand.codes[i]), tuple(int(x) for x in ks.xi[i])).label
+            for i in np.flatnonzero(ks.ok | ks.boundary)]

@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from planner.files.atomic import save_figure
-from planner.plan.plan_file import Plan
+from planner.plan.model import Segment
 
 
 def _series(rows: list[Any], sign: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
@@ -29,9 +29,9 @@ def _series(rows: list[Any], sign: float = 1.0) -> tuple[np.ndarray, np.ndarray]
     return (lo, hi) if sign > 0 else (-hi, -lo)
 
 
-def _limits(plan: Plan, sign: float) -> tuple[float, float]:
+def _limits(plan: Segment, sign: float) -> tuple[float, float]:
     """Plot range from the claimed mode's curves and the commands (rivals are clipped)."""
-    vals = [sign * w.torque_command for w in plan.waypoints] + [0.0]
+    vals = [sign * w.torque_commands[0] for w in plan.waypoints] + [0.0]
     m = plan.extra["curves"]["modes"].get(plan.claim)
     if m is not None:
         for key in ("at_lo", "at_hi", "guaranteed"):
@@ -61,8 +61,17 @@ def _draw(ax, x, lo, hi, colour, label, ylim):
                     ms=4, ls="none")
 
 
-def plot_bounds(plan: Plan, out_dir: str | Path) -> list[Path]:
-    """Write ``fig10_bounds_mu_lo.png`` ... ``fig13_guaranteed.png`` into ``out_dir``."""
+def plot_bounds(plan: Segment, out_dir: str | Path) -> list[Path]:
+    """Write ``fig10_bounds_mu_lo.png`` ... ``fig13_guaranteed.png`` into ``out_dir`` from a
+    segment with one effort-controlled joint and its band curves (``extra["curves"]``,
+    :func:`planner.plan.curves.band_curves`).  Raises :class:`planner.errors.InputError`
+    for a segment without them."""
+    from planner.errors import InputError
+
+    if len(plan.effort_joints) != 1 or "curves" not in plan.extra:
+        raise InputError("figures 10-13: expected a segment with one effort-controlled joint "
+                         f"and its band curves, got {len(plan.effort_joints)} effort joints"
+                         + ("" if "curves" in plan.extra else " and no curves"))
     import matplotlib
 
     matplotlib.use("Agg")
@@ -74,12 +83,12 @@ def plot_bounds(plan: Plan, out_dir: str | Path) -> list[Path]:
     modes = curves["modes"]
     claim = plan.claim
     # Show squeezing torques as positive numbers (as the paper does) when the commands are < 0.
-    sign = -1.0 if float(np.median(plan.torques())) < 0 else 1.0
+    torques = plan.torques()[:, 0]
+    sign = -1.0 if float(np.median(torques)) < 0 else 1.0
     ylim = _limits(plan, sign)
     mu_lo = curves["mu_lo"][0]
     mu_hi = curves["mu_hi"][0]
-    eff = plan.effort_joint
-    name = plan.hand.get("fingers", [{}] * (eff + 1))[eff].get("name", f"joint {eff}")
+    name = plan.hand_model.hand.joint_names()[plan.effort_joints[0]]
     ylabel = (f"torque of the {name} joint (N m, CCW +)" if sign > 0 else
               f"squeezing torque of the {name} joint, -tau (N m)")
     colours = ["tab:blue", "tab:red", "tab:green", "tab:purple", "tab:orange", "tab:brown"]
@@ -120,7 +129,7 @@ def plot_bounds(plan: Plan, out_dir: str | Path) -> list[Path]:
         ax.plot(x, np.clip(hi, *ylim), ":", color=colours[0], lw=1, label=f"{fam} upper")
     finish(fig, ax, "fig12_rival_bounds_mu_hi.png")
     fig, ax = new(f"{fam} guaranteed, rivals excluded, mu in [{mu_lo:g}, {mu_hi:g}]")
-    band = sign * plan.bands()
+    band = sign * np.array([w.bands[0] for w in plan.waypoints], dtype=float)
     if sign < 0:
         band = band[:, ::-1]
     _draw(ax, x, band[:, 0], band[:, 1], colours[0], f"guaranteed {fam}", ylim)
@@ -130,15 +139,15 @@ def plot_bounds(plan: Plan, out_dir: str | Path) -> list[Path]:
         ax.fill_between(x, np.clip(lo, *ylim), np.clip(hi, *ylim), where=ok, hatch="//",
                         facecolor="none", edgecolor=colours[(i + 1) % len(colours)], lw=0,
                         label=f"{lab} possible")
-    ax.plot(x, sign * plan.torques(), "k.-", lw=1, ms=3, label=f"command ({plan.policy})")
+    ax.plot(x, sign * torques, "k.-", lw=1, ms=3, label=f"command ({plan.policy})")
     finish(fig, ax, "fig13_guaranteed.png")
     return paths
 
 
-def margin_summary(plan: Plan) -> dict[str, float]:
+def margin_summary(plan: Segment) -> dict[str, float]:
     """Smallest margin of the commands (N m) and relative to the command's magnitude."""
     m = plan.margins()
-    t = np.abs(plan.torques())
+    t = np.linalg.norm(plan.torques(), axis=1)
     rel = m / np.where(t > 0, t, math.inf)
     return {"min_margin": float(np.min(m)), "min_relative_margin": float(np.min(rel))}
 
@@ -169,12 +178,13 @@ def slice_polygon(A: np.ndarray, b: np.ndarray, centre: np.ndarray, axes: tuple[
     return np.asarray(v[np.argsort(ang)])
 
 
-def plot_regions(plan: Any, out_dir: str | Path, names: tuple[str, ...] = ()) -> list[Path]:
-    """Torque regions of a :class:`planner.plan.region_planner.RegionPlan` into ``out_dir``:
-    ``regions.png``.  One effort joint: the band and the commands against travel (as Fig. 13);
-    several: slices through each drawn waypoint's command in the first two effort joints' plane
-    (the others held at the command), every other waypoint, shaded by time; none: the margin
-    (smallest normalised Coulomb slack) against travel.  ``names``: joint names for the axes."""
+def plot_regions(plan: Segment, out_dir: str | Path, names: tuple[str, ...] = ()) -> list[Path]:
+    """Effort regions of a planned :class:`planner.plan.model.Segment` (its in-memory
+    ``regions``) into ``out_dir``: ``regions.png``.  One effort joint: the band and the
+    commands against travel (as Fig. 13); several: slices through each drawn waypoint's
+    command in the first two effort joints' plane (the others held at the command), every
+    other waypoint, shaded by time; none: the margin (smallest normalised Coulomb slack)
+    against travel.  ``names``: joint names for the axes."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -185,33 +195,39 @@ def plot_regions(plan: Any, out_dir: str | Path, names: tuple[str, ...] = ()) ->
     def nm(j: int) -> str:
         return names[j] if j < len(names) else f"joint {j}"
 
+    if len(plan.regions) != len(plan.waypoints):
+        from planner.errors import InputError
+
+        raise InputError("regions: expected a planned segment (its guaranteed regions are kept "
+                         "in memory only), got one without them")
     q = np.array([w.q for w in plan.waypoints])
     x = 1e3 * np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(q[:, :2], axis=0),
                                                                axis=1))])
     fig, ax = plt.subplots(figsize=(6.4, 4.6), dpi=110)
-    title = f"{plan.claim}: guaranteed over the friction {plan.mu_model}"
+    title = f"{plan.claim}: guaranteed over the friction set"
     if len(E) == 0:
         ax.plot(x, [w.margin for w in plan.waypoints], "k.-")
         ax.set_xlabel("workpiece travel (mm)")
         ax.set_ylabel("margin (smallest normalised Coulomb slack)")
     elif len(E) == 1:
-        lo = [-w.region.b[1] for w in plan.waypoints]
-        hi = [w.region.b[0] for w in plan.waypoints]
+        lo = [-r.b[1] for r in plan.regions]
+        hi = [r.b[0] for r in plan.regions]
         ax.fill_between(x, lo, hi, color="tab:blue", alpha=0.3, label="guaranteed")
-        ax.plot(x, [w.torque_command[0] for w in plan.waypoints], "k.-", label="command")
+        ax.plot(x, [w.torque_commands[0] for w in plan.waypoints], "k.-", label="command")
         ax.set_xlabel("workpiece travel (mm)")
         ax.set_ylabel(f"effort of {nm(E[0])}")
         ax.legend(fontsize=7)
     else:
         cmap = plt.get_cmap("viridis")
-        shown = plan.waypoints[::2]
-        for n, w in enumerate(shown):
-            poly = slice_polygon(w.region.A, w.region.b, w.torque_command, (0, 1))
+        shown = list(zip(plan.waypoints, plan.regions))[::2]
+        for n, (w, reg) in enumerate(shown):
+            tau = np.array(w.torque_commands)
+            poly = slice_polygon(reg.A, reg.b, tau, (0, 1))
             colour = cmap(n / max(1, len(shown) - 1))
             if len(poly):
                 ax.fill(poly[:, 0], poly[:, 1], color=colour, alpha=0.25, lw=0.8,
                         ec=colour, label=f"t = {w.t:.2f} s")
-            ax.plot(*w.torque_command[:2], "o", color=colour, ms=3)
+            ax.plot(*tau[:2], "o", color=colour, ms=3)
         ax.set_xlabel(f"effort of {nm(E[0])}")
         ax.set_ylabel(f"effort of {nm(E[1])}")
         ax.legend(fontsize=6, loc="best")

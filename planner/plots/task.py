@@ -1,4 +1,4 @@
-"""Figures of a whole-task plan (issue 16; matplotlib, Agg, imported lazily).
+"""Figures of a whole-task plan (matplotlib, Agg, imported lazily).
 
 * :func:`plot_task_story` -- the hand at the start, at the end of every segment and at the goal:
   palm, finger links (capsules), workpiece, the contacts each segment keeps closed (dots) and
@@ -47,7 +47,7 @@ def _draw_hand(ax: Any, hand: Hand, q: np.ndarray, *, colour: str = "tab:blue",
 
 def plot_task_story(plan: Any, out_dir: str | Path, goal_pose: Any = None) -> Path:
     """Write ``task_story.png``: start, the end of each segment, the goal (module docstring).
-    ``plan``: a :class:`planner.plan.task_file.TaskPlanFile`; ``goal_pose`` ``(3,)`` (m, m,
+    ``plan``: a :class:`planner.plan.model.Plan`; ``goal_pose`` ``(3,)`` (m, m,
     rad) drawn dashed when given."""
     import matplotlib
 
@@ -77,7 +77,7 @@ def plot_task_story(plan: Any, out_dir: str | Path, goal_pose: Any = None) -> Pa
             title = "goal reached" if plan.reached else "end (goal not reached)"
         t = starts[j] if j < len(segs) else plan.duration()
         if j < len(segs):
-            title += f"\nsegment {j + 1}: {seg.claim}\n{seg.event['kind']}"
+            title += f"\nsegment {j + 1}: {seg.claim}\n{seg.event.kind}"
         ax.set_title(f"{title}\nt = {t:.1f} s", fontsize=8)
     fig.suptitle("the task: contacts kept closed (red), goal pose (green, dashed); mm",
                  fontsize=9)
@@ -104,8 +104,7 @@ def plot_task_regions(plan: Any, out_dir: str | Path) -> Path:
         names = seg.hand_model.hand.joint_names()
         effort = [k for k, c in enumerate(seg.control) if c == "effort"]
         for i, k in enumerate(effort):
-            tau = np.array([w.torque_commands[i] if w.torque_commands else w.torque_command
-                            for w in seg.waypoints])
+            tau = np.array([w.torque_commands[i] for w in seg.waypoints])
             m = np.array([w.margin for w in seg.waypoints])
             ax.fill_between(t, tau - m, tau + m, step="post", alpha=0.25,
                             label=f"{names[k]}: guaranteed")

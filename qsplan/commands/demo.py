@@ -9,8 +9,8 @@ Figs. 9-13), from the initial to the goal grasp.
    claiming 4S (``policy rival:R2S``); check that the plan file reloads to the same plan and
    that a tampered copy is rejected;
 2. validate the whole task in pymunk and MuJoCo at the friction interval's ends and middle
-   (``mu.validate``: 0, 0.1, 0.2; every segment, each from the simulated end of the one
-   before, :mod:`sim.task_run`), and the negative controls: the reversed-torque task and the
+   (``mu.validate``: 0, 0.1, 0.2; the whole task in one continuous run judged per segment,
+   :func:`scenarios.runs.validate_plan`), and the negative controls: the reversed-torque task and the
    R2S segment at mu = 0.2 (two worker processes);
 3. write ``report/``: the story (``story/``), the plans, one folder per run (summary.json; the
    R2S runs also timeline.png and animation.gif), ``checks.json``, ``REPORT.md`` (one page: the
@@ -108,8 +108,8 @@ def _run(args: argparse.Namespace, engines: list[str], out: Path) -> int:
     """The demo with every output written below ``out`` (the staging folder of --out)."""
     from planner.errors import FileFormatError
     from planner.files.atomic import atomic_write_json, atomic_write_text
+    from planner.plan.hand_planner import plan_hand
     from planner.plan.plan_file import load_plan, plans_equal, save_plan
-    from planner.plan.segment_planner import plan_hand
 
     final = Path(args.out)
     t_start = time.perf_counter()
@@ -130,7 +130,8 @@ def _run(args: argparse.Namespace, engines: list[str], out: Path) -> int:
     from planner.files.reader import read_json
 
     tampered = read_json(plan_path, "plan file")
-    tampered["waypoints"][1]["torque_command"] = neg.waypoints[1].torque_command
+    tampered["segments"][0]["waypoints"][1]["torque_commands"] = list(
+        neg.segments[0].waypoints[1].torque_commands)
     tpath = out / "negative_control" / "tampered_copy.json"
     atomic_write_text(tpath, json.dumps(tampered))
     try:
@@ -145,13 +146,14 @@ def _run(args: argparse.Namespace, engines: list[str], out: Path) -> int:
     if not args.no_render:
         from planner.plots.bounds import plot_bounds
 
-        figures = [p.name for p in plot_bounds(plan, out / "figures")]
+        figures = [p.name for p in plot_bounds(plan.segments[0], out / "figures")]
     task = plan_task(out, render=not args.no_render)
     checks += task_plan_checks(task)
 
     # 2. simulations --------------------------------------------------------------------------
     # the R2S control: the first quarter (--quick) or the first half, where R2S is the rival
-    n_wp = max(2, (len(plan.waypoints) + (3 if args.quick else 1)) // (4 if args.quick else 2))
+    n_wp = max(2, (len(plan.segments[0].waypoints) + (3 if args.quick else 1))
+               // (4 if args.quick else 2))
     # the whole task at the friction interval's ends and middle (--quick: the middle only)
     mus = [float(m) for m in task["plan"].validate_mu] or [0.0, 0.1, 0.2]
     if args.quick:
@@ -228,12 +230,13 @@ def _run(args: argparse.Namespace, engines: list[str], out: Path) -> int:
     return 0 if held else 1
 
 
-def _report_md(plan, neg, checks, results, figures, quick, n_wp, t_plan, t_sims, total,
+def _report_md(whole, neg, checks, results, figures, quick, n_wp, t_plan, t_sims, total,
                status, task) -> str:
     import numpy as np
 
-    bands = plan.bands()
-    tau = plan.torques()
+    plan, neg = whole.segments[0], neg.segments[0]  # the one segment of the two-finger plans
+    bands = np.array([w.bands[0] for w in plan.waypoints])
+    tau = plan.torques()[:, 0]
     L = []
     L.append("# Two-finger hand: the whole task of Figure 9, guaranteed 4S segments under "
              "uncertain friction (Sec. 5.2)\n")
@@ -247,10 +250,10 @@ def _report_md(plan, neg, checks, results, figures, quick, n_wp, t_plan, t_sims,
     L.append(f"Plan: `plan.json` - claim `{plan.claim}` (contacts in file order: 1, 2 palm "
              f"vertices, 3 left finger side, 4 right finger tip), control "
              f"{', '.join(f'{n}={c}' for n, c in zip(['left', 'right'], plan.control))}, friction "
-             f"interval {list(plan.mu_intervals[0])} ({plan.mu_model}), "
+             f"interval {list(plan.mu_intervals[0])} ({whole.mu_model}), "
              f"{len(plan.waypoints)} waypoints over {plan.waypoints[-1].t:.2f} s, travel "
-             f"{1e3 * plan.travel():.2f} mm; segment ends: {plan.event['kind']} "
-             f"({plan.event['detail']}). Effort joint torque {tau[0]:.2e} -> {tau[-1]:.2e} N m "
+             f"{1e3 * plan.travel():.2f} mm; segment ends: {plan.event.kind} "
+             f"({plan.event.detail}). Effort joint torque {tau[0]:.2e} -> {tau[-1]:.2e} N m "
              f"inside the guaranteed band (start [{bands[0][0]:.2e}, {bands[0][1]:.2e}], end "
              f"[{bands[-1][0]:.2e}, {bands[-1][1]:.2e}] N m; smallest margin "
              f"{np.min(plan.margins()):.2e} N m).\n")
@@ -298,7 +301,7 @@ def _report_md(plan, neg, checks, results, figures, quick, n_wp, t_plan, t_sims,
     L.append("## Figures and files\n")
     L.append("- `figures/`: " + (", ".join(figures) if figures else "(not rendered)")
              + " (torque bounds along the segment: Figs. 10-13)")
-    L.append("- `story/`: the task in pictures; `task/plan_task.json`: the task plan (version 2); "
+    L.append("- `story/`: the task in pictures; `task/plan_task.json`: the task plan; "
              "`task/<engine>/mu_<mu>/summary.json`: the whole task's runs (a row per segment); "
              "`negative_control/task/`: the reversed-torque control")
     L.append("- `negative_control/<engine>/`: summary.json, "

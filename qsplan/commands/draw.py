@@ -119,29 +119,24 @@ def _draw_plan(ax: Any, path: str) -> str:
     """A plan's hand at its first waypoint, its goal, and the torque commands."""
     import numpy as np
 
-    from planner.files.reader import read_json
+    from planner.errors import InputError
+    from planner.plan.plan_file import load_plan
     from planner.plots.draw import draw_hand
 
-    data = read_json(path, "plan file")
-    if isinstance(data, dict) and data.get("version") == 2:
-        from planner.plan.task_file import load_task_plan
-
-        task = load_task_plan(path)
-        seg = task.segments[0]
-        claim = f"{len(task.segments)} segment(s), first {seg.claim}"
-    else:
-        from planner.plan.plan_file import load_plan
-
-        seg = load_plan(path)
-        claim = seg.claim
+    plan = load_plan(path)  # any plan version
+    if not plan.segments:
+        raise InputError(f"{path}: expected a plan with at least one segment to draw, got a "
+                         "partial plan that stops before its first")
+    seg = plan.segments[0]
+    claim = (f"{len(plan.segments)} segment(s), first {seg.claim}" if len(plan.segments) > 1
+             else seg.claim)
     setup = seg.hand_model
     w = seg.waypoints[0]
     q = np.array([*w.pose, *w.angles])
     effort = [k for k, c in enumerate(seg.control) if c == "effort"]
-    taus = list(w.torque_commands) if w.torque_commands else [w.torque_command]
-    torques = dict(zip(effort, taus))
+    torques = dict(zip(effort, w.torque_commands))
     goal = None
-    goal_raw = seg.hand.get("goal") if isinstance(seg.hand, dict) else None
+    goal_raw = plan.hand.get("goal")
     if isinstance(goal_raw, dict) and isinstance(goal_raw.get("pose"), list):
         goal = np.asarray(goal_raw["pose"], dtype=float)
     mu = [hi for _, hi in seg.mu_intervals]

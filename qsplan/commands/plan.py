@@ -1,5 +1,5 @@
-"""``qsplan plan SCENARIO --mu 0:0.2 --out plan.json [--figures DIR]``: plan a hand segment, or
-the whole task to the hand file's ``goal`` (a version-2 plan, docs/planning.md)."""
+"""``qsplan plan HAND --mu 0:0.2 --out plan.json [--figures DIR]``: plan a hand file's segment, or
+the whole task to its ``goal`` (docs/planning.md); the plan file format is docs/plan-format.md."""
 
 from __future__ import annotations
 
@@ -8,6 +8,7 @@ import contextlib
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 from planner.errors import InputError
 from qsplan.options import MU_MAX, check_int, fmt, parse_number, parse_range
@@ -15,26 +16,27 @@ from scenarios.registry import shipped_file
 
 MAX_WAYPOINTS = 10_000
 FIGURES = ("fig10_bounds_mu_lo.png", "fig11_bounds_mu_hi.png", "fig12_rival_bounds_mu_hi.png",
-           "fig13_guaranteed.png")
-"""The entries ``--figures`` gets (``planner.plots.bounds.plot_bounds``), checked before any
-work."""
+           "fig13_guaranteed.png", "regions.png", "task_story.png", "task_regions.png")
+"""The entries ``--figures`` may get (``planner.plots.bounds.plot_bounds`` for one effort joint,
+``plot_regions`` for several, ``planner.plots.task`` for a task), checked before any work."""
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "plan",
-        help="plan a hand segment: joint commands and torque bounds that guarantee a mode",
+        help="plan a hand: joint commands and effort bounds that guarantee each segment's mode",
         description=(
-            "Integrate the quasistatic segment of the hand file SCENARIO (a path, or a name in "
-            "scenarios/data such as two_finger_hand), choose the control partition (Sec. 3.2), "
-            "compute the torque band that guarantees the segment's mode and excludes every rival "
-            "for all friction in --mu (eq. 28, Figs. 10-13) and write the plan (versioned JSON, "
-            "docs/plan-format.md) and, with --figures, Figures 10-13. A hand file with a 'goal' "
-            "is planned as a whole task (a chain of guaranteed segments, docs/planning.md); a "
-            "hand other than one velocity- and one effort-controlled joint is planned over every "
-            "control partition; both write a version-2 plan (segments). Exit 0 ok, 1 when no "
-            "control partition can guarantee the mode or the task stops short of its goal (a "
-            "partial plan is still written, with its diagnosis), 2 bad input, 3 internal fault."
+            "Plan the hand file HAND (a path, or a name in scenarios/data such as "
+            "two_finger_hand): a file with a 'goal' as a whole task (a chain of guaranteed "
+            "segments, docs/planning.md), else its 'segment' section as one segment. Per "
+            "segment: integrate the quasistatic motion, choose the control partition (Sec. "
+            "3.2; any number of effort-controlled joints), find the efforts that guarantee the "
+            "mode and exclude every rival for all friction in --mu (eq. 28, Figs. 10-13), space "
+            "the waypoints so the held commands keep the guarantee, and write the plan "
+            "(versioned JSON, docs/plan-format.md); with --figures, Figures 10-13 (one effort "
+            "joint) or the task's pictures. Exit 0 ok, 1 when no control partition can "
+            "guarantee the mode or the task stops short of its goal (a partial plan is still "
+            "written, with its diagnosis), 2 bad input, 3 internal fault."
         ),
     )
     p.add_argument("scenario", help="hand file or scenario name (e.g. two_finger_hand)")
@@ -44,16 +46,21 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="one coefficient for all contacts (paper) or one per contact; default "
                         "common, or independent when the intervals differ per contact")
     p.add_argument("--policy", default="midband",
-                   help="torque choice: midband, constant, or rival:MODE (negative control)")
+                   help="effort choice: midband, constant, or rival:MODE (negative control); "
+                        "one segment only")
     p.add_argument("--control", default="auto",
-                   help="index of the velocity-controlled joint, or auto (utility conditions)")
+                   help="the velocity-controlled joints, comma-separated indices, or auto (every "
+                        "partition the utility conditions allow); one segment only")
     p.add_argument("--waypoints", type=int,
-                   help=f"number of waypoints, 2..{MAX_WAYPOINTS} (default from the file)")
+                   help=f"waypoints per segment, evenly spaced, 2..{MAX_WAYPOINTS} (default: "
+                        "the file's segment.waypoints, else chosen so the held commands keep "
+                        "the guarantee, docs/planning.md)")
     p.add_argument("--max-expansions", type=int, default=40,
                    help="task search: nodes expanded at most (1..1000; hand files with a goal)")
     p.add_argument("--out", default="plan.json", help="plan file to write")
-    p.add_argument("--figures", help="folder for Figures 10-13 (PNG); written together with the "
-                                     "plan, only when both succeed")
+    p.add_argument("--figures", help="folder for the figures (PNG): Figures 10-13 of a segment "
+                                     "with one effort joint, the task's pictures for a task; "
+                                     "written together with the plan")
     p.set_defaults(func=run)
 
 
@@ -72,69 +79,153 @@ def parse_interval(text: str | None) -> tuple[float, float] | list[tuple[float, 
     return out[0] if len(out) == 1 else out
 
 
+def parse_control(text: str) -> tuple[int, ...] | None:
+    """``"auto"`` -> None; ``"1"`` or ``"0,2"`` -> the velocity-controlled joints."""
+    if text == "auto":
+        return None
+    try:
+        joints = tuple(int(x) for x in str(text).split(","))
+    except ValueError:
+        raise InputError(f"--control: expected comma-separated joint indices (integers) or "
+                         f"'auto', got {text!r}") from None
+    if any(j < 0 for j in joints) or len(set(joints)) != len(joints):
+        raise InputError(f"--control: expected distinct joint indices >= 0, got {text!r}")
+    return joints
+
+
 def run(args: argparse.Namespace) -> int:
     from planner.errors import DegenerateError
     from planner.files.outputs import output_set, uninterruptible
+    from planner.plan.hand_planner import plan_hand
     from planner.plan.plan_file import save_plan
-    from planner.plan.segment_planner import plan_hand
 
-    control = args.control if args.control == "auto" else _int(args.control, "--control")
+    control = parse_control(args.control)
     mu = parse_interval(args.mu)
     if args.waypoints is not None:
         check_int(args.waypoints, "--waypoints", 2, MAX_WAYPOINTS)
+    check_int(args.max_expansions, "--max-expansions", 1, 1000)
     t0 = time.perf_counter()
+    path = shipped_file(args.scenario)
     if args.model is None:
-        args.model = _default_model(mu, shipped_file(args.scenario))
-    if _is_task(shipped_file(args.scenario)):
-        return _run_task(args, mu, t0)
+        args.model = _default_model(mu, path)
     with contextlib.ExitStack() as stack:
         fig_dir = stack.enter_context(output_set(args.figures, "dir", "--figures",
                                                  entries=FIGURES)) \
             if args.figures is not None else None
         plan_tmp = stack.enter_context(output_set(args.out, "file", "--out"))
         try:
-            plan = plan_hand(shipped_file(args.scenario), mu=mu, model=args.model,
-                             policy=args.policy, control=control, waypoints=args.waypoints)
+            plan = plan_hand(path, mu=mu, model=args.model, policy=args.policy,
+                             control=control, waypoints=args.waypoints,
+                             max_expansions=args.max_expansions)
         except DegenerateError as exc:
             print(f"qsplan plan: cannot guarantee the mode: {exc}", file=sys.stderr)
             return 1  # a valid request whose answer is "no guaranteed plan": a failed check
         save_plan(plan, plan_tmp)
-        figs = []
-        if fig_dir is not None:
-            from planner.plots.bounds import plot_bounds
-
-            figs = [Path(args.figures) / f.name for f in plot_bounds(plan, fig_dir)]
+        figs = _figures(plan, fig_dir, Path(args.figures)) if fig_dir is not None else []
         commits = stack.pop_all()  # the plan and its figures: committed in one step
     with uninterruptible():
         commits.close()
-    path = Path(args.out)
-    quiet = getattr(args, "quiet", False)
-    if not quiet:
-        m = plan.margins()
-        print(f"plan: {path}  ({len(plan.waypoints)} waypoints, {time.perf_counter() - t0:.2f} s)")
-        ivs = [tuple(iv) for iv in plan.mu_intervals]  # per contact, in contact order
-        mu_text = " ".join(f"[{fmt(a)}, {fmt(b)}]" for a, b in (ivs if len(set(ivs)) > 1
-                                                              else ivs[:1]))
-        print(f"  claim {plan.claim}; control {', '.join(plan.control)}; mu {plan.mu_model} "
-              f"{mu_text}; policy {plan.policy}")
-        print(f"  segment ends at t = {fmt(plan.event['t'], '.3g')} s: {plan.event['kind']} "
-              f"({plan.event['detail']}); travel {fmt(1e3 * plan.travel(), '.2f')} mm")
-        print(f"  smallest torque margin {fmt(m.min(), '.3g')} N m; exact bounds: {plan.exact}")
-        if getattr(args, "verbose", False):
-            for w in plan.waypoints:
-                print(f"  t={w.t:7.3f}  tau={fmt(w.torque_command, '+.5f')}  "
-                      f"band=[{fmt(w.band[0], '+.5f')}, {fmt(w.band[1], '+.5f')}]  "
+    if not getattr(args, "quiet", False):
+        _report(plan, Path(args.out), time.perf_counter() - t0, figs,
+                getattr(args, "verbose", False))
+    return 0 if plan.reached else 1
+
+
+def _figures(plan: Any, work: Path, final: Path) -> list[Path]:
+    """Figures 10-13 of a one-segment plan with one effort joint, the effort regions of one
+    with several (or none), a task's pictures."""
+    if not plan.segments:
+        return []
+    if len(plan.segments) == 1 and "goal" not in plan.hand:
+        from planner.plots.bounds import plot_bounds, plot_regions
+
+        seg = plan.segments[0]
+        if "curves" in seg.extra:
+            return [final / f.name for f in plot_bounds(seg, work)]
+        return [final / f.name for f in plot_regions(seg, work,
+                                                     seg.hand_model.hand.joint_names())]
+    from planner.files.hand_file import hand_file_from_dict
+    from planner.plots.task import plot_task_regions, plot_task_story
+
+    goal = hand_file_from_dict(dict(plan.hand), "plan.hand").goal
+    pose = None if goal is None else goal.pose
+    return [final / plot_task_story(plan, work, pose).name,
+            final / plot_task_regions(plan, work).name]
+
+
+def _report(plan: Any, out: Path, seconds: float, figs: list[Path], verbose: bool) -> None:
+    """What was planned, in plain words: per segment its mode, control, motion and end."""
+    from planner.plan.wording import effort_unit, motion_words
+
+    n_wp = sum(len(s.waypoints) for s in plan.segments)
+    task = "goal" in plan.hand
+    print(f"plan: {out}  ({len(plan.segments)} segment(s), {n_wp} waypoints, "
+          f"{seconds:.2f} s)" + (f"; goal reached: {plan.reached}" if task else ""))
+    ivs = [tuple(iv) for iv in plan.mu_intervals]
+    mu_text = " ".join(f"[{fmt(a)}, {fmt(b)}]" for a, b in ivs)
+    if plan.segments:
+        print(f"  mu {plan.mu_model} {mu_text}; policy {plan.policy}; exact bounds: "
+              f"{plan.exact}")
+    for k, (seg, start) in enumerate(zip(plan.segments, plan.start_times())):
+        hand = seg.hand_model.hand
+        first, last = seg.waypoints[0], seg.waypoints[-1]
+        moves = motion_words(first.q, last.q, hand.length_scale)
+        unit = effort_unit(hand, seg.effort_joints)
+        print(f"  {k + 1}. t = {fmt(start, '.3g')} s: claim {seg.claim}; control "
+              f"{', '.join(seg.control)}; the workpiece {moves}; ends at t = "
+              f"{fmt(seg.duration(), '.3g')} s ({seg.event.kind}): {seg.event.detail}; "
+              f"{len(seg.waypoints)} waypoints; smallest margin {fmt(seg.margins().min(), '.3g')}"
+              + (f" {unit}" if unit else ""))
+        unresolved = seg.extra.get("spacing", {}).get("unresolved_s", [])
+        if unresolved:
+            print(f"     warning: over {len(unresolved)} hold interval(s) the guaranteed "
+                  "efforts move by more than half their size or jump "
+                  + ", ".join(f"{fmt(a, '.3g')}-{fmt(b, '.3g')} s" for a, b in unresolved[:4])
+                  + ("" if seg.extra["spacing"]["rule"] == "adaptive" else
+                     "; drop --waypoints (or the file's segment.waypoints) to let the planner "
+                     "space the waypoints"))
+        if verbose:
+            for w in seg.waypoints:
+                print(f"     t={w.t:7.3f}  rates={[fmt(x, '+.5f') for x in w.velocity_commands]}"
+                      f"  efforts={[fmt(x, '+.5f') for x in w.torque_commands]}  bands="
+                      f"{[[fmt(a, '+.5f'), fmt(b, '+.5f')] for a, b in w.bands]}  "
                       f"{' | '.join(w.predicted)}")
-        for f in figs:
-            print(f"  figure: {f}")
-    return 0
+    if plan.diagnosis is not None:
+        for line in diagnosis_lines(plan.diagnosis):
+            print(f"  {line}")
+    for f in figs:
+        print(f"  figure: {f}")
 
 
-def _int(text: str, name: str) -> int:
-    try:
-        return int(text)
-    except ValueError:
-        raise InputError(f"{name}: expected an integer or 'auto', got {text!r}") from None
+def diagnosis_lines(d: Any) -> list[str]:
+    """A partial plan's diagnosis in plain words; fields that are absent are not printed."""
+    why = "; ".join(str(n) for n in d.get("notes") or [] if n)
+    head = f"stops short of the goal after {d.get('after_segments', 0)} segment(s)"
+    if why:
+        head += f" ({why})"
+    dist = d.get("distance_to_goal")
+    if isinstance(dist, (int, float)):
+        head += (f"; distance to the goal {fmt(dist, '.3g')} (position error over the "
+                 "workpiece size + angle error over 90 deg + missing goal contacts)")
+    lines = [head]
+    failed = d.get("failed")
+    if not failed:
+        lines.append("no segment could be tried there: none can start from this contact set")
+        return lines
+    if failed.get("what"):
+        lines.append(f"furthest try: {failed['what']}")
+    if failed.get("why"):
+        at = failed.get("t")
+        lines.append("its guarantee fails" + (f" at t = {fmt(at, '.3g')} s"
+                                              if isinstance(at, (int, float)) else "")
+                     + f": {failed['why']}")
+    widest = failed.get("widest_mu")
+    if widest:
+        lo, hi = widest
+        lines.append("widest friction interval that would work there: "
+                     + (f"[{fmt(lo[0])}, {fmt(hi[0], '.4g')}]" if len(set(lo)) == 1
+                        and len(set(hi)) == 1 else f"{widest}"))
+    return lines
 
 
 def _default_model(mu: object, path: Path) -> str:
@@ -149,51 +240,3 @@ def _default_model(mu: object, path: Path) -> str:
     else:
         intervals = [tuple(mu)]  # type: ignore[arg-type]
     return "independent" if len(set(intervals)) > 1 else "common"
-
-
-def _is_task(path: Path) -> bool:
-    """True when the hand file is planned as a version-2 plan: it has a goal, or is not the
-    one-velocity-one-effort shape of version 1."""
-    from planner.files.hand_file import load_hand_file
-
-    hf = load_hand_file(path)
-    seg = hf.segment
-    return hf.goal is not None or hf.hand.n_joints != 2 or (
-        seg is not None and len(seg.drives) != 1)
-
-
-def _run_task(args: argparse.Namespace, mu: object, t0: float) -> int:
-    from planner.files.outputs import output_set
-    from planner.plan.task_file import plan_hand_task, save_task_plan
-
-    if args.policy != "midband" or args.control != "auto" or args.figures is not None:
-        raise InputError("--policy, --control and --figures: expected their defaults for a "
-                         "whole-task or any-hand plan (version 2: Chebyshev centres of the "
-                         "torque regions), got "
-                         f"{args.policy!r}, {args.control!r}, {args.figures!r}")
-    from planner.errors import DegenerateError
-
-    check_int(args.max_expansions, "--max-expansions", 1, 1000)
-    with output_set(args.out, "file", "--out") as tmp:
-        try:
-            plan = plan_hand_task(shipped_file(args.scenario), mu=mu, model=args.model,
-                                  max_expansions=args.max_expansions, waypoints=args.waypoints)
-        except DegenerateError as exc:
-            print(f"qsplan plan: cannot guarantee the mode: {exc}", file=sys.stderr)
-            return 1
-        save_task_plan(plan, tmp)
-    if not getattr(args, "quiet", False):
-        print(f"plan: {args.out}  (version 2, {len(plan.segments)} segment(s), "
-              f"{time.perf_counter() - t0:.2f} s); goal reached: {plan.reached}")
-        for k, (seg, start) in enumerate(zip(plan.segments, plan.start_times())):
-            m = min(w.margin for w in seg.waypoints)
-            print(f"  {k + 1}. t = {fmt(start, '.3g')} s: {seg.claim}; control "
-                  f"{', '.join(seg.control)}; ends {seg.event['kind']} ({seg.event['detail']}); "
-                  f"smallest margin {fmt(m, '.3g')}")
-        if plan.diagnosis is not None:
-            failed = plan.diagnosis.get("failed") or {}
-            print(f"  stops short of the goal: {failed.get('what', '')}: {failed.get('why', '')}")
-            if failed.get("widest_mu") is not None:
-                print(f"  widest friction interval that would work there: "
-                      f"{failed['widest_mu']}")
-    return 0 if plan.reached else 1

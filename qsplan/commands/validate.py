@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
-from typing import Any
 
 from planner.errors import InputError
 from planner.model.validation import FrictionValue
@@ -27,9 +26,9 @@ def register(sub: argparse._SubParsersAction) -> None:
             "Run PLAN.json (written by `qsplan plan`) in slow motion in the chosen engine, "
             "classify the observed contact modes from contact data and compare them and the "
             "workpiece poses with the plan: the claimed mode on >= 95% of the segment and the "
-            "final position within 2% of the travel. A version-2 plan (a whole task) runs "
-            "in one continuous simulation (every segment's contacts in one scene, joints "
-            "switching control at segment boundaries), sliced per segment for a verdict per "
+            "final position within 2% of the travel. A plan of several segments (a whole "
+            "task) runs in one continuous simulation (every segment's contacts in one scene, "
+            "joints switching control at segment boundaries), sliced per segment for a verdict per "
             "segment and one for the whole. Exit 0 pass, 1 fail, 2 bad input, "
             "3 simulator fault."
         ),
@@ -107,21 +106,19 @@ def run(args: argparse.Namespace) -> int:
 def _run(args: argparse.Namespace, path: Path, mus: list[FrictionValue] | None,
          work: Path | None) -> int:
     """Validate the plan at ``path``; outputs go to ``work`` (the staging folder of --out).
-    A version-1 plan is a task of one segment: both run through
-    :func:`scenarios.runs.validate_plan`."""
-    from planner.files.reader import read_json
+    A plan of one segment and a whole task both run through
+    :func:`scenarios.runs.validate_plan` (one continuous run, a verdict per segment)."""
     from planner.plan.plan_file import load_plan
-    from planner.plan.task_file import TASK_PLAN_VERSION, load_task_plan
     from scenarios.runs import validate_plan, write_run
     from sim.verdict import Outcome
 
-    head = read_json(path, "plan file")
-    task = isinstance(head, dict) and head.get("version") == TASK_PLAN_VERSION
-    # FileFormatError (a ValueError) -> exit 2 in cli.main
-    plan: Any = load_task_plan(path) if task else load_plan(path)
+    plan = load_plan(path)  # FileFormatError (a ValueError) -> exit 2 in cli.main
+    if not plan.segments:
+        raise InputError(f"plan: expected at least one segment to run, got a partial plan that "
+                         f"stops before its first ({str(path)!r})")
     mus = _mu_values(mus, plan.validate_mu)
-    check_contacts(mus, len((plan.segments[0] if task else plan).mu_intervals))
-    n_seg = len(plan.segments) if task else 1
+    check_contacts(mus, len(plan.segments[0].mu_intervals))
+    n_seg = len(plan.segments)
     statuses = []
     for mu in mus:
         res = validate_plan(plan, args.engine, mu, name=f"validate {path.name} mu={mu_text(mu)}",

@@ -1,0 +1,84 @@
+"""Plan a hand file (``qsplan plan``): its ``segment`` section as one segment, or the whole task
+to its ``goal`` (docs/planning.md).  The result is always a :class:`planner.plan.model.Plan`."""
+
+from __future__ import annotations
+
+import os
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from planner.errors import InputError
+from planner.files.hand_file import HandFile, load_hand_file
+from planner.model.validation import friction_interval, validation_frictions
+from planner.plan.model import Plan
+from planner.plan.segment_planner import plan_segment
+from planner.plan.task import TaskOptions, plan_task
+
+#: Task search defaults when the hand file has no ``segment`` section (docs/planning.md).
+TASK_SPEED = 0.02  # rad/s or m/s
+TASK_STEPS = 120
+
+
+def plan_hand(source: str | os.PathLike[str] | HandFile, *, mu: Any = None,
+              model: str = "common", policy: str = "midband",
+              control: tuple[int, ...] | None = None, waypoints: int | None = None,
+              max_expansions: int | None = None, validate_mu: Any = None) -> Plan:
+    """Plan the hand file ``source`` (a path, or a loaded :class:`HandFile`).
+
+    With a ``goal``: the task search (:func:`planner.plan.task.plan_task`) with the ``segment``
+    section's joint-rate magnitude, ``max_time`` and ``steps``.  Else its ``segment`` section
+    with :func:`planner.plan.segment_planner.plan_segment` (every control partition, any
+    number of effort-controlled joints; ``control`` the velocity-controlled joints, default
+    any; the band curves of Figures 10-13 with one effort joint).  ``mu``: the friction interval
+    (``(lo, hi)``, one pair per contact, or a number; default the file's ``mu.interval``);
+    ``model``: ``common`` or ``independent``; ``policy``: ``midband``, ``constant`` or
+    ``rival:MODE``; ``waypoints``: that many evenly spaced per segment (default the file's
+    ``segment.waypoints`` when given, else the spacing rule, :mod:`planner.plan.spacing`);
+    ``validate_mu``: friction values for the simulators (default the file's ``mu.validate``
+    values inside the interval).
+
+    Raises :class:`planner.errors.DegenerateError` when a single segment has no guaranteed
+    plan (with every partition's reason); a task that stops short is a partial plan
+    (``reached`` False) instead.  :class:`InputError` for bad input."""
+    hf = source if isinstance(source, HandFile) else load_hand_file(source)
+    name = Path(source).name if not isinstance(source, HandFile) else str(
+        hf.data.get("name", "hand"))
+    if mu is None:
+        if hf.mu_interval is None:
+            raise InputError(f"{name}: expected a friction interval (mu.interval in the file, "
+                             "or --mu), got none")
+        mu = hf.mu_interval[0] if len(hf.mu_interval) == 1 else list(hf.mu_interval)
+    lo, hi = friction_interval(mu, hf.hand.n_contacts)
+    validate = validation_frictions(hf.validate_mu if validate_mu is None else validate_mu,
+                                    lo, hi)
+    raw = hf.data.get("segment")
+    n_wp = waypoints if waypoints is not None else (
+        raw.get("waypoints") if isinstance(raw, dict) else None)
+    seg = hf.segment
+    if hf.goal is not None:
+        if policy != "midband" or control is not None:
+            raise InputError(f"policy/control: expected the defaults for a whole task (midband, "
+                             f"every partition), got {policy!r} and {control!r}")
+        if not (np.all(lo == lo[0]) and np.all(hi == hi[0])):
+            raise InputError("mu: expected one friction interval for every contact of a task "
+                             "(its contact set changes), got one per contact "
+                             f"{[(float(a), float(b)) for a, b in zip(lo, hi)]}")
+        opts = TaskOptions(speed=abs(seg.speed) if seg else TASK_SPEED, mu=(lo[0], hi[0]),
+                           model=model, max_time=seg.max_time if seg else 60.0,
+                           steps=seg.steps if seg else TASK_STEPS, waypoints=n_wp,
+                           max_expansions=max_expansions or 40)
+        plan = plan_task(hf.hand, hf.q0, hf.goal, opts, data=hf.data, validate_mu=validate)
+        return replace(plan, notes=f"source {name}" + (f"; {plan.notes}" if plan.notes else ""))
+    if seg is None:
+        raise InputError(f"{name}: expected a 'goal' or a 'segment' section to plan, got "
+                         "neither")
+    segment = plan_segment(hf.hand, hf.q0, data=hf.data, drive=seg.drives, speed=seg.speeds,
+                           mode=seg.mode, mu=mu, model=model, policy=policy, control=control,
+                           waypoints=n_wp, max_time=seg.max_time, steps=seg.steps, curves=True)
+    ivs = tuple((float(a), float(b)) for a, b in zip(lo, hi))
+    return Plan(hand=dict(hf.data), segments=(segment,), mu_model=model,
+                mu_intervals=ivs[:1] if len(set(ivs)) == 1 else ivs, validate_mu=validate,
+                notes=f"source {name}")

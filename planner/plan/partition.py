@@ -1,0 +1,128 @@
+"""Control partitions (Section 3.2) and the guaranteed effort set at each waypoint (eq. 28).
+
+A determinate mode with ``n_R`` rolling and ``n_S`` sliding contacts has ``k = 2 n_R + n_S``
+contact unknowns; condition (29) asks ``3 <= k <= 3 + n_theta`` and condition (32) a square,
+non-singular ``Q_AI``, so exactly ``p = k - 3`` joints are effort-controlled (``tau_I``) and the
+other ``n_theta - p`` velocity-controlled (``zdot_II``, eq. 24).  :func:`control_partitions`
+lists every such choice.  For one partition, at each waypoint, :func:`guaranteed_at` gives the
+efforts that guarantee the mode and exclude every rival over the friction set:
+
+* ``p = 1``: the band of :func:`planner.plan.guarantee.guarantee` (the exact friction
+  dependence; Figures 11-13), kept whole (:attr:`Guaranteed.guarantee`) because it may have
+  several pieces: the piece a waypoint uses is chosen along the segment
+  (:func:`choose_pieces`: the widest piece overlapping the previous waypoint's, else the
+  widest);
+* any ``p``: the polytope of :func:`planner.plan.polytope.torque_region` over the friction box
+  (``p = 0``: the mode is guaranteed or not; the margin is the smallest normalised Coulomb
+  slack).
+
+Units: efforts in the joints' units (N m revolute, N prismatic).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from planner.errors import InputError
+from planner.model.hand import Hand
+from planner.plan.guarantee import Guarantee, guarantee
+from planner.plan.intervals import EMPTY, Interval
+from planner.plan.polytope import TorqueRegion, band_region, empty_region, torque_region
+
+
+def mode_unknowns(label: str) -> int:
+    """``k = 2 n_R + n_S`` of a mode label such as ``"S+1 R2 B3"`` (conditions 29, 32)."""
+    return sum(2 if t.startswith("R") else 1 if t.startswith("S") else 0 for t in label.split())
+
+
+def control_partitions(n_joints: int, label: str) -> list[tuple[tuple[int, ...], tuple[int, ...]]]:
+    """Every ``(velocity joints, effort joints)`` split with ``|tau_I| = k - 3`` (eqs. 29, 32).
+
+    Raises :class:`InputError` when condition (29) fails (``k < 3`` or ``k > 3 + n_theta``).
+    """
+    k = mode_unknowns(label)
+    if not 3 <= k <= 3 + n_joints:
+        raise InputError(f"mode {label}: condition (29) expected 3 <= 2 n_R + n_S <= 3 + "
+                         f"n_theta = {3 + n_joints}, got {k}")
+    out = []
+    for E in itertools.combinations(range(n_joints), k - 3):
+        V = tuple(j for j in range(n_joints) if j not in E)
+        out.append((V, tuple(E)))
+    return out
+
+
+def joint_inputs(hand: Hand, V: tuple[int, ...], rates: Any) -> list[dict[str, float]]:
+    """Per joint ``{"velocity": rate}`` for ``V`` (rates in order) and ``{"effort": 0}`` else."""
+    r = dict(zip(V, (float(x) for x in rates)))
+    return [{"velocity": r[j]} if j in r else {"effort": 0.0} for j in range(hand.n_joints)]
+
+
+@dataclass(frozen=True, eq=False)
+class Guaranteed:
+    """The guaranteed efforts at one waypoint for one partition: ``region`` (the polytope
+    ``A tau <= b``, its Chebyshev centre and radius ``margin``; empty: ``margin <= 0``) and,
+    with one effort joint, the whole ``guarantee`` (its pieces and every mode's band)."""
+
+    region: TorqueRegion
+    guarantee: Guarantee | None = None
+
+    @property
+    def empty(self) -> bool:
+        return self.region.empty
+
+    def reason(self) -> str:
+        """Why it is empty (the region's diagnosis)."""
+        return str(self.region.diagnosis.get("reason", "empty region"))
+
+
+def guaranteed_at(hand: Hand, q: np.ndarray, V: tuple[int, ...], rates: np.ndarray, claim: str,
+                  mu: Any, model: str) -> Guaranteed:
+    """The guaranteed efforts of ``claim`` at configuration ``q`` with the joints ``V`` at
+    ``rates`` (module docstring).  Raises :class:`DegenerateError` from the stages."""
+    system = hand.system(q, 0.0, joint_inputs(hand, V, rates))
+    if len(system.effort_joints) == 1:
+        g = guarantee(system, claim, mu, model=model)
+        if g.claim_band is None:
+            E = tuple(int(j) for j in system.effort_joints)
+            return Guaranteed(empty_region(g.claim, 1, E, {
+                "reason": f"{g.claim} is not kinematically admissible"}), g)
+        return Guaranteed(band_region(system, g, g.best()), g)
+    return Guaranteed(torque_region(system, claim, mu, model=model))
+
+
+def choose_pieces(gs: list[Guaranteed]) -> list[Interval]:
+    """``p = 1``: the band piece each waypoint uses: the widest piece that overlaps the previous
+    waypoint's, else the widest (infinite first); EMPTY where there is none."""
+    out: list[Interval] = []
+    prev: Interval | None = None
+    for gd in gs:
+        g = gd.guarantee
+        if g is None or not g.pieces:
+            prev = EMPTY
+        elif prev is not None and not prev.empty and (overlap := [
+                p for p in g.pieces if p.lower <= prev.upper and p.upper >= prev.lower]):
+            prev = max(overlap, key=lambda p: p.upper - p.lower)
+        else:
+            prev = g.best()
+        out.append(prev)
+    return out
+
+
+def relative_margin(gd: Guaranteed) -> float:
+    """How far the command is from the guaranteed set's edges relative to its size: the
+    region's radius over its centre's norm (with one effort joint: half the widest piece's
+    width over its middle's magnitude; a one-sided piece's radius is the step in from its finite
+    end, :func:`planner.plan.polytope.band_region`); the radius itself (a normalised Coulomb
+    slack) without effort joints; 1 for an unbounded radius.  The partition with the largest
+    worst value is used."""
+    reg = gd.region
+    if not math.isfinite(reg.margin):
+        return 1.0
+    if not len(reg.effort_joints):
+        return reg.margin
+    return reg.margin / max(float(np.linalg.norm(reg.centre)), 1e-300)
