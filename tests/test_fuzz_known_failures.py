@@ -205,10 +205,6 @@ def test_quiet_simulate_prints_nothing(tmp_path, capsys):
     assert capsys.readouterr().out == ""
 
 
-@pytest.mark.xfail(strict=True, reason="sim/scenes/system.py (pipeline owner): the scene's "
-                                       "bounds come from the workpiece only, so a chain whose "
-                                       "base is 0.6 m from a 0.08 m box leaves the scene at the "
-                                       "first step; bounds must cover every body")
 def test_scene_bounds_cover_every_body(tmp_path):
     from planner.files.system_file import load_system
     from sim.scenes.system import system_scene
