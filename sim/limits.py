@@ -41,16 +41,16 @@ from collections.abc import Iterable
 import numpy as np
 
 from planner.errors import InputError
-from sim.backends import HEAVY_RATIO
 from sim.scene import Body, BodyKind, Capsule, Circle, JointKind, Polygon, Scene
+from sim.settings import HEAVY_RATIO
 
 COORD_MAX = 1e10
 """Largest coordinate magnitude [m]: MuJoCo's ``mjMAXVAL`` (measured: NaN from a scene 1e10 m
 across, coordinates 2e11 m; Chipmunk aborts from about 1e154 m)."""
 STEP_OF_SCALE = 1e-6
 """The smallest motion per step the project simulates, relative to ``length_scale``: slow
-motion at 1e-3 length scales per second (the system scenes' drive, ``sim.settings``, is 5e-3-2e-2) with 1 ms
-steps."""
+motion at 1e-3 length scales per second (the system scenes' drive, ``sim.settings``, is
+5e-3-2e-2) with 1 ms steps."""
 COORD_OF_SCALE = 1e-3 * STEP_OF_SCALE / np.finfo(float).eps
 """Largest coordinate magnitude relative to ``length_scale`` (4.5e6): the rounding of a
 coordinate (``eps |x|``) stays below 1e-3 of the smallest motion per step. Measured: the

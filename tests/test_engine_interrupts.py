@@ -8,12 +8,10 @@ verdict, and the next run would start.  :class:`sim.run.EngineWatch` raises it a
 from __future__ import annotations
 
 import pytest
+from sim_helpers import example_scene
 
-from planner.files.system_file import load_system
-from scenarios.paper_sims import DATA
 from sim.backends.pymunk_engine import PymunkBackend
 from sim.run import EngineWatch, FaultKind, RunSettings, run_scene, swallowed_interrupt
-from sim.scenes.paper import example_scene, scaled_system
 
 SPEED = 1e-3
 
@@ -23,8 +21,7 @@ class SignalInterrupt(KeyboardInterrupt):
 
 
 def _scene():
-    system = scaled_system(load_system(DATA / "example_4_1.json"), 0.01, SPEED)
-    return example_scene(system.with_mu((0.2, 0.3, 0.1)), speed=SPEED, mass=0.01)
+    return example_scene("example_4_1", 0.01, SPEED, (0.2, 0.3, 0.1), mass=0.01)
 
 
 def _settings():
