@@ -15,7 +15,7 @@ velocity-controlled joints, planted loads), so ``2 n_R + n_S = 3 n_b = 9`` and e
 To compare with an older checkout, run this script with that checkout on ``PYTHONPATH``
 right before or after (same load).
 
-Target (issue 17): all modes <= 1 s. The load average is printed before and after (the machine
+Target: all modes <= 1 s. The load average is printed before and after (the machine
 is shared; absolute times move with it).
 
     PYTHONPATH=. python benchmarks/bench_multibody.py [--seeds 10] [--out FILE]

@@ -1,4 +1,4 @@
-"""Benchmark: planning the two-finger segment with uncertain-friction torque bounds (issue 5).
+"""Benchmark: planning the two-finger segment with uncertain-friction torque bounds.
 
 Measures, in one run: the full planner (`plan_hand`: trajectory, both control partitions,
 exact bounds over mu in [0, 0.2], Figure 10-13 curves) and, per waypoint, the exact guaranteed

@@ -1,4 +1,4 @@
-"""Benchmark: planning the whole two-finger task of Figure 9 (issue 16; target <= 10 s).
+"""Benchmark: planning the whole two-finger task of Figure 9 (target <= 10 s).
 
 Times :func:`planner.plan.hand_planner.plan_hand` on ``scenarios/data/figure9_task_hand.json``
 (the best-first search over chains of guaranteed segments, every region over mu in [0, 0.2])

@@ -1,4 +1,4 @@
-"""Output safety (issue 7): files are replaced atomically, never left half-written, and loaders
+"""Output safety: files are replaced atomically, never left half-written, and loaders
 never execute content.
 
 * every writer (``planner.files.atomic`` and the savers built on it: ``save_plan``, ``save_system``,

@@ -1,4 +1,4 @@
-"""The batch API (issue 15): feasible_modes_batch equals a loop of feasible_modes calls."""
+"""The batch API: feasible_modes_batch equals a loop of feasible_modes calls."""
 
 from __future__ import annotations
 

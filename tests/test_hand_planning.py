@@ -1,4 +1,4 @@
-"""Hand model, quasistatic trajectory and torque bounds (issue 5, planning side)."""
+"""Hand model, quasistatic trajectory and torque bounds (planning side)."""
 
 from __future__ import annotations
 

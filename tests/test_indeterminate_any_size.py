@@ -1,4 +1,4 @@
-"""Relaxed-utility (force-indeterminate) modes at any n_c (issue 15), against an independent
+"""Relaxed-utility (force-indeterminate) modes at any n_c, against an independent
 brute force over all 3^n_c contact-state assignments; the status when a limit applies; bounded
 memory of the exhaustive enumeration."""
 

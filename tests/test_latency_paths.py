@@ -1,4 +1,4 @@
-"""The short cuts of the single-call hot path (issue 15, latency) against direct computations:
+"""The short cuts of the single-call hot path (latency) against direct computations:
 the structural test certified by the kinematic stage's determinants, the Gram matrices read
 off ``K K^T``, LAPACK's gufuncs against ``numpy.linalg`` and the LU fallback, and the
 kinematic stage's one-product contact velocities."""

@@ -1,4 +1,4 @@
-"""Several workpieces (issue 17): hand-derived answers, the block wrench matrix, the file format
+"""Several workpieces: hand-derived answers, the block wrench matrix, the file format
 and the command line. The brute-force LP check and the property tests are in
 tests/test_multibody_lp.py."""
 

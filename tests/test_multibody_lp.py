@@ -1,4 +1,4 @@
-"""Several workpieces (issue 17): a brute-force LP per candidate mode against feasible_modes,
+"""Several workpieces: a brute-force LP per candidate mode against feasible_modes,
 independent certificate checks, and property tests (rigid motion, relabelling of bodies and
 contacts, load scaling) on seeded random multi-body systems with n_c <= 6."""
 

@@ -1,4 +1,4 @@
-"""Several workpieces in both engines (issue 17): the scene builder (sim/scenes/multibody.py)
+"""Several workpieces in both engines: the scene builder (sim/scenes/multibody.py)
 and the per-body judge (sim/judge.py). The scenarios themselves -- stacked blocks pushed
 at either block, a ruler carrying a block, a part pushed against a wall by a tool, at friction
 points in different regions, each with negative controls -- are registered in

@@ -69,7 +69,7 @@ def test_garbage_json_does_not_break_the_page(tmp_path):
 
 def test_checks_file_is_shown_first(tmp_path):
     (tmp_path / "checks.json").write_text(json.dumps({
-        "task": "issue 5", "held": False, "checks": [
+        "task": "two-finger task", "held": False, "checks": [
             {"check": "planning time", "expected": "<= 5 s", "measured": "2.5 s", "held": True},
             {"check": "negative control fails", "expected": "fails", "measured": "passed",
              "held": False}]}))

@@ -1,4 +1,4 @@
-"""Tolerance policy, degenerate configurations and scale robustness of the core (issue 7)."""
+"""Tolerance policy, degenerate configurations and scale robustness of the core."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The two hooks of a continuous whole-task run (issue 16): pairs allowed to start open, and
+"""The two hooks of a continuous whole-task run: pairs allowed to start open, and
 joints whose control mode switches at given times -- in both engines."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Acceptance test of ``qsplan simulate`` (issue 14): a box on a table pushed by one finger.
+"""Acceptance test of ``qsplan simulate``: a box on a table pushed by one finger.
 
 The system files ``scenarios/data/box_on_table_low.json`` / ``_high.json``: a box of width
 ``w = 0.08`` m, height ``0.12`` m and weight ``m g = 0.981`` N stands on a table (contacts 1 and 2

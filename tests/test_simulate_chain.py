@@ -1,4 +1,4 @@
-"""``qsplan simulate`` with a chain manipulator (issue 14: "chain manipulators are built as their
+"""``qsplan simulate`` with a chain manipulator ("chain manipulators are built as their
 links").
 
 Test data (``tests/data``): the box of ``scenarios/data/box_on_table_low.json`` (0.08 x 0.12 m,

@@ -1,4 +1,4 @@
-"""Validating a whole-task plan (issue 16): one continuous simulation per engine, a verdict per
+"""Validating a whole-task plan: one continuous simulation per engine, a verdict per
 segment and for the whole."""
 
 from __future__ import annotations

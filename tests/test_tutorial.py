@@ -223,7 +223,7 @@ def test_skip_only_for_unregistered_commands():
     assert blocks[2].skip == ""
 
 
-#: Pages other engineers are writing now (issue 5); links to them are checked once they exist.
+#: Pages still being written; links to them are checked once they exist.
 PENDING_PAGES = {"docs/plan-format.md", "docs/two-finger-task.md"}
 LINKED_DOCS = ("README.md", "docs/index.md", "docs/tutorial.md", "docs/file-formats.md",
                "docs/notation.md", "docs/dask.md")

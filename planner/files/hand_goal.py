@@ -1,4 +1,4 @@
-"""The ``goal`` section of a hand file: where a whole task should end (issue 16).
+"""The ``goal`` section of a hand file: where a whole task should end.
 
 A goal names a workpiece pose with a tolerance, the contacts wanted at the end, or both::
 

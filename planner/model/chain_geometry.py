@@ -1,4 +1,4 @@
-"""Chain-manipulator geometry a system may carry for the simulators (issue 14).
+"""Chain-manipulator geometry a system may carry for the simulators.
 
 A system file's ``manipulator.chain`` gives the planner the contact Jacobians (eqs. 3, 5); the
 same chain, its joint positions ``q`` and which link touches each contact tell a simulator

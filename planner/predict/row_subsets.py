@@ -1,4 +1,4 @@
-"""Structurally nonsingular ``k``-row subsets of ``K`` for several workpieces (issue 17).
+"""Structurally nonsingular ``k``-row subsets of ``K`` for several workpieces.
 
 With ``n_b`` workpieces, ``K`` (``2 n_c x (3 n_b + |tau_I|)``, eq. 5) is block sparse: the two
 rows of a contact touch only the three columns of each body it belongs to (one body for a

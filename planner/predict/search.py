@@ -1,4 +1,4 @@
-"""All feasible modes without testing every candidate: exact pruned search (issue 6).
+"""All feasible modes without testing every candidate: exact pruned search.
 
 The paper tests all eq. (49) candidates (Sec. 4.7: 20 min at ``n_c = 12``) and names as future
 work finding all solutions without enumerating the modes (Secs. 4.7, 6).  This module does that

@@ -1,6 +1,6 @@
 """pymunk (Chipmunk2D) backend of :class:`sim.scene.Backend`.
 
-Settings (SIM-NOTES): gravity off (loads are explicit), ``collision_slop`` scaled to the scene
+Settings (docs/simulation-measurements.md, "Engine facts"): gravity off (loads are explicit), ``collision_slop`` scaled to the scene
 (``1e-4 * length_scale``), many solver iterations, per-pair friction set on the arbiter in a
 pre-solve callback (pymunk otherwise multiplies the two shapes' friction values), one shape per
 contact site so one arbiter holds one contact; a round shape that would sit exactly on the line

@@ -16,15 +16,15 @@ absolute times; the ratios are measured in the same run):
 * ``boxes``: boxes on 8 and 12 supports pushed low by one finger (expected: the sliding mode,
   never jammed);
 * ``search`` (with ``--search``): ``search_modes`` at ``n_c = 20`` (``--search-nc 20,24``) on
-  ten seeded systems, serial, one process per system with a timeout (issue 15's targets: worst
+  ten seeded systems, serial, one process per system with a timeout (the latency targets: worst
   of ten at ``n_c = 20`` <= 10 s, median at 24 <= 60 s), with the native core and with the
   Python engine on the same system one after the other (``--search-engines``,
   ``--engine-seeds``); ``--search-baseline DIR`` times another checkout (e.g. ``git worktree
   add /tmp/old <commit>``) on the same system right before, in the same run.
 
-    PYTHONPATH=. python benchmarks/bench_issue15.py [--search] [--out FILE]
-    PYTHONPATH=. python benchmarks/bench_issue15.py --only-search --search-nc 20 \\
-        --search-baseline /tmp/old --out benchmarks/results/bench_issue15_search.json
+    PYTHONPATH=. python benchmarks/bench_latency.py [--search] [--out FILE]
+    PYTHONPATH=. python benchmarks/bench_latency.py --only-search --search-nc 20 \\
+        --search-baseline /tmp/old --out benchmarks/results/bench_latency_search.json
 """
 
 from __future__ import annotations
@@ -252,12 +252,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--engine-seeds", type=int, default=None,
                     help="seeds on which the engines after the first are timed too")
     ap.add_argument("--only-search", action="store_true", help="skip the other parts")
-    ap.add_argument("--out", default="benchmarks/results/bench_issue15.json")
+    ap.add_argument("--out", default="benchmarks/results/bench_latency.json")
     args = ap.parse_args(argv)
     load_start = os.getloadavg()
     out: dict = {
-        "benchmark": "bench_issue15",
-        "command": "PYTHONPATH=. python benchmarks/bench_issue15.py " + " ".join(sys.argv[1:]),
+        "benchmark": "bench_latency",
+        "command": "PYTHONPATH=. python benchmarks/bench_latency.py " + " ".join(sys.argv[1:]),
         "machine": {"python": platform.python_version(), "processor": platform.processor(),
                     "cpus": os.cpu_count(), "numpy": np.__version__},
     }
