@@ -102,6 +102,11 @@ MUJOCO_REFERENCE_LOAD_PER_SIZE = 0.08 / (0.1 * 0.0868)
 SYSTEM_REFERENCE_LOAD_PER_SIZE = 0.981 / (0.1 * 0.035)
 
 
+#: DART's creep floor [m/s]: above the slip of its sticking contacts under its compiled-in
+#: constraint force mixing (2e-8 .. 6e-8 m/s measured; docs/engine-dart.md, "The creep floor").
+DART_CREEP = 1e-7
+
+
 @dataclass(frozen=True)
 class EngineSettings:
     """How one engine runs one kind of scene (the fields' sources: :data:`SETTINGS`).
@@ -182,7 +187,15 @@ class EngineSettings:
 #:   rod of 0.1 m (size 0.05 m: 0.006 and 0.003 sizes per second), every 5th step recorded:
 #:   the switch positions converge to the closed form as the speed drops (inertial lag of a
 #:   hand-over); MuJoCo's 4th/5th switches miss 2 % at 0.3 mm/s, not at
-#:   0.15 (docs/simulation.md, "The ruler against its closed form").
+#:   0.15 (docs/simulation.md, "The ruler against its closed form");
+#: * DART (the referee with true stiction, docs/engine-dart.md): pymunk's run settings in
+#:   every kind -- both solve rigid contacts under the exact Coulomb law, so the same step,
+#:   speed, settling and duration resolve the same thresholds (measured through the pipeline:
+#:   docs/engine-dart.md, "Settings") -- and the creep floor 1e-7 m/s, derived: DART's
+#:   compiled-in constraint force mixing (1e-5) lets a sticking contact slip at about
+#:   ``1e-5 x |f_t| dt / m`` (2e-8 .. 6e-8 m/s measured on the incline and the ruler), and 1e-7
+#:   is above every measured creep (the slip threshold ``10 x creep`` = 1e-6 m/s stays below
+#:   0.05 of every drive: the ruler's 0.3 mm/s gives 1.5e-5 m/s).
 SETTINGS: dict[tuple[SceneKind, str], EngineSettings] = {
     (SceneKind.SYSTEM, "pymunk"): EngineSettings(
         dt=1e-3, creep=1e-9, settle=0.3, duration=1.5, start_ramp=0.15, rate=0.02,
@@ -203,10 +216,23 @@ SETTINGS: dict[tuple[SceneKind, str], EngineSettings] = {
         dt=2e-3, creep=1e-9, settle=0.2, rate=0.006, max_speed=3e-4, record_every=5),
     (SceneKind.RULER, "mujoco"): EngineSettings(
         dt=1e-3, creep=1e-8, settle=0.2, rate=0.003, max_speed=1.5e-4, record_every=5),
+    (SceneKind.SYSTEM, "dart"): EngineSettings(
+        dt=1e-3, creep=DART_CREEP, settle=0.3, duration=1.5, start_ramp=0.15, rate=0.02,
+        max_speed=2e-3),
+    (SceneKind.HAND, "dart"): EngineSettings(
+        dt=1e-3, creep=DART_CREEP, settle=0.2, ramp=0.05, rate=0.05, max_speed=2e-3),
+    (SceneKind.RULER, "dart"): EngineSettings(
+        dt=2e-3, creep=DART_CREEP, settle=0.2, rate=0.006, max_speed=3e-4, record_every=5),
 }
 
-#: Every engine the table knows, in the order reports list them.
+#: Every engine the table knows, in the order reports list them: the choices wherever a user
+#: names an engine (``--engine``, ``--engines``, a scenario's engines).
 ENGINES: tuple[str, ...] = tuple(dict.fromkeys(engine for _, engine in SETTINGS))
+#: The engines a run uses when nobody names one (``qsplan demo``, the validation campaign, the
+#: parametrised tests): the two the validation campaign and the registered scenarios were
+#: measured in. DART (``qsplan[dart]``, an optional extra) is the referee named on request
+#: (docs/engine-dart.md: what it is for and its cost, 2-6x pymunk's time per step).
+DEFAULT_ENGINES: tuple[str, ...] = ("pymunk", "mujoco")
 
 
 def check_engine(engine: str) -> str:

@@ -49,7 +49,7 @@ from sim.scene import (
     Shape,
     point_velocity,
 )
-from sim.scenes.multibody import polygon_inertia
+from sim.scenes.shapes import polygon_inertia
 
 #: Extrusion depth along z of every box, in scene length scales (any depth beyond the largest
 #: in-plane penetration gives the same in-plane contacts).
@@ -58,8 +58,14 @@ EXTRUSION_OF_SCALE = 1.0
 #: width). Only a vertex of interior angle below 90 deg is affected: its two slabs reach past
 #: the neighbouring edge by ``thickness cos(angle)``.
 SLAB_OF_SCALE = 1e-2
-#: Radius of the sphere that rounds every polygon vertex, in scene length scales: above the
-#: scenes' pre-load (:data:`sim.scene.PRELOAD_OF_SCALE`), so a tip's centre starts outside.
+#: Radius of the sphere at every polygon vertex (a *tip*), in scene length scales. The sphere
+#: passes through the vertex, its centre on the inward bisector, so it reaches the vertex in
+#: every direction of the vertex's normal cone (a vertex resting on a face touches whatever the
+#: angle between them) and bulges past each edge by ``rho (1 - sin(theta / 2))`` at most, for
+#: an interior angle ``theta``. Above the scenes' pre-load (:data:`sim.scene.PRELOAD_OF_SCALE`),
+#: so a tip's centre starts outside the face it touches. (A sphere tangent to both edges, inside
+#: the vertex, stays ``rho (1 / sin(theta / 2) - 1)`` short of it: 2.9 rho at a 30 deg corner,
+#: more than the pre-load -- a ladder's acute foot started without contact.)
 ROUNDING_OF_SCALE = 1e-4
 #: Mass of a z carrier and of a contact site over the scene's heaviest dynamic body (they only
 #: keep the LCP regular; their inertia is negligible at this ratio).
@@ -116,16 +122,20 @@ def _is_rectangle(v: np.ndarray) -> bool:
 #: Kinds of primitives: flat faces (boxes), round geometry (circles, capsule ends), polygon tips.
 FACES, ROUNDS, TIPS = "faces", "rounds", "tips"
 #: Kinds of the two sides of a pair that collide (either order): a sphere on a box or sphere.
-COLLIDING = {(FACES, ROUNDS), (FACES, TIPS), (ROUNDS, ROUNDS)}
+#: Tips collide with rounds too: a fingertip at an acute vertex touches the tip sphere, the
+#: slabs there being cut back (:func:`primitives`).
+COLLIDING = {(FACES, ROUNDS), (FACES, TIPS), (ROUNDS, ROUNDS), (ROUNDS, TIPS)}
 
 
 def primitives(shape: Shape, length: float) -> dict[str, list[Primitive]]:
     """DART shapes of a 2-D ``shape`` by kind (:data:`FACES`, :data:`ROUNDS`, :data:`TIPS`):
     ``(shape, rotation (3, 3), centre (2,))`` in the body frame; ``length`` [m] the scene's
     length scale. A circle is a sphere; a capsule a box (its straight part) and two end
-    spheres; a rectangle one box, another convex polygon one slab per edge (outer face on the
-    edge, :data:`SLAB_OF_SCALE` thick, at most half the polygon's width), and every polygon
-    vertex a sphere of radius :data:`ROUNDING_OF_SCALE` tangent to its two edges."""
+    spheres; a rectangle one box, another convex polygon slabs along each edge (outer face on
+    the edge, :data:`SLAB_OF_SCALE` thick, at most half the polygon's width, thinner towards
+    a vertex of interior angle below 90 deg: :func:`_edge_slabs`), and every polygon
+    vertex a sphere of radius :data:`ROUNDING_OF_SCALE` through the vertex, its centre on the
+    inward bisector."""
     depth = EXTRUSION_OF_SCALE * length
     if isinstance(shape, Circle):
         return {ROUNDS: [_sphere(np.asarray(shape.center, dtype=float), shape.radius)]}
@@ -141,14 +151,50 @@ def primitives(shape: Shape, length: float) -> dict[str, list[Primitive]]:
     inward = np.stack([-u[:, 1], u[:, 0]], axis=1)
     prev = np.roll(inward, 1, axis=0)  # inward normal of the edge ending at each vertex
     rho = ROUNDING_OF_SCALE * length
+    bisector = prev + inward
     tips = [_sphere(c, rho) for c in
-            v + rho * (prev + inward) / (1.0 + np.einsum("ij,ij->i", prev, inward))[:, None]]
+            v + rho * bisector / np.linalg.norm(bisector, axis=1)[:, None]]
     if _is_rectangle(v):  # one box: its first edge, as wide as the second edge is long
         w = float(np.linalg.norm(v[2] - v[1]))
         return {FACES: [_box(v[0], v[1], w, 0.5 * w, depth)], TIPS: tips}
     width = float(min(np.max((v - v[k]) @ inward[k]) for k in range(len(v))))
     h = min(SLAB_OF_SCALE * length, 0.5 * width)
-    return {FACES: [_box(v[k], nxt[k], h, 0.5 * h, depth) for k in range(len(v))], TIPS: tips}
+    before = -np.roll(u, 1, axis=0)  # from each vertex along the edge ending there
+    cot = (np.einsum("ij,ij->i", u, before)
+           / np.abs(u[:, 0] * before[:, 1] - u[:, 1] * before[:, 0]))  # of the interior angle
+    faces = [box for k in range(len(v)) for box in
+             _edge_slabs(v[k], nxt[k], float(cot[k]), float(cot[(k + 1) % len(v)]), h, rho,
+                         depth)]
+    return {FACES: faces, TIPS: tips}
+
+
+def _edge_slabs(a: np.ndarray, b: np.ndarray, cot_a: float, cot_b: float, h: float,
+                rho: float, depth: float) -> list[Primitive]:
+    """The slabs of the polygon edge from vertex ``a`` to ``b`` (2,) [m], outer faces on the
+    edge, none reaching outside the polygon. ``cot_a``, ``cot_b``: cotangents of the interior
+    angles at ``a`` and ``b``. At a vertex of interior angle ``theta`` below 90 deg a slab of
+    thickness ``t`` must end ``t cot(theta)`` short of it (else its inner corner sticks
+    ``t cos(theta)`` out past the neighbouring edge, where a finger at the vertex meets it): the
+    ``h``-thick slab is cut back there and the rest of the edge is covered by slabs of half,
+    a quarter, ... the thickness, each as close to the vertex as its thickness allows, down to
+    the tip sphere (radius ``rho``, which covers the edge's first ``2 rho cos(theta / 2)``)."""
+    length = float(np.linalg.norm(b - a))
+    u = (b - a) / length
+    ca, cb = max(cot_a, 0.0), max(cot_b, 0.0)
+    t = h
+    while t * (ca + cb) >= length - rho:  # a short edge between acute vertices: thinner
+        t *= 0.5
+    lo, hi = t * ca, length - t * cb
+    out = [_box(a + lo * u, a + hi * u, t, 0.5 * t, depth)]
+    while lo > rho or length - hi > rho:
+        t *= 0.5
+        if lo > rho:
+            out.append(_box(a + t * ca * u, a + lo * u, t, 0.5 * t, depth))
+            lo = t * ca
+        if length - hi > rho:
+            out.append(_box(a + hi * u, a + (length - t * cb) * u, t, 0.5 * t, depth))
+            hi = length - t * cb
+    return out
 
 
 def moment_of_inertia(body: Body) -> float:
@@ -164,11 +210,13 @@ def moment_of_inertia(body: Body) -> float:
         length = float(np.linalg.norm(b - a)) + 2.0 * shape.radius
         return float(m * ((length ** 2 + 4.0 * shape.radius ** 2) / 12.0
                           + np.sum((0.5 * (a + b) - com) ** 2)))
-    return polygon_inertia(np.asarray(shape.vertices, dtype=float), com, m)
+    return polygon_inertia(np.asarray(shape.vertices, dtype=float), m, com)
 
 
 class DartBackend:
-    """DART via dartpy (module docstring). No options: every setting is derived from the scene."""
+    """DART via dartpy (module docstring). No options: every setting is derived from the scene
+    (the run's time step, speed and creep floor are the settings table's,
+    :data:`sim.settings.SETTINGS`)."""
 
     name = "dart"
 
