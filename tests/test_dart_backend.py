@@ -16,7 +16,8 @@ pytest.importorskip("dartpy", reason="dartpy (the DART engine) is not installed:
                                      "'qsplan[dart]'")
 
 from planner.errors import InputError  # noqa: E402
-from sim.backends.dart_engine import DartBackend, primitives  # noqa: E402
+from sim.backends.dart_engine import DartBackend  # noqa: E402
+from sim.backends.dart_shapes import primitives  # noqa: E402
 from sim.run import RunSettings, run_scene  # noqa: E402
 from sim.scene import (  # noqa: E402
     Body,

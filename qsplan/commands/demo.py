@@ -10,8 +10,8 @@ Figs. 9-13), from the initial to the goal grasp.
    that a tampered copy is rejected;
 2. validate the whole task in pymunk and MuJoCo at the friction interval's ends and middle
    (``mu.validate``: 0, 0.1, 0.2; the whole task in one continuous run judged per segment,
-   :func:`scenarios.runs.validate_plan`), and the negative controls: the reversed-torque task and the
-   R2S segment at mu = 0.2 (two worker processes);
+   :func:`scenarios.runs.validate_plan`), and the negative controls: the reversed-torque task
+   and the R2S segment at mu = 0.2 (two worker processes);
 3. write ``report/``: the story (``story/``), the plans, one folder per run (summary.json; the
    R2S runs also timeline.png and animation.gif), ``checks.json``, ``REPORT.md`` (one page: the
    task in pictures, the torque regions, then what held, with numbers) and ``index.html``
