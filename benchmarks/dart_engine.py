@@ -1,35 +1,38 @@
-"""The DART backend (:mod:`sim.backends.dart_engine`) measured: stick/slip on an incline, the
-ruler with static/kinetic friction, the paper's examples, system scenes, the validation
-campaign's friction points, and speed -- DART next to pymunk and MuJoCo in the same run.
+"""DART (:mod:`sim.backends.dart_engine`) measured next to pymunk and MuJoCo, every run through
+the one pipeline (``scenarios.runs`` / ``sim.jobs``, what ``qsplan simulate``, ``validate`` and
+``scenarios run`` execute) with the settings table's rows (:data:`sim.settings.SETTINGS`), the
+engines' verdicts taken in the same run.
 
-* ``incline``: a box on a static block tilted by ``a`` at mu = 0.3, loaded by its weight, each
-  engine's backend with its defaults (``dart-defaults``: DART's own sleeping and solver put
-  back): creep below ``atan(mu)`` (largest ``|v_t|`` over the last
-  half of 0.5 s), the stick/slip threshold found by bisection (a box *slides* when its slip after
-  0.5 s exceeds 1e-6 m/s), the sliding acceleration's error against ``g (sin a - mu cos a)``;
-* ``ruler``: Sec. 5.1 through ``scenarios.paper_sims.run_ruler`` (pymunk's speed and step);
-* ``examples``: every registered simulator scenario (Examples 4.1 / 4.3, the ruler, the hand,
-  several workpieces, their negative controls) through its own ``run``;
-* ``systems``: ``box_on_table_high`` / ``_low`` and the chain boxes of ``tests/data`` through
-  ``sim.system_run.simulate_system`` (the several-workpiece files run as registered scenarios);
-* ``campaign``: the first ``--points`` friction points of ``benchmarks/validation_campaign.py``
-  (seed 1) per case through the same machinery, and agreement with the pymunk / MuJoCo rows
-  recorded for those points in ``benchmarks/results/validation_campaign.jsonl``;
-* ``speed``: bare ``backend.step`` calls per second on the ruler scene and on Example 4.1, the
-  three engines in alternating blocks.
+* ``incline``: a box on a static block tilted by ``a`` at mu = 0.3 (the backends alone, no
+  pipeline): creep below ``atan(mu)``, the stick/slip threshold by bisection, the sliding
+  acceleration against ``g (sin a - mu cos a)``; ``dart-defaults`` puts DART's own sleeping and
+  Dantzig solver back;
+* ``ladder``: the static question of ``tests/data/ladder_30deg_stands.json`` (stands iff the
+  floor's mu >= 0.82001) at floor friction just below and above the threshold, through
+  :func:`scenarios.runs.simulate_system`;
+* ``ruler``: Sec. 5.1 from :func:`sim.jobs.job_for_ruler` (the table's ruler row: its speed and
+  step), judged against the planner's switch positions, run to just past the ``--switches``-th
+  predicted switch (the rest of a run only adds switches);
+* ``scenarios``: registered simulator scenarios by :func:`scenarios.runs.run_scenario`;
+* ``users``: ``--points`` user-geometry system files of each kind of
+  :mod:`planner.sweeps.user_systems` (acute corners, force-indeterminate supports, stacked
+  blocks on corners, static ladders and inclines) by the validation campaign's
+  ``task_row`` (its seeds, negative controls and "where" classes), every engine on the same
+  files, with the pairwise engine-engine agreement.
 
-DART is not in the engine registry yet: :func:`enable_dart` adds it *for this process only*
-(pymunk's run settings: DART's contacts are as stiff as pymunk's; creep floor 1e-7 m/s, above the
-measured 3e-8, docs/engine-dart.md). Nothing is asserted here (tests/test_dart_backend.py).
+Wall times are per run on whatever load the machine has; ratios between engines are taken from
+the same run. Nothing is asserted here (tests/test_dart_backend.py).
 
-    PYTHONPATH=. python benchmarks/dart_engine.py incline speed --out results.json
-    PYTHONPATH=. python benchmarks/dart_engine.py ruler examples systems campaign --points 20
+    PYTHONPATH=. python benchmarks/dart_engine.py ladder users --points 3
+    PYTHONPATH=. python benchmarks/dart_engine.py ruler --engines pymunk,dart --switches 5
+    PYTHONPATH=. python benchmarks/dart_engine.py scenarios --engines dart
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import sys
 import time
 from collections import Counter
 from pathlib import Path
@@ -43,58 +46,16 @@ from sim.scene import Body, BodyKind, ContactPair, Load, Polygon, Scene, preload
 
 ROOT = Path(__file__).resolve().parents[1]
 G, L, MU = 9.81, 0.1, 0.3
-#: DART's creep floor for the classifier [m/s] (docs/engine-dart.md: measured <= 3e-8)
-DART_CREEP = 1e-7
-#: DART backends made by the registered factory (their depth-floor growth and unconverged solves)
-BUILT: list[Any] = []
-
-
-def dart_counters() -> dict[str, Any]:
-    """Depth-floor growth [m] and unconverged contact solves of the last DART backend built."""
-    if not BUILT:
-        return {}
-    return {"inflation_m": BUILT[-1].inflation, "unconverged_solves": BUILT[-1].unconverged}
-
-
-def enable_dart() -> None:
-    """Register ``"dart"`` in this process: the engine tuple and factory of
-    :mod:`sim.backends` and the per-engine tables of :mod:`sim.system_run` and
-    :mod:`scenarios.paper_sims`, with pymunk's numbers and :data:`DART_CREEP`."""
-    import scenarios.paper_sims as ps
-    import sim.backends as sb
-    import sim.hand_run as hr
-    import sim.hand_settings as hs
-    import sim.system_run as sr
-    from sim.backends.dart_engine import DartBackend
-
-    if "dart" in sb.ENGINES:
-        return
-    sb.ENGINES = (*sb.ENGINES, "dart")
-    factory = sb.make_backend
-
-    def make_backend(engine: str, settings: Any = None) -> Any:
-        if engine != "dart":
-            return factory(engine, settings)
-        BUILT.append(DartBackend())
-        return BUILT[-1]
-
-    sb.make_backend = hr.make_backend = make_backend  # type: ignore[assignment]
-    hs.ENGINE_SETTINGS["dart"] = sb.EngineSettings(dt=1e-3, creep=DART_CREEP)
-    sr.RATE["dart"], sr.MAX_SPEED["dart"] = sr.RATE["pymunk"], sr.MAX_SPEED["pymunk"]
-    sr.ENGINE["dart"] = dict(sr.ENGINE["pymunk"], creep=DART_CREEP)
-    sr.SYSTEM_SETTINGS["dart"] = sb.EngineSettings()
-    ps.ENGINE_SETTINGS["dart"] = dict(ps.ENGINE_SETTINGS["pymunk"], creep=DART_CREEP)
-    ps.RULER_DT["dart"], ps.RULER_SPEED["dart"] = ps.RULER_DT["pymunk"], ps.RULER_SPEED["pymunk"]
 
 
 def backend(engine: str) -> Any:
-    """``engine``'s backend; ``dart-defaults``: the DART backend with DART's own defaults put
-    back (sleeping on, Dantzig pivoting with the PGS fallback) -- what the issue measured."""
-    enable_dart()
-    import sim.backends as sb
+    """``engine``'s backend (:func:`sim.backends.make_backend`); ``dart-defaults``: the DART
+    backend with DART's own defaults put back (sleeping on, Dantzig pivoting with the PGS
+    fallback) -- what a plain DART script gets."""
+    from sim.backends import make_backend
 
     if engine != "dart-defaults":
-        return sb.make_backend(engine)
+        return make_backend(engine)
     import dartpy
 
     from sim.backends.dart_engine import DartBackend
@@ -197,148 +158,136 @@ def incline_rows(engines: list[str]) -> list[dict[str, Any]]:
     return rows
 
 
-# -- the project's own scenario paths ----------------------------------------------------------
-def ruler_rows(pairs: list[tuple[float, float]], out: Path) -> list[dict[str, Any]]:
-    enable_dart()
-    from scenarios.paper_sims import run_ruler
-    from sim.compare import Expect
+# -- through the pipeline -----------------------------------------------------------------------
+def ladder_rows(engines: list[str], mus: list[float]) -> list[dict[str, Any]]:
+    """The ladder at floor friction ``mus`` (threshold 0.82001) in each engine."""
+    from planner.files.system_file import load_system
+    from scenarios.runs import simulate_system
 
+    base = load_system(ROOT / "tests" / "data" / "ladder_30deg_stands.json")
     rows = []
-    for mu_s, mu_k in pairs:
-        t0 = time.perf_counter()
-        s = run_ruler(out / f"ruler_{mu_s}_{mu_k}", name="ruler", expect=Expect.AGREE,
-                      mu_s=mu_s, mu_k=mu_k, engine="dart", tolerance=0.01,
-                      required=1 if mu_s == mu_k else 5, render=False)
-        rows.append({"mu_s": mu_s, "mu_k": mu_k, "status": s["status"],
-                     "relative_errors": s["observed"]["relative_errors"],
-                     "predicted": s["switch_positions"]["predicted"],
-                     "observed": s["switch_positions"]["observed"],
-                     "creep_m_per_s": s["observed"]["creep_m_per_s"],
-                     "fault": s["observed"]["fault"], "wall_s": round(time.perf_counter() - t0),
-                     **dart_counters()})
-        print(rows[-1], flush=True)
+    for mu in mus:
+        for engine in engines:
+            res = simulate_system(base.with_mu([mu, 0.0]), engine, name=f"ladder mu={mu}")
+            s, rec = res.summary, res.recording
+            late = rec.times > res.job.thresholds.settle
+            rows.append({"mu_floor": mu, "engine": engine, "status": s.verdict.outcome.value,
+                         "predicted": s.predicted["labels"], "final": s.observed["final"],
+                         "floor_slip_max_m_per_s": float(np.nanmax(np.abs(
+                             rec.slip_velocity[late, 0]))) if late.any() else None,
+                         "steps": len(rec.times), "wall_s": round(s.wall_time_s, 2)})
+            print(rows[-1], flush=True)
     return rows
 
 
-def example_rows(out: Path) -> list[dict[str, Any]]:
-    enable_dart()
+def ruler_rows(engines: list[str], pairs: list[tuple[float, float]], switches: int
+               ) -> list[dict[str, Any]]:
+    """The ruler at each ``(mu_s, mu_k)`` in each engine, to just past the ``switches``-th
+    switch the planner predicts; relative errors of the observed switch positions."""
+    from dataclasses import replace
+
+    from planner.predict.ruler import THICKNESS_RATIO, predicted_switches
+    from sim.jobs import execute, job_for_ruler
+
+    length = 0.1
+    rows = []
+    for mu_s, mu_k in pairs:
+        pos, who = predicted_switches(0.4 * length, 0.25 * length, 1.0,
+                                      THICKNESS_RATIO * length, mu_s, mu_k,
+                                      min_distance=0.015 * length)
+        need = min(switches, len(pos))
+        for engine in engines:
+            job = job_for_ruler(engine, mu_s=mu_s, mu_k=mu_k, positions=pos, sliders=who,
+                                required=need, tolerance=0.01)
+            v = job.parameters["speed_m_per_s"]
+            other = (0.25 if who[0] == 0 else 0.4) * length  # the first sticking finger
+            gap = pos[need - 1] + (pos[need - 2] if need > 1 else other)
+            travel = 0.65 * length - gap + 0.05 * pos[need - 1]
+            job = replace(job, run=replace(job.run, duration=min(job.run.duration,
+                                                                 travel / (2 * v))))
+            res = execute(job)
+            s = res.summary
+            errors = s.observed.get("relative_errors", [])
+            rows.append({"mu_s": mu_s, "mu_k": mu_k, "engine": engine,
+                         "status": s.verdict.outcome.value, "speed_m_per_s": v,
+                         "dt_s": job.run.dt, "predicted_m": list(pos[:need]),
+                         "observed_m": s.observed.get("switch_positions_m", [])[:need],
+                         "relative_errors": errors[:need],
+                         "creep_m_per_s": s.observed.get("creep_m_per_s"),
+                         "steps": s.parameters["steps"], "wall_s": round(s.wall_time_s, 1)})
+            print(rows[-1], flush=True)
+    return rows
+
+
+def scenario_rows(engines: list[str], names: list[str] | None) -> list[dict[str, Any]]:
+    """Registered simulator scenarios (``names``, default all) in each engine."""
+    import tempfile
+
     from scenarios.registry import all_scenarios
+    from scenarios.runs import run_scenario
 
     rows = []
     for name, sc in all_scenarios().items():
-        if "sim" not in sc.tags:
+        if sc.spec is None or (names and name not in names):
             continue
-        s = sc.run(out / name, engine="dart", render=False)
-        rows.append({"scenario": name, "expect": s.get("expect"), "status": s.get("status"),
-                     "passed": s.get("passed"), "reason": s.get("reason"), **dart_counters()})
-        print(rows[-1], flush=True)
-    return rows
-
-
-SYSTEM_FILES = ("scenarios/data/box_on_table_high.json", "scenarios/data/box_on_table_low.json",
-                "tests/data/two_link_finger_box.json", "tests/data/prismatic_finger_box.json",
-                "tests/data/two_link_effort_finger_box.json")
-
-
-def system_rows(engines: list[str]) -> list[dict[str, Any]]:
-    enable_dart()
-    from planner.files.system_file import load_system
-    from sim.system_run import simulate_system
-
-    rows = []
-    for path in SYSTEM_FILES:
         for engine in engines:
-            t0 = time.perf_counter()
-            res = simulate_system(load_system(ROOT / path), engine)
-            rows.append({"system": path, "engine": engine, "status": res.verdict.outcome.value,
-                         "predicted": res.summary["predicted"]["labels"],
-                         "observed": res.summary["observed"]["counts"],
-                         "reason": res.verdict.reason,
-                         "wall_s": round(time.perf_counter() - t0, 1),
-                         **(dart_counters() if engine == "dart" else {})})
-            print({k: rows[-1][k] for k in ("system", "engine", "status", "predicted")},
-                  flush=True)
+            with tempfile.TemporaryDirectory() as tmp:
+                s = run_scenario(sc, tmp, engine=engine, render=False)
+            rows.append({"scenario": name, "engine": engine, "expect": s["expect"],
+                         "status": s["status"], "passed": s["passed"],
+                         "agreement": s.get("agreement"), "reason": s.get("reason"),
+                         "steps": s["parameters"].get("steps"),
+                         "wall_s": round(s.get("wall_time_s", 0.0), 1)})
+            print({k: rows[-1][k] for k in ("scenario", "engine", "status", "passed",
+                                            "wall_s")}, flush=True)
     return rows
 
 
-def campaign_rows(points: int) -> dict[str, Any]:
-    """DART on the first ``points`` friction points per case of the recorded campaign."""
-    enable_dart()
-    import importlib.util
+def user_rows(engines: list[str], kinds: list[str], points: int, seed: int
+              ) -> dict[str, Any]:
+    """``points`` files of each user-geometry kind through the validation campaign's
+    ``task_row`` in every engine; its table and the pairwise engine-engine agreement."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    from validation_campaign import table, task_row, where
 
-    spec = importlib.util.spec_from_file_location("vc", ROOT / "benchmarks/validation_campaign.py")
-    vc = importlib.util.module_from_spec(spec)  # type: ignore[arg-type]
-    spec.loader.exec_module(vc)  # type: ignore[union-attr]
-    recorded = {(r["case"], r["index"], r["engine"]): r for r in
-                vc.read_rows(str(ROOT / "benchmarks/results/validation_campaign.jsonl"))}
     rows = []
-    for case, n in (("ex41", points), ("ex43", points), ("system", max(1, points // 4))):
-        for index in range(n):
-            rows.append(vc.run_task((case, index, "dart", 1)))
-            print({k: rows[-1][k] for k in ("case", "index", "status", "predicted")},
-                  flush=True)
-    pairwise: dict[str, Any] = {}
-    for other in ("pymunk", "mujoco"):
-        both = [(r, recorded[(r["case"], r["index"], other)]) for r in rows
-                if (r["case"], r["index"], other) in recorded
-                and vc.where(r) == "away"]
-        pairwise[other] = {"away_points": len(both),
-                           "same_status": sum(a["status"] == b["status"] for a, b in both),
-                           "both_agreed": sum(a["status"] == b["status"] == "agreed"
-                                              for a, b in both),
-                           "differ": [{"case": a["case"], "index": a["index"], "dart": a["status"],
-                                       other: b["status"], "mu": a["mu"]}
-                                      for a, b in both if a["status"] != b["status"]]}
-    away = [r for r in rows if vc.where(r) == "away"]
-    return {"rows": rows, "table": vc.table(rows), "pairwise_away": pairwise,
-            "away_status": dict(Counter(r["status"] for r in away)),
-            "false_agreements": sum(vc.false_agreement(r) for r in rows
-                                    if "control_status" in r)}
-
-
-# -- speed -----------------------------------------------------------------------------------
-def speed_rows(engines: list[str], steps: int = 2000, blocks: int = 3) -> list[dict[str, Any]]:
-    from planner.files.system_file import load_system
-    from sim.scenes.paper import example_scene, scaled_system
-    from sim.scenes.ruler import ruler_scene
-
-    scenes = {
-        "ruler": (ruler_scene(length=L, weight=1.0, mass=0.1, x_left=-0.4 * L, x_right=0.25 * L,
-                              speed=3e-4, mu_s=0.5, mu_k=None, finger_radius=0.03 * L), 2e-3),
-        "example_4_1": (example_scene(scaled_system(load_system(
-            ROOT / "scenarios/data/example_4_1.json"), 0.01, 2e-3).with_mu((0.2, 0.3, 0.1)),
-            speed=2e-3), 1e-3)}
-    rows = []
-    for name, (scene, dt) in scenes.items():
-        times: dict[str, list[float]] = {e: [] for e in engines}
-        for _ in range(blocks):  # alternating blocks: a burst of other work slows all alike
+    for i in range(points):
+        for kind in kinds:
             for engine in engines:
-                b = backend(engine)
-                b.build(scene)
-                t0 = time.perf_counter()
-                for _ in range(steps):
-                    b.step(dt)
-                    b.contacts()
-                times[engine].append(time.perf_counter() - t0)
-        best = {e: steps / min(ts) for e, ts in times.items()}
-        rows.append({"scene": name, "steps": steps, "blocks": blocks,
-                     "steps_per_s": {e: round(v) for e, v in best.items()},
-                     "dart_over": {e: round(best["dart"] / v, 3) for e, v in best.items()
-                                   if e != "dart"}})
-        print(rows[-1], flush=True)
-    return rows
+                row = task_row((kind, i, engine, seed))
+                row.pop("file", None)
+                rows.append(row)
+                print({k: row.get(k) for k in ("case", "index", "engine", "status",
+                                               "control_status", "wall_s")}, flush=True)
+    pairs: dict[str, Counter[str]] = {}
+    by_point: dict[tuple[str, int], dict[str, dict[str, Any]]] = {}
+    for r in rows:
+        by_point.setdefault((r["case"], r["index"]), {})[r["engine"]] = r
+    for per in by_point.values():
+        for a in engines:
+            for b in engines[engines.index(a) + 1:]:
+                if a in per and b in per:
+                    at = where(per[a]) if "near_boundary" in per[a] else "refused"
+                    c = pairs.setdefault(f"{a}-{b} {at}", Counter())
+                    c["n"] += 1
+                    c["same"] += per[a]["status"] == per[b]["status"]
+    return {"rows": rows, "table": table([r for r in rows if r["status"] != "refused"]),
+            "engine_pairs": {k: dict(v) for k, v in pairs.items()}}
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("parts", nargs="+",
-                    choices=("incline", "ruler", "examples", "systems", "campaign", "speed"))
+                    choices=("incline", "ladder", "ruler", "scenarios", "users"))
     ap.add_argument("--engines", default="pymunk,mujoco,dart",
                     help="comma-separated; 'dart-defaults' (incline only): DART's own defaults")
-    ap.add_argument("--points", type=int, default=20)
-    ap.add_argument("--ruler-pairs", default="0.5/0.5,0.3/0.2,0.5/0.3,0.6/0.4,0.8/0.6,0.8/0.5,"
-                                             "0.8/0.3")
-    ap.add_argument("--work", default="/tmp/dart_engine_runs")
+    ap.add_argument("--points", type=int, default=3, help="users: files per kind")
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--kinds", default="acute,supports,stacked,static")
+    ap.add_argument("--ladder-mu", default="0.80,0.84")
+    ap.add_argument("--ruler-pairs", default="0.5/0.3,0.8/0.5")
+    ap.add_argument("--switches", type=int, default=5)
+    ap.add_argument("--scenarios", default="", help="comma-separated names (default all)")
     ap.add_argument("--out", default=str(ROOT / "benchmarks/results/dart_engine.json"))
     args = ap.parse_args()
     engines = args.engines.split(",")
@@ -348,22 +297,27 @@ def main() -> None:
 
     result["versions"] = {"dartpy": dartpy.__version__}
     for part in args.parts:
+        t0 = time.perf_counter()
         if part == "incline":
             result["incline"] = incline_rows(engines)
             result["incline_dart_sleeping"] = sleeping_row()
-            print(result["incline_dart_sleeping"])
+        elif part == "ladder":
+            result["ladder"] = ladder_rows(engines, [float(m) for m in
+                                                     args.ladder_mu.split(",")])
         elif part == "ruler":
-            pairs = [tuple(float(x) for x in p.split("/")) for p in args.ruler_pairs.split(",")]
-            result["ruler"] = ruler_rows(pairs, Path(args.work))  # type: ignore[arg-type]
-        elif part == "examples":
-            result["examples"] = example_rows(Path(args.work))
-        elif part == "systems":
-            result["systems"] = system_rows(engines)
-        elif part == "campaign":
-            result["campaign"] = campaign_rows(args.points)
-            print(result["campaign"]["table"])
+            pairs = [(float(p.split("/")[0]), float(p.split("/")[1]))
+                     for p in args.ruler_pairs.split(",")]
+            result["ruler"] = ruler_rows(engines, pairs, args.switches)
+        elif part == "scenarios":
+            result["scenarios"] = scenario_rows(engines, [n for n in
+                                                          args.scenarios.split(",") if n])
         else:
-            result["speed"] = speed_rows(engines)
+            result["users"] = user_rows(engines, args.kinds.split(","), args.points,
+                                        args.seed)
+            print(result["users"]["table"])
+            print(result["users"]["engine_pairs"])
+        result.setdefault("commands", {})[part] = " ".join(sys.argv[1:])
+        print(f"{part}: {time.perf_counter() - t0:.0f} s", flush=True)
         atomic_write_json(out, result)
 
 

@@ -1,4 +1,4 @@
-"""``python -m scenarios list`` / ``show NAME`` / ``run NAME --engine pymunk --out DIR
+"""``python -m scenarios list`` / ``show NAME`` / ``run NAME --engine ENGINE --out DIR
 [--set key=value ...]`` (typed parameters: :class:`scenarios.registry.Parameter`)."""
 
 from __future__ import annotations
@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from planner.errors import InputError
+from sim.backends import ENGINES, require_engine
 
 
 def build_parser(parser: argparse.ArgumentParser | None = None) -> argparse.ArgumentParser:
@@ -22,7 +23,8 @@ def build_parser(parser: argparse.ArgumentParser | None = None) -> argparse.Argu
     show.add_argument("name")
     run = sub.add_parser("run", help="run one scenario and write DIR/summary.json")
     run.add_argument("name")
-    run.add_argument("--engine", default="pymunk", help="pymunk or mujoco")
+    run.add_argument("--engine", default="pymunk",
+                     help=f"{' | '.join(ENGINES)} (default pymunk; the scenario's engines)")
     run.add_argument("--out", required=True, type=Path)
     run.add_argument("--no-render", action="store_true", help="skip the plot and GIF")
     run.add_argument("--set", action="append", metavar="KEY=VALUE",
@@ -37,7 +39,7 @@ def execute(args: argparse.Namespace) -> int:
 
     if args.action == "list":
         for name, sc in all_scenarios().items():
-            print(f"{name:24s} {sc.expect.value:8s} {','.join(sc.engines):14s} {sc.summary}")
+            print(f"{name:24s} {sc.expect.value:8s} {','.join(sc.engines):20s} {sc.summary}")
         return 0
     if args.action == "show":
         print(describe(get(args.name)))
@@ -47,6 +49,8 @@ def execute(args: argparse.Namespace) -> int:
     sc = get(args.name)
     if sc.engines and args.engine not in sc.engines:
         raise InputError(f"engine: expected one of {sc.engines}, got {args.engine!r}")
+    if sc.engines:
+        require_engine(args.engine, "--engine")
     params = parse_settings(sc, getattr(args, "set", None))
     from scenarios.runs import run_scenario
 

@@ -7,7 +7,8 @@ driven at a prescribed planar twist (fingertips of the paper's Section 4 example
 contact pairs with static and kinetic friction, and constant external loads (the paper's
 ``g_obj``, eq. 2).
 
-Backends (:mod:`sim.backends.pymunk_engine`, :mod:`sim.backends.mujoco_engine`) implement
+Backends (:mod:`sim.backends.pymunk_engine`, :mod:`sim.backends.mujoco_engine`,
+:mod:`sim.backends.dart_engine`) implement
 :class:`Backend`:
 
 ``build(scene)``

@@ -25,7 +25,7 @@ from planner.plan.partition import joint_inputs
 from planner.plan.segment_planner import plan_segment
 from planner.predict.feasibility import feasible_modes
 from scenarios.runs import validate_plan
-from sim.backends import ENGINES, EngineSettings, make_backend
+from sim.backends import DEFAULT_ENGINES, EngineSettings, make_backend
 from sim.scene import Body, Capsule, Control, Joint, JointKind, Scene
 from sim.scenes.hand import finger_body, hand_scene, joint_coordinates
 from sim.schedule import SegmentSchedule, effort_force
@@ -46,7 +46,7 @@ def _constant(value):
     return lambda t, states: value
 
 
-@pytest.mark.parametrize("engine", ENGINES)
+@pytest.mark.parametrize("engine", DEFAULT_ENGINES)
 @pytest.mark.parametrize("name", CHAIN_HANDS)
 def test_links_follow_the_planners_forward_kinematics(name, engine):
     hand, q0, _ = _hand(name)
@@ -95,7 +95,7 @@ def _two_link_scene(kind, u):
                  only_pairs=True), m, L
 
 
-@pytest.mark.parametrize("engine", ENGINES)
+@pytest.mark.parametrize("engine", DEFAULT_ENGINES)
 @pytest.mark.parametrize("kind", [JointKind.REVOLUTE, JointKind.PRISMATIC])
 def test_a_chain_joint_effort_accelerates_the_child_link(engine, kind):
     u = 1e-4
@@ -118,7 +118,7 @@ def test_a_chain_joint_effort_accelerates_the_child_link(engine, kind):
     assert np.allclose(be.state()["l0"].pose, (0.0, 0.0, 0.3), atol=1e-9)  # held by its joint
 
 
-@pytest.mark.parametrize("engine", ENGINES)
+@pytest.mark.parametrize("engine", DEFAULT_ENGINES)
 def test_a_driven_slide_on_a_turning_link_moves_at_its_rate(engine):
     scene, _, L = _two_link_scene(JointKind.PRISMATIC, 0.0)
     j0, j1 = scene.joints
@@ -167,7 +167,7 @@ def _region_plan(name):
 #: failed while its masses were scaled by the load only (its squeeze is 11x the load; the
 #: contacts sank 0.66 mm: docs/simulation.md, "Chain manipulators"); the guard is
 #: test_the_squeeze_force_stiffens_mujoco_hand_contacts.
-AGREE = [(h, e) for h in CHAIN_HANDS for e in ENGINES]
+AGREE = [(h, e) for h in CHAIN_HANDS for e in DEFAULT_ENGINES]
 #: ... over their first half: three_finger_hand's first half moves the workpiece 1.17 mm and
 #: MuJoCo's contacts there sink in 8-34 um (measured), an offset of 41 um = 3.5 % of that
 #: travel (0.15 % of the whole plan's, judged by the slow test).
@@ -218,7 +218,7 @@ def test_region_plans_of_chain_hands_agree(name, engine):
     _check_agrees(name, engine, None)
 
 
-@pytest.mark.parametrize("engine", ENGINES)
+@pytest.mark.parametrize("engine", DEFAULT_ENGINES)
 @pytest.mark.parametrize("name", ["prismatic_finger_hand", "two_link_finger_hand",
                                   "three_finger_hand"])
 def test_torques_outside_the_region_disagree(name, engine):
@@ -232,7 +232,7 @@ def test_torques_outside_the_region_disagree(name, engine):
     assert run.summary.passed
 
 
-@pytest.mark.parametrize("engine", ENGINES)
+@pytest.mark.parametrize("engine", DEFAULT_ENGINES)
 def test_velocity_only_plan_at_friction_outside_its_box_disagrees(engine):
     """table_push_hand has no effort joint: its negative control is friction outside the box
     (the pusher's tip at mu = 2 > 0.1 sticks and tips the block over its front corner: the

@@ -1,9 +1,13 @@
-"""The DART backend (:mod:`sim.backends.dart_engine`) against closed forms and hand calculations.
-
-Skipped when ``dartpy`` is not installed (``pip install 'qsplan[dart]'``).
+"""The DART backend (:mod:`sim.backends.dart_engine`) against closed forms and hand calculations,
+and DART through the one pipeline (``scenarios.runs``: a system file, static questions, the
+ruler, a negative control). Skipped when ``dartpy`` is not installed (``pip install
+'qsplan[dart]'``); what a user without it sees is tested in ``tests/test_engine_choice.py``.
 """
 
 from __future__ import annotations
+
+import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -12,7 +16,8 @@ pytest.importorskip("dartpy", reason="dartpy (the DART engine) is not installed:
                                      "'qsplan[dart]'")
 
 from planner.errors import InputError  # noqa: E402
-from sim.backends.dart_engine import DartBackend, primitives  # noqa: E402
+from sim.backends.dart_engine import DartBackend  # noqa: E402
+from sim.backends.dart_shapes import primitives  # noqa: E402
 from sim.run import RunSettings, run_scene  # noqa: E402
 from sim.scene import (  # noqa: E402
     Body,
@@ -136,8 +141,8 @@ def test_driven_finger_pushes_a_box_at_its_speed_with_the_sliding_friction():
     box = Body("box", (box_shape(L, L / 2),), mass=mass,
                pose=(0.0, L / 4 - preload_depth(L), 0.0))
     finger = Body("finger", (Circle((0.0, 0.0), r),), kind=BodyKind.DRIVEN,
-                  pose=(-L / 2 - r + preload_depth(L), 0.0, 0.0),
-                  twist=lambda t, s: (speed, 0.0, 0.0))
+                  pose=(-L / 2 - r + preload_depth(L), L / 20, 0.0),  # on the face, not
+                  twist=lambda t, s: (speed, 0.0, 0.0))               # at the rounded corner
     scene = Scene(bodies=(table, box, finger),
                   pairs=(ContactPair("support", "table", "box", mu_table),
                          ContactPair("push", "finger", "box", 0.0)),
@@ -250,87 +255,161 @@ def test_joint_on_a_static_body_is_refused():
 
 
 # -- geometry ------------------------------------------------------------------------------
-def test_polygon_primitives_put_faces_on_the_edges_and_tips_inside_the_vertices():
-    tri = Polygon(((0.0, 0.0), (0.1, 0.0), (0.02, 0.06)))
-    prims = primitives(tri, L)
-    assert len(prims["faces"]) == 3 and len(prims["tips"]) == 3
-    v = np.asarray(tri.vertices)
+def _inward_distances(v: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """Signed distances (k,) of point ``p`` inside each edge line of polygon ``v`` (k, 2)."""
+    d = np.roll(v, -1, axis=0) - v
+    inward = np.stack([-d[:, 1], d[:, 0]], axis=1) / np.linalg.norm(d, axis=1)[:, None]
+    return np.einsum("ij,ij->i", p - v, inward)
+
+
+@pytest.mark.parametrize("vertices", [
+    ((0.0, 0.0), (0.1, 0.0), (0.02, 0.06)),  # acute corners of 37 and 72 deg
+    # the ladder of tests/data/ladder_30deg_*.json: two 30-deg corners, a thin rail
+    ((0.0, 0.0), (1.732051, 1.0), (1.782051, 1.086603), (0.05, 0.086603)),
+    ((0.0, 0.0), (0.1, 0.0), (0.1, 0.05), (0.0, 0.05)),  # a rectangle: one box
+])
+def test_polygon_primitives_stay_inside_and_reach_every_vertex(vertices):
+    """No face box reaches outside the polygon (at an acute vertex the slabs are cut back and
+    thinner: a fingertip at the vertex would otherwise meet a slab corner sticking out by
+    ``t cos(theta)``), the edges are covered up to the tip spheres, and each tip sphere passes
+    through its vertex with its centre on the inward bisector (it reaches the vertex in every
+    direction of the vertex's normal cone)."""
+    v = np.asarray(vertices)
+    scale = float(np.max(np.linalg.norm(v - v.mean(axis=0), axis=1)))
+    prims = primitives(Polygon(vertices), scale)
+    rho = prims["tips"][0][0].getRadius()
+    covered = np.zeros(len(v))
+    for shape, rot, centre in prims["faces"]:
+        size = np.asarray(shape.getSize())
+        for sx in (-0.5, 0.5):
+            for sy in (-0.5, 0.5):
+                corner = np.asarray(centre) + rot[:2, :2] @ (size[:2] * (sx, sy))
+                assert _inward_distances(v, corner).min() >= -1e-12 * scale
+        outer = np.asarray(centre) - rot[:2, :2] @ (0.0, 0.5 * size[1])  # on an edge
+        covered[np.argmin(np.abs(_inward_distances(v, outer)))] += size[0]
+    edges = np.linalg.norm(np.roll(v, -1, axis=0) - v, axis=1)
+    if len(prims["faces"]) > 1:
+        assert np.all(covered >= edges - 4 * rho) and np.all(covered <= edges + 1e-12)
     for (shape, _, centre), vert in zip(prims["tips"], v):
-        r = shape.getRadius()
         c = np.asarray(centre)
-        # every tip touches the two edges at its vertex from inside
-        for k in range(3):
-            a, b = v[k], v[(k + 1) % 3]
-            d = b - a
-            inward = np.array([-d[1], d[0]]) / np.linalg.norm(d)
-            assert (c - a) @ inward >= r - 1e-12
-        assert np.linalg.norm(c - vert) < 10 * r
+        assert np.linalg.norm(c - vert) == pytest.approx(shape.getRadius(), rel=1e-9)
+        dist = _inward_distances(v, c)
+        assert np.all(dist > 0)  # centre inside the polygon
+        k = list(map(tuple, v)).index(tuple(vert))
+        assert dist[k] == pytest.approx(dist[k - 1], rel=1e-9)  # on the bisector
 
 
-# -- the ruler (Sec. 5.1) against its closed form ----------------------------------------------
-def ruler_errors(mu_s: float, mu_k: float, speed: float, switches: int) -> list[float | None]:
-    """Relative errors of the first ``switches`` switch positions of the ruler in DART
-    (``scenarios.paper_sims.run_ruler``'s scene, classifier and matching; pymunk's step)."""
-    from sim.classify import Thresholds
-    from sim.scenes.ruler import (
-        THICKNESS_RATIO,
-        compare_switches,
-        observed_switches,
-        predicted_switches,
-        ruler_scene,
-        sliding_finger,
-    )
-    from sim.scenes.ruler_theory import SWITCH_OF_SPEED
-
-    x_left, x_right, min_d = -0.4 * L, 0.25 * L, 0.015 * L
-    predicted, sliders = predicted_switches(-x_left, x_right, 1.0, THICKNESS_RATIO * L, mu_s,
-                                            mu_k, min_distance=min_d)
-    predicted, sliders = predicted[:switches], sliders[:switches]
-    # run until the sliding finger is 20 % past the last judged switch
-    travel = (x_right - x_left) - (predicted[-1] + (predicted[-2] if switches > 1 else 0.0))
-    scene = ruler_scene(length=L, weight=1.0, mass=0.1, x_left=x_left, x_right=x_right,
-                        speed=speed, mu_s=mu_s, mu_k=None if mu_k == mu_s else mu_k,
-                        finger_radius=0.03 * L)
-    rec = run_scene(scene, DartBackend(), RunSettings(
-        duration=1.2 * travel / (2 * speed), dt=2e-3, slip_speed=SWITCH_OF_SPEED * speed,
-        penetration_tol=0.01 * L, record_every=5))
-    assert rec.fault is None and rec.present.all()
-    th = Thresholds.for_drive(speed, 1.0, creep_floor=1e-7)
-    slider = sliding_finger(rec, th.slip_speed, th.window)
-    observed, obs_sliders, _ = observed_switches(rec, slider, rec.body_names, th.window)
-    _, errors = compare_switches(predicted, sliders, observed, obs_sliders, tolerance=0.01,
-                                 required=switches)
-    return errors
+# -- through the pipeline (scenarios.runs: what `qsplan simulate --engine dart` runs) ---------
+ROOT = Path(__file__).resolve().parents[1]
+TESTS = ROOT / "tests" / "data"
 
 
-def test_ruler_static_kinetic_first_switches_within_one_percent():
-    errors = ruler_errors(0.8, 0.5, speed=1e-3, switches=2)
-    assert all(e is not None and e <= 0.01 for e in errors), errors
+def test_cli_simulate_a_system_file_in_dart(tmp_path, capsys):
+    """`qsplan simulate FILE --engine dart`: the box pushed along the table slides on its
+    supports as predicted (``B1 R2 S+3``); the settings table's DART row is reported."""
+    from qsplan.cli import main
+    from sim.settings import SceneKind, settings_for
+
+    code = main(["simulate", str(ROOT / "scenarios" / "data" / "box_on_table_high.json"),
+                 "--engine", "dart", "--out", str(tmp_path / "box"), "--no-render"])
+    summary = json.loads((tmp_path / "box" / "summary.json").read_text())
+    assert code == 0, capsys.readouterr()
+    assert summary["engine"] == "dart" and summary["status"] == "agreed"
+    assert summary["observed"]["final"] == "B1 R2 S+3"
+    row = settings_for(SceneKind.SYSTEM, "dart")
+    assert summary["parameters"]["creep_floor_m_per_s"] == row.creep
+    assert summary["parameters"]["dt_s"] == row.dt
+
+
+def _ladder(mu_floor: float):
+    """The 2 m ladder of ``tests/data/ladder_30deg_stands.json`` at floor friction ``mu_floor``
+    (smooth wall): by hand it stands iff ``mu_floor >= c_x / Q_y = 0.82001``."""
+    from planner.files.system_file import load_system
+
+    return load_system(TESTS / "ladder_30deg_stands.json").with_mu([mu_floor, 0.0])
+
+
+@pytest.mark.parametrize("mu_floor, stands", [(0.84, True), (0.80, False)])
+def test_ladder_stands_above_its_friction_threshold_and_slips_below(mu_floor, stands):
+    """The static question the referee exists for: 2.4 % above the threshold the ladder stands
+    (both feet ``R``: true stiction, no creep), 2.4 % below it slides away -- each as the
+    planner predicts."""
+    from scenarios.runs import simulate_system
+
+    res = simulate_system(_ladder(mu_floor), "dart", name=f"ladder mu={mu_floor}")
+    s = res.summary.to_dict()
+    assert s["status"] == "agreed", s["reason"]
+    assert s["predicted"]["labels"] == (["R1 R2"] if stands else ["MOVES"])
+    if stands:
+        rec = res.recording
+        late = rec.times > 0.5
+        # the feet creep below DART's creep floor (file units: divided by the scene scale)
+        creep = np.max(np.abs(rec.slip_velocity[late, 0]))
+        assert creep < res.job.settings.creep / res.job.scale
+        assert res.summary.observed["segments"][-1]["mode"] == "R1 R2"
+
+
+def test_negative_control_ladder_that_slips_judged_as_standing_disagrees():
+    """Simulated at mu_floor 0.80 (it slips), judged against the prediction at 0.84 (it
+    stands): the run must disagree -- the check can tell the two sides of the threshold."""
+    from scenarios.runs import simulate_system
+
+    res = simulate_system(_ladder(0.80), "dart", judge_mu=[0.84, 0.0], name="neg ladder")
+    s = res.summary.to_dict()
+    assert s["expect"] == "disagree" and s["status"] == "disagreed", s["reason"]
+    assert s["passed"]
+
+
+def test_ladder_held_at_its_acute_corners_by_fingertips():
+    """Fingertips (circles) touching the ladder's two 30-deg corners (a finger meets the tip
+    sphere there, the slabs being cut back): stands, forces on the certificate."""
+    from planner.files.system_file import load_system
+    from scenarios.runs import simulate_system
+
+    res = simulate_system(load_system(TESTS / "ladder_30deg_held.json"), "dart")
+    assert res.summary.verdict.outcome.value == "agreed", res.summary.verdict.reason
+
+
+def test_ruler_first_two_switches_through_the_pipeline():
+    """The ruler (Sec. 5.1) at mu_s / mu_k = 0.8 / 0.5: DART's job from ``job_for_ruler``
+    (the settings table's ruler row) at 1 mm/s per finger, run to just past the second
+    predicted switch; both switches within 1 % of the planner's positions."""
+    from dataclasses import replace
+
+    from planner.predict.ruler import THICKNESS_RATIO, predicted_switches
+    from sim.jobs import execute, job_for_ruler
+
+    length, speed = 0.1, 1e-3
+    pos, who = predicted_switches(0.4 * length, 0.25 * length, 1.0, THICKNESS_RATIO * length,
+                                  0.8, 0.5, min_distance=0.015 * length)
+    job = job_for_ruler("dart", mu_s=0.8, mu_k=0.5, positions=pos, sliders=who, speed=speed,
+                        required=2, tolerance=0.01)
+    # the fingers are pos[0] + pos[1] apart at the second switch; run 10 % past it
+    travel = 0.65 * length - pos[0] - pos[1]
+    job = replace(job, run=replace(job.run, duration=1.1 * travel / (2 * speed)))
+    res = execute(job)
+    v = res.summary.verdict
+    assert v.outcome.value == "agreed", v.reason
+    errors = res.summary.observed["relative_errors"]
+    assert len(errors) >= 2 and all(e is not None and e <= 0.01 for e in errors[:2]), errors
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("mu_s, mu_k", [(0.3, 0.2), (0.5, 0.3), (0.6, 0.4), (0.8, 0.6),
-                                        (0.8, 0.5), (0.8, 0.3)])
-def test_ruler_static_kinetic_five_switches_within_one_percent(mu_s, mu_k):
-    errors = ruler_errors(mu_s, mu_k, speed=3e-4, switches=5)
-    assert all(e is not None and e <= 0.01 for e in errors), errors
-
-
 def test_sliding_fingers_of_a_squeeze_carry_exactly_mu_times_their_normal_force():
-    """Example 4.1 at mu = (0.2, 0.3, 0.1), mode 3S (Sec. 4.1, eq. 37): every finger slides, so
-    each contact's ``|f_t| / f_n`` is its ``mu``. (DART's default Dantzig solver gave 0.142,
-    0.243, 0.061: its friction bounds come from normal impulses that later pivots change.)"""
+    """Example 4.1 at mu = (0.2, 0.3, 0.1), mode 3S (Sec. 4.1, eq. 37) through the pipeline:
+    every finger slides, so each contact's ``|f_t| / f_n`` is its ``mu`` (DART's default
+    Dantzig solver gave 0.142, 0.243, 0.061: its friction bounds come from normal impulses that
+    later pivots change)."""
     from planner.files.system_file import load_system
-    from scenarios.registry import DATA_DIR
-    from sim.scenes.paper import example_scene, scaled_system
+    from scenarios.registry import shipped_file
+    from scenarios.runs import simulate_system
 
     mu = (0.2, 0.3, 0.1)
-    system = scaled_system(load_system(DATA_DIR / "example_4_1.json"), 0.01, 2e-3).with_mu(mu)
-    backend = DartBackend()
-    backend.build(example_scene(system, speed=2e-3, mass=0.1))
-    for _ in range(600):
-        backend.step(1e-3)
-    for m, r in zip(mu, backend.contacts().values()):
-        assert r.present and abs(r.slip_velocity) > 1e-4
-        assert abs(r.tangent_force) / r.normal_force == pytest.approx(m, rel=1e-4)
-    assert backend.unconverged == 0
+    res = simulate_system(load_system(shipped_file("example_4_1", "system")), "dart", mu=mu,
+                          duration=0.6)
+    assert res.summary.verdict.outcome.value == "agreed", res.summary.verdict.reason
+    rec = res.recording
+    late = rec.times > 0.3
+    assert np.all(np.abs(rec.slip_velocity[late]) > res.job.thresholds.slip_speed)
+    ratio = np.abs(rec.tangent_force[late]) / rec.normal_force[late]
+    assert np.allclose(ratio, np.asarray(mu)[None, :], rtol=1e-4)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from planner.errors import InputError
-from sim.backends import ENGINES, make_backend
+from sim.backends import DEFAULT_ENGINES, make_backend
 from sim.run import FaultKind, RunSettings, run_scene
 from sim.scene import (
     Body,
@@ -34,7 +34,7 @@ def _link_scene(command, control=Control.VELOCITY, kind=JointKind.REVOLUTE):
     return Scene(bodies=(link,), pairs=(), joints=(joint,), length_scale=LENGTH)
 
 
-@pytest.mark.parametrize("engine", ENGINES)
+@pytest.mark.parametrize("engine", DEFAULT_ENGINES)
 def test_a_joint_switching_control_follows_velocity_then_effort(engine):
     omega, tau, t_s, t_end = 0.2, 1e-3, 0.25, 0.5
     scene = _link_scene(lambda t, s: omega if t < t_s - 1e-9 else tau)
@@ -54,7 +54,7 @@ def test_a_joint_switching_control_follows_velocity_then_effort(engine):
     assert abs(angle[-1] - omega * t_end) > 0.1
 
 
-@pytest.mark.parametrize("engine", ENGINES)
+@pytest.mark.parametrize("engine", DEFAULT_ENGINES)
 def test_a_joint_switching_back_to_velocity_holds_the_new_rate(engine):
     t_s = 0.2
     scene = _link_scene(lambda t, s: 1e-3 if t < t_s - 1e-9 else -0.1, control=Control.EFFORT)
@@ -67,7 +67,7 @@ def test_a_joint_switching_back_to_velocity_holds_the_new_rate(engine):
     assert np.allclose(rate, -0.1, atol=2e-3)
 
 
-@pytest.mark.parametrize("engine", ENGINES)
+@pytest.mark.parametrize("engine", DEFAULT_ENGINES)
 def test_switching_is_checked(engine):
     for joint, control, kind, match in (("nope", "effort", JointKind.REVOLUTE, "joint"),
                                         ("q", "torque", JointKind.REVOLUTE, "velocity"),
@@ -90,7 +90,7 @@ def _gap_scene(gap):
                  bounds=(-1.0, -1.0, 1.0, 1.0))
 
 
-@pytest.mark.parametrize("engine", ENGINES)
+@pytest.mark.parametrize("engine", DEFAULT_ENGINES)
 def test_a_pair_allowed_to_start_open_is_no_fault_and_closes(engine):
     base = dict(duration=0.3, dt=1e-3, slip_speed=1e-5, penetration_tol=1e-3)
     rec = run_scene(_gap_scene(1e-3), make_backend(engine), RunSettings(**base))

@@ -2,8 +2,8 @@
 
 Predictions come from the planner, observations from simulator contact data; a scenario passes
 when its outcome matches its expectation (``agree`` or, for negative controls, ``disagree``).
-Long runs (rulers other than pymunk static/kinetic: 100-200 s of simulated time) are marked
-``slow``.
+Long runs (rulers other than pymunk static/kinetic: 100-200 s of simulated time) and every run
+in an engine outside :data:`sim.settings.DEFAULT_ENGINES` (DART) are marked ``slow``.
 """
 
 from __future__ import annotations
@@ -14,6 +14,7 @@ import pytest
 
 from scenarios.registry import all_scenarios
 from scenarios.runs import run_scenario
+from sim.backends import DEFAULT_ENGINES, installed
 
 SLOW = {("ruler_single_mu", "mujoco"), ("ruler_static_kinetic", "mujoco"),
         ("neg_ruler_wrong_mu", "mujoco"), ("ruler_single_mu", "pymunk"),
@@ -23,7 +24,12 @@ SLOW = {("ruler_single_mu", "mujoco"), ("ruler_static_kinetic", "mujoco"),
 def _cases():
     for name, sc in all_scenarios().items():
         for engine in sc.engines:
-            marks = [pytest.mark.slow] if (name, engine) in SLOW else []
+            # an engine outside the defaults (DART, an optional extra) runs under -m slow and
+            # only where installed
+            marks = ([pytest.mark.slow] if (name, engine) in SLOW
+                     or engine not in DEFAULT_ENGINES else [])
+            if not installed(engine):
+                marks.append(pytest.mark.skip(reason=f"engine {engine!r} is not installed"))
             yield pytest.param(name, engine, marks=marks, id=f"{name}-{engine}")
 
 

@@ -26,7 +26,7 @@ from planner.errors import InputError
 from planner.files.system_file import load_system, system_from_dict
 from planner.predict.feasibility import feasible_modes
 from scenarios.runs import simulate_system
-from sim.backends import ENGINES, make_backend
+from sim.backends import DEFAULT_ENGINES, make_backend
 from sim.scenes.shapes import PRELOAD
 from sim.scenes.system import commanded_contact_speed, scale_velocities, system_scene
 from sim.verdict import Outcome
@@ -35,7 +35,7 @@ DATA = Path(__file__).resolve().parent / "data"
 FILES = ["two_link_finger_box", "prismatic_finger_box"]
 
 
-@pytest.mark.parametrize("engine", ENGINES)
+@pytest.mark.parametrize("engine", DEFAULT_ENGINES)
 @pytest.mark.parametrize("name", FILES)
 def test_links_are_built_at_the_chains_forward_kinematics(name, engine):
     system = load_system(DATA / f"{name}.json")
@@ -80,7 +80,7 @@ NEGATIVE = {"two_link_finger_box": ([2.0, 2.0, 0.0], "B1 R2 S+3"),
             "two_link_effort_finger_box": ([2.0, 2.0, 0.5], "B1 R2 R3")}
 
 
-@pytest.mark.parametrize("engine", ENGINES)
+@pytest.mark.parametrize("engine", DEFAULT_ENGINES)
 @pytest.mark.parametrize("name", list(NEGATIVE))
 def test_chain_pushing_a_box_agrees_and_its_negative_control_disagrees(name, engine):
     system = load_system(DATA / f"{name}.json")
@@ -134,7 +134,7 @@ def test_a_saved_chain_system_keeps_its_chain(tmp_path):
     assert np.allclose(again.chain.body_poses(), system.chain.body_poses())
 
 
-@pytest.mark.parametrize("engine", ENGINES)
+@pytest.mark.parametrize("engine", DEFAULT_ENGINES)
 def test_link_radius_key_sets_the_capsules(engine):
     from planner.errors import FileFormatError
     from sim.scene import Capsule

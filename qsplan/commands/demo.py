@@ -10,8 +10,8 @@ Figs. 9-13), from the initial to the goal grasp.
    that a tampered copy is rejected;
 2. validate the whole task in pymunk and MuJoCo at the friction interval's ends and middle
    (``mu.validate``: 0, 0.1, 0.2; the whole task in one continuous run judged per segment,
-   :func:`scenarios.runs.validate_plan`), and the negative controls: the reversed-torque task and the
-   R2S segment at mu = 0.2 (two worker processes);
+   :func:`scenarios.runs.validate_plan`), and the negative controls: the reversed-torque task
+   and the R2S segment at mu = 0.2 (two worker processes);
 3. write ``report/``: the story (``story/``), the plans, one folder per run (summary.json; the
    R2S runs also timeline.png and animation.gif), ``checks.json``, ``REPORT.md`` (one page: the
    task in pictures, the torque regions, then what held, with numbers) and ``index.html``
@@ -50,7 +50,7 @@ from qsplan.demo_task import (
 )
 from qsplan.options import check_int
 from scenarios.registry import shipped_file
-from sim.settings import ENGINES
+from sim.backends import DEFAULT_ENGINES, ENGINES, require_engine
 
 SCENARIO = "two_finger_hand"
 NEGATIVE_MU = 0.2
@@ -81,7 +81,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="simulate the task at the middle friction value only, the R2S control "
                         "over the first quarter of its segment")
     p.add_argument("--scenario", default=SCENARIO, help="hand file or name")
-    p.add_argument("--engines", default=",".join(ENGINES), help="comma-separated engines")
+    p.add_argument("--engines", default=",".join(DEFAULT_ENGINES),
+                   help=f"comma-separated engines from {', '.join(ENGINES)} "
+                        f"(default {','.join(DEFAULT_ENGINES)})")
     p.add_argument("--jobs", type=int, default=2, help=f"worker processes, 1..{MAX_JOBS}")
     p.add_argument("--no-render", action="store_true", help="skip timelines and GIFs")
     p.set_defaults(func=run)
@@ -97,6 +99,8 @@ def run(args: argparse.Namespace) -> int:
     if bad or not engines:
         raise InputError(f"--engines: expected names from {', '.join(ENGINES)}, got "
                          f"{args.engines!r}")
+    for engine in engines:
+        require_engine(engine, "--engines")
     check_int(args.jobs, "--jobs", 1, MAX_JOBS)
     from planner.files.outputs import output_set
 

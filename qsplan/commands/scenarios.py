@@ -1,4 +1,4 @@
-"""``qsplan scenarios list | run NAME --engine pymunk|mujoco --out DIR`` (simulator validation).
+"""``qsplan scenarios list | run NAME --engine ENGINE --out DIR`` (simulator validation).
 
 The scenario package and the simulators are imported lazily inside the command.
 """
@@ -9,7 +9,7 @@ import argparse
 
 DESCRIPTION = """\
 List or run the registered scenarios: the paper's examples (Sec. 4.1 eq. 37, Sec. 4.3 eq. 42)
-and the ruler of Sec. 5.1 simulated in pymunk or MuJoCo and compared with the planner's
+and the ruler of Sec. 5.1 simulated in pymunk, MuJoCo or DART and compared with the planner's
 prediction (expect "agree", or "disagree" for negative controls), and "info" scenarios that only
 write figures and data (friction-space maps of Figs. 3, 6 and 8).  `scenarios list` prints
 name, expectation, engines and summary; `scenarios run NAME --engine ENGINE --out DIR` writes

@@ -1,4 +1,4 @@
-"""``qsplan simulate SYSTEM.json --engine pymunk|mujoco [--mu ..] [--mu-kinetic ..]
+"""``qsplan simulate SYSTEM.json --engine ENGINE [--mu ..] [--mu-kinetic ..]
 [--judge-mu ..] [--duration S] [--speed V] [--out DIR]``: simulate any system file and judge
 the run against the planner's prediction (:func:`scenarios.runs.simulate_system`: the one
 pipeline of :mod:`sim.jobs`, for one workpiece or several, driven or static).
@@ -14,9 +14,8 @@ import json
 from pathlib import Path
 from typing import Any
 
-from planner.errors import InputError
 from qsplan.options import MU_MAX, parse_number, parse_numbers
-from sim.settings import ENGINES
+from sim.backends import ENGINES, require_engine
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -45,7 +44,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("system", help="system file (JSON; see docs/file-formats.md)")
-    p.add_argument("--engine", default="pymunk", help="pymunk or mujoco")
+    p.add_argument("--engine", default="pymunk", help=f"{' | '.join(ENGINES)} (default pymunk)")
     p.add_argument("--mu", help="friction to simulate: one value, or one per contact "
                                 "(default: the file's)")
     p.add_argument("--mu-kinetic", help="kinetic friction (static = --mu): one value or one per "
@@ -69,8 +68,7 @@ def _mu(text: str | None, what: str) -> list[float] | float | None:
 
 
 def run(args: argparse.Namespace) -> int:
-    if args.engine not in ENGINES:
-        raise InputError(f"--engine: expected one of {', '.join(ENGINES)}, got {args.engine!r}")
+    require_engine(args.engine, "--engine")
     options: dict[str, Any] = {
         "mu": _mu(args.mu, "--mu"),
         "mu_kinetic": _mu(args.mu_kinetic, "--mu-kinetic"),

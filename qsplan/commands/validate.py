@@ -1,4 +1,4 @@
-"""``qsplan validate PLAN.json --engine pymunk|mujoco [--mu 0.1] [--out DIR]``: run a plan in a
+"""``qsplan validate PLAN.json --engine ENGINE [--mu 0.1] [--out DIR]``: run a plan in a
 simulator and compare observed with predicted modes and poses.
 
 Default friction: every value of the plan's ``mu.validate`` list (the plan passes only if every
@@ -15,7 +15,7 @@ from pathlib import Path
 from planner.errors import InputError
 from planner.model.validation import FrictionValue
 from qsplan.options import MU_MAX, fmt, parse_number
-from sim.settings import ENGINES
+from sim.backends import ENGINES, require_engine
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -35,7 +35,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         epilog="example: qsplan validate plan.json --engine mujoco --mu 0.1 --out val/",
     )
     p.add_argument("plan", help="plan file (JSON; see docs/plan-format.md)")
-    p.add_argument("--engine", default="pymunk", help="pymunk or mujoco")
+    p.add_argument("--engine", default="pymunk", help=f"{' | '.join(ENGINES)} (default pymunk)")
     p.add_argument("--mu", default=None,
                    help="friction to simulate: one number, or comma-separated values (each "
                         "its own run); a run with one coefficient per contact is written "
@@ -89,8 +89,7 @@ def check_contacts(mus: list[FrictionValue], n_c: int) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    if args.engine not in ENGINES:
-        raise InputError(f"--engine: expected one of {', '.join(ENGINES)}, got {args.engine!r}")
+    require_engine(args.engine, "--engine")
     mus = parse_mu_list(args.mu) if args.mu is not None else None
     path = Path(args.plan)
     if not path.is_file():

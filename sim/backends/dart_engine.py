@@ -15,10 +15,10 @@ The scene plane is DART's x-y plane; shapes are extruded symmetrically about z =
   base) or on the parent link (chains); ``VELOCITY`` actuator (exact rate, unbounded effort) or
   ``FORCE`` actuator (effort on the body and, opposite, on the parent); loads: external force at
   the centre of mass and torque about z, every step;
-* contacts: per pair, side and kind of primitive (:func:`primitives`) a massless *site* body
-  welded to the pair's body, and a body-pair filter letting a site touch only its partner's
-  sites of a :data:`COLLIDING` kind -- only declared pairs collide, each with its own Coulomb
-  coefficient, and every contact is a sphere against a box or sphere in the plane z = 0.
+* contacts: per pair, side and kind of primitive (:func:`sim.backends.dart_shapes.primitives`)
+  a massless *site* body welded to the pair's body, and a body-pair filter letting a site touch
+  only its partner's sites of a colliding kind -- only declared pairs collide, each with its own
+  Coulomb coefficient, and every contact is a sphere against a box or sphere in the plane z = 0.
 
 Fixed engine options (docs/engine-dart.md): gravity 0 (loads are explicit), sleeping off (DART
 freezes bodies slower than 1 cm/s for 0.5 s), split impulses, DART's collision detector, the
@@ -33,34 +33,26 @@ import dartpy as dart
 import numpy as np
 
 from planner.errors import InputError
+from sim.backends.dart_shapes import (
+    COLLIDING,
+    moment_of_inertia,
+    primitives,
+    rotation,
+)
 from sim.backends.switching import replace_joint, switch_joint
 from sim.scene import (
     ABSENT,
     Body,
     BodyKind,
     BodyState,
-    Capsule,
-    Circle,
     ContactReading,
     Control,
     Joint,
     JointKind,
     Scene,
-    Shape,
     point_velocity,
 )
-from sim.scenes.multibody import polygon_inertia
 
-#: Extrusion depth along z of every box, in scene length scales (any depth beyond the largest
-#: in-plane penetration gives the same in-plane contacts).
-EXTRUSION_OF_SCALE = 1.0
-#: Thickness of a polygon's edge slab, in scene length scales (at most half the polygon's
-#: width). Only a vertex of interior angle below 90 deg is affected: its two slabs reach past
-#: the neighbouring edge by ``thickness cos(angle)``.
-SLAB_OF_SCALE = 1e-2
-#: Radius of the sphere that rounds every polygon vertex, in scene length scales: above the
-#: scenes' pre-load (:data:`sim.scene.PRELOAD_OF_SCALE`), so a tip's centre starts outside.
-ROUNDING_OF_SCALE = 1e-4
 #: Mass of a z carrier and of a contact site over the scene's heaviest dynamic body (they only
 #: keep the LCP regular; their inertia is negligible at this ratio).
 CARRIER_MASS_RATIO = 1e-6
@@ -79,11 +71,6 @@ NSGS_MAX_SWEEPS = 500
 CFM = 1e-5
 
 
-def _rotation(theta: float) -> np.ndarray:
-    c, s = np.cos(theta), np.sin(theta)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-
-
 def _iso(rot: np.ndarray, p: Sequence[float]) -> dart.math.Isometry3:
     tf = dart.math.Isometry3()
     tf.set_rotation(rot)
@@ -91,84 +78,10 @@ def _iso(rot: np.ndarray, p: Sequence[float]) -> dart.math.Isometry3:
     return tf
 
 
-Primitive = tuple[dart.dynamics.Shape, np.ndarray, tuple[float, float]]
-
-
-def _box(a: np.ndarray, b: np.ndarray, width: float, inward: float, depth: float) -> Primitive:
-    """Box from ``a`` to ``b`` (2,) of ``width`` [m], centred ``inward`` [m] to the left."""
-    d = b - a
-    u = d / np.linalg.norm(d)
-    c = 0.5 * (a + b) + inward * np.array([-u[1], u[0]])
-    return (dart.dynamics.BoxShape([float(np.linalg.norm(d)), width, depth]),
-            _rotation(float(np.arctan2(u[1], u[0]))), (float(c[0]), float(c[1])))
-
-
-def _sphere(c: np.ndarray, radius: float) -> Primitive:
-    return (dart.dynamics.SphereShape(float(radius)), np.eye(3), (float(c[0]), float(c[1])))
-
-
-def _is_rectangle(v: np.ndarray) -> bool:
-    e = np.roll(v, -1, axis=0) - v
-    corners = np.abs(np.einsum("ij,ij->i", e, np.roll(e, -1, axis=0)))
-    return len(v) == 4 and bool(np.all(corners <= 1e-9 * np.max(np.sum(e * e, axis=1))))
-
-
-#: Kinds of primitives: flat faces (boxes), round geometry (circles, capsule ends), polygon tips.
-FACES, ROUNDS, TIPS = "faces", "rounds", "tips"
-#: Kinds of the two sides of a pair that collide (either order): a sphere on a box or sphere.
-COLLIDING = {(FACES, ROUNDS), (FACES, TIPS), (ROUNDS, ROUNDS)}
-
-
-def primitives(shape: Shape, length: float) -> dict[str, list[Primitive]]:
-    """DART shapes of a 2-D ``shape`` by kind (:data:`FACES`, :data:`ROUNDS`, :data:`TIPS`):
-    ``(shape, rotation (3, 3), centre (2,))`` in the body frame; ``length`` [m] the scene's
-    length scale. A circle is a sphere; a capsule a box (its straight part) and two end
-    spheres; a rectangle one box, another convex polygon one slab per edge (outer face on the
-    edge, :data:`SLAB_OF_SCALE` thick, at most half the polygon's width), and every polygon
-    vertex a sphere of radius :data:`ROUNDING_OF_SCALE` tangent to its two edges."""
-    depth = EXTRUSION_OF_SCALE * length
-    if isinstance(shape, Circle):
-        return {ROUNDS: [_sphere(np.asarray(shape.center, dtype=float), shape.radius)]}
-    if isinstance(shape, Capsule):
-        a, b = np.asarray(shape.a, dtype=float), np.asarray(shape.b, dtype=float)
-        if np.linalg.norm(b - a) <= 1e-9 * length:
-            return {ROUNDS: [_sphere(a, shape.radius)]}
-        return {FACES: [_box(a, b, 2.0 * shape.radius, 0.0, depth)],
-                ROUNDS: [_sphere(a, shape.radius), _sphere(b, shape.radius)]}
-    v = np.asarray(shape.vertices, dtype=float)
-    nxt = np.roll(v, -1, axis=0)
-    u = (nxt - v) / np.linalg.norm(nxt - v, axis=1)[:, None]
-    inward = np.stack([-u[:, 1], u[:, 0]], axis=1)
-    prev = np.roll(inward, 1, axis=0)  # inward normal of the edge ending at each vertex
-    rho = ROUNDING_OF_SCALE * length
-    tips = [_sphere(c, rho) for c in
-            v + rho * (prev + inward) / (1.0 + np.einsum("ij,ij->i", prev, inward))[:, None]]
-    if _is_rectangle(v):  # one box: its first edge, as wide as the second edge is long
-        w = float(np.linalg.norm(v[2] - v[1]))
-        return {FACES: [_box(v[0], v[1], w, 0.5 * w, depth)], TIPS: tips}
-    width = float(min(np.max((v - v[k]) @ inward[k]) for k in range(len(v))))
-    h = min(SLAB_OF_SCALE * length, 0.5 * width)
-    return {FACES: [_box(v[k], nxt[k], h, 0.5 * h, depth) for k in range(len(v))], TIPS: tips}
-
-
-def moment_of_inertia(body: Body) -> float:
-    """Moment of inertia [kg m^2] about the centre of mass: ``body.inertia``, else that of its
-    first shape at uniform density (the formulas pymunk uses, so both engines agree)."""
-    if body.inertia is not None:
-        return float(body.inertia)
-    m, com, shape = body.mass, np.asarray(body.com, dtype=float), body.shapes[0]
-    if isinstance(shape, Circle):
-        return float(m * (0.5 * shape.radius ** 2 + np.sum((np.asarray(shape.center) - com) ** 2)))
-    if isinstance(shape, Capsule):
-        a, b = np.asarray(shape.a, dtype=float), np.asarray(shape.b, dtype=float)
-        length = float(np.linalg.norm(b - a)) + 2.0 * shape.radius
-        return float(m * ((length ** 2 + 4.0 * shape.radius ** 2) / 12.0
-                          + np.sum((0.5 * (a + b) - com) ** 2)))
-    return polygon_inertia(np.asarray(shape.vertices, dtype=float), com, m)
-
-
 class DartBackend:
-    """DART via dartpy (module docstring). No options: every setting is derived from the scene."""
+    """DART via dartpy (module docstring). No options: every setting is derived from the scene
+    (the run's time step, speed and creep floor are the settings table's,
+    :data:`sim.settings.SETTINGS`)."""
 
     name = "dart"
 
@@ -228,7 +141,7 @@ class DartBackend:
     def _static(self, b: Body) -> dart.dynamics.BodyNode:
         skel = self._skeleton(b.name)
         joint, node = skel.createWeldJointAndBodyNodePair(None)
-        joint.setTransformFromParentBodyNode(_iso(_rotation(b.pose[2]), b.pose[:2]))
+        joint.setTransformFromParentBodyNode(_iso(rotation(b.pose[2]), b.pose[:2]))
         skel.setMobile(False)
         return node
 
@@ -269,11 +182,11 @@ class DartBackend:
             joint.setAxis([0.0, 0.0, 1.0])
         else:
             joint, node = skel.createPrismaticJointAndBodyNodePair(parent)
-            ax = _rotation(b.pose[2])[:2, :2].T @ np.asarray(j.axis, dtype=float)
+            ax = rotation(b.pose[2])[:2, :2].T @ np.asarray(j.axis, dtype=float)
             joint.setAxis([float(ax[0]), float(ax[1]), 0.0])
         pp = (self.scene.body(j.parent).pose if j.parent is not None
               and self.scene.body(j.parent).kind != BodyKind.STATIC else (0.0, 0.0, 0.0))
-        rp, rb = _rotation(pp[2]), _rotation(b.pose[2])
+        rp, rb = rotation(pp[2]), rotation(b.pose[2])
         anchor = np.array([j.anchor[0], j.anchor[1], 0.0])
         joint.setTransformFromParentBodyNode(
             _iso(rp.T @ rb, rp.T @ (anchor - np.array([pp[0], pp[1], 0.0]))))
@@ -433,7 +346,9 @@ class DartBackend:
         return int(stats.numSolves - stats.numConverged)
 
     def health(self) -> str | None:
-        """A reason when a skeleton's coordinates or velocities are no longer finite."""
+        """A reason when a skeleton's coordinates or velocities are no longer finite. (Capped
+        contact solves, :attr:`unconverged`, are no alarm: force-indeterminate supports and
+        stacked blocks cap many solves and still agree; docs/engine-dart.md, "Limits".)"""
         for skel in self._skeletons:
             if not (np.all(np.isfinite(skel.getPositions()))
                     and np.all(np.isfinite(skel.getVelocities()))):

@@ -1,6 +1,7 @@
 """Joints whose control mode switches during a run (a whole task's segments may drive other
-joints by velocity and by effort): the engine-neutral part of ``set_control`` of both backends
-(:mod:`sim.backends.pymunk_engine`, :mod:`sim.backends.mujoco_engine`)."""
+joints by velocity and by effort): the engine-neutral part of ``set_control`` of every backend
+(:mod:`sim.backends.pymunk_engine`, :mod:`sim.backends.mujoco_engine`,
+:mod:`sim.backends.dart_engine`)."""
 
 from __future__ import annotations
 
