@@ -16,11 +16,8 @@ from typing import Any
 
 from planner.errors import InputError
 from qsplan.options import MU_MAX, parse_number, parse_numbers
+from scenarios.registry import RUN_ENTRIES
 from sim.settings import ENGINES
-
-RUN_ENTRIES = ("summary.json", "timeline.png", "animation.gif")
-"""What a run folder may get (:func:`scenarios.runs.write_run`: the summary and, unless
-``--no-render``, the pictures of :func:`sim.render.draw_run`), checked before any work."""
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -84,7 +81,7 @@ def run(args: argparse.Namespace) -> int:
         "speed": None if args.speed is None else parse_number(args.speed, "--speed",
                                                               lo=0.0, hi=10.0),
     }
-    entries = ("summary.json",) if args.no_render else RUN_ENTRIES
+    entries = RUN_ENTRIES[:1] if args.no_render else RUN_ENTRIES
     if args.out is not None:
         from planner.files.outputs import output_set
 

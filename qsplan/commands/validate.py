@@ -16,6 +16,7 @@ from typing import Any
 from planner.errors import InputError
 from planner.model.validation import FrictionValue
 from qsplan.options import MU_MAX, fmt, parse_number
+from scenarios.registry import RUN_ENTRIES
 from sim.settings import ENGINES
 
 
@@ -98,6 +99,10 @@ def run(args: argparse.Namespace) -> int:
     path = Path(args.plan)
     if not path.is_file():
         raise InputError(f"plan: expected an existing plan file, got {str(path)!r}")
+    if args.out is not None:  # the destination first; its entries need the plan's mu values
+        from planner.files.outputs import check_output_path
+
+        check_output_path(args.out, "dir")
     plan = load_plan(path)  # FileFormatError (a ValueError) -> exit 2 in cli.main
     if not plan.segments:
         raise InputError(f"plan: expected at least one segment to run, got a partial plan that "
@@ -129,7 +134,7 @@ def output_entries(mus: list[FrictionValue], render: bool) -> tuple[str, ...]:
     (:func:`scenarios.runs.write_run`: ``summary.json`` and, with ``render``, ``timeline.png``
     and ``animation.gif``), or one ``mu_<v>/`` folder per value."""
     if len(mus) == 1:
-        return ("summary.json", "timeline.png", "animation.gif") if render else ("summary.json",)
+        return RUN_ENTRIES if render else RUN_ENTRIES[:1]
     return tuple(dict.fromkeys(f"{mu_folder(mu)}/" for mu in mus))
 
 
