@@ -1,6 +1,8 @@
-"""Defects the extended fuzz campaign found in areas being rewritten by other engineers, pinned
-as strict ``xfail``: each flips to a pass (and must then lose its mark) when its owner fixes it.
-The owner and what the code must do are in each reason; docs/robustness.md lists them."""
+"""Defects the extended fuzz campaign found in areas being rewritten by other engineers: each was
+pinned here as a strict ``xfail`` until its owner fixed it, and is now a plain test.  A new
+finding goes here the same way (a strict ``xfail`` whose reason names the owner and what the
+code must do; docs/robustness.md lists what is refused now).  The ``HAND_FILE`` and
+``PLAN_LOADER`` reasons are kept for them."""
 
 from __future__ import annotations
 

@@ -170,8 +170,8 @@ def segment_intervals(ivs: tuple[tuple[float, float], ...], n_contacts: int, whe
 def checked_segment(seg: Segment, where: str) -> Segment:
     """Check a built segment against its embedded hand: joints per control entry and
     waypoint, the claim's contacts, the ``released`` contact objects, the commands per
-    partition and each waypoint's margin against its bands (:func:`check_margin`).  ``where``: the segment's
-    name in messages (``""`` for a version-1 plan)."""
+    partition and each waypoint's margin against its bands (:func:`check_margin`).
+    ``where``: the segment's name in messages (``""`` for a version-1 plan)."""
     at = f"{where}." if where else ""
     try:
         hand = seg.hand_model.hand
