@@ -49,12 +49,17 @@ def run_hand_plan_negative(out_dir: Path, **options: Any) -> dict[str, Any]:
     return _plan(out_dir, "rival:R1 B2 S-3 S-4", **options)
 
 
+#: What :func:`_plan` writes: the plan, its summary and Figures 10-13
+#: (:func:`planner.plots.bounds.plot_bounds`).
+PLAN_OUTPUTS = ("plan.json", "summary.json", "fig10_bounds_mu_lo.png", "fig11_bounds_mu_hi.png",
+                "fig12_rival_bounds_mu_hi.png", "fig13_guaranteed.png")
+
 register(Scenario(name="hand_plan", summary="two-finger hand: 4S torque bands for mu in [0, 0.2]",
                   reference="Sec. 5.2, Figs. 9-13", expect=Expect.INFO, run=run_hand_plan,
-                  tags=("plan",)))
+                  tags=("plan",), outputs=PLAN_OUTPUTS))
 register(Scenario(name="hand_plan_r2s", summary="negative-control plan: R2S-band torque, claims 4S",
                   reference="Sec. 5.2, Fig. 12", expect=Expect.INFO, run=run_hand_plan_negative,
-                  tags=("plan", "negative-control")))
+                  tags=("plan", "negative-control"), outputs=PLAN_OUTPUTS))
 
 
 def run_hand_task_plan(out_dir: Path, **options: Any) -> dict[str, Any]:
@@ -86,4 +91,6 @@ register(Scenario(name="hand_task_plan",
                   summary="two-finger hand: the whole task from the initial to the goal grasp "
                           "(segment search, mu in [0, 0.2])",
                   reference="Sec. 5.2, Fig. 9 (reconstructed goal)", expect=Expect.INFO,
-                  run=run_hand_task_plan, tags=("plan", "task")))
+                  run=run_hand_task_plan, tags=("plan", "task"),
+                  outputs=("plan_task.json", "summary.json", "task_story.png",
+                           "task_regions.png")))

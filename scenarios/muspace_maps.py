@@ -47,6 +47,12 @@ def _cube_summary(system: System, out_dir: Path, name: str, n: int) -> dict[str,
             "jam_cube_side_at_origin": side}
 
 
+def _outputs(name: str, cube: bool = False) -> tuple[str, ...]:
+    """What :func:`_write` (and :func:`_cube_summary` with ``cube``) write for ``name``."""
+    return (f"{name}_muspace.json", f"{name}_muspace.png", "summary.json",
+            *((f"{name}_muspace3d.json",) if cube else ()))
+
+
 def _write(m: MuSpaceMap, out_dir: Path, name: str, checks: dict[str, bool],
            extra: dict[str, Any] | None = None, decorate: Any = None) -> dict[str, Any]:
     from planner.plots.muspace import plot_slices
@@ -135,8 +141,11 @@ def run_rod(out_dir: Path, n: int = 150, l1: float = 0.3, l2: float = 0.7,
 
 
 register(Scenario(name="muspace_ex41", summary="mu-space map of Example 4.1 (3S, RS, jam)",
-                  reference="Sec. 4.1, eq. 37, Fig. 3", expect=Expect.INFO, run=run_example_41))
+                  reference="Sec. 4.1, eq. 37, Fig. 3", expect=Expect.INFO, run=run_example_41,
+                  outputs=_outputs("example_4_1", cube=True)))
 register(Scenario(name="muspace_ex43", summary="mu-space map of Example 4.3 (four modes)",
-                  reference="Sec. 4.3, eq. 42, Fig. 6", expect=Expect.INFO, run=run_example_43))
+                  reference="Sec. 4.3, eq. 42, Fig. 6", expect=Expect.INFO, run=run_example_43,
+                  outputs=_outputs("example_4_3", cube=True)))
 register(Scenario(name="muspace_rod", summary="rod: R1 S2 / S1 R2 split at l1 mu2 = l2 mu1",
-                  reference="Sec. 5.1, Fig. 8", expect=Expect.INFO, run=run_rod))
+                  reference="Sec. 5.1, Fig. 8", expect=Expect.INFO, run=run_rod,
+                  outputs=_outputs("rod")))

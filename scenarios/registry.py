@@ -25,6 +25,9 @@ __all__ = ["DATA_DIR", "Expect", "Parameter", "PlanRun", "RulerRun", "RunSpec", 
 
 #: The shipped system and hand files (``example_4_1``, ``two_finger_hand``, ...).
 DATA_DIR = Path(__file__).resolve().parent / "data"
+RUN_ENTRIES = ("summary.json", "timeline.png", "animation.gif")
+"""The entries of a run folder (:func:`scenarios.runs.write_run`: the summary and the pictures
+of :func:`sim.render.draw_run`); without rendering only the summary."""
 
 
 def shipped_file(name: str | os.PathLike[str], what: str = "hand") -> Path:
@@ -154,6 +157,11 @@ class Scenario:
     tags : tuple of str
     parameters : tuple of Parameter
         What ``--set`` may change; passed to ``run`` as keywords.
+    outputs : tuple of str
+        The top-level entries ``run`` writes into its folder (a trailing ``/`` for a folder),
+        declared so ``scenarios run --out`` checks them before any work
+        (:func:`planner.files.outputs.output_set`); a ``spec`` scenario writes the run folder
+        of :func:`scenarios.runs.write_run`.
     """
 
     name: str
@@ -165,6 +173,7 @@ class Scenario:
     tags: tuple[str, ...] = field(default_factory=tuple)
     parameters: tuple[Parameter, ...] = ()
     spec: RunSpec | None = None
+    outputs: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         if (self.run is None) == (self.spec is None):

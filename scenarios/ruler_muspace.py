@@ -145,4 +145,5 @@ def run(out_dir: Path, n: int = 120, switches: int = 4, **_: Any) -> dict[str, A
 register(Scenario(name="ruler_muspace",
                   summary="Fig. 8: rod line l1 mu2 = l2 mu1 bouncing between the corners of the "
                           "static/kinetic rectangle",
-                  reference="Sec. 5.1, Figs. 7-8", expect=Expect.INFO, run=run))
+                  reference="Sec. 5.1, Figs. 7-8", expect=Expect.INFO, run=run,
+                  outputs=("ruler_muspace.json", "ruler_muspace.png", "summary.json")))

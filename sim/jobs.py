@@ -5,7 +5,8 @@ any engine and judges it.
 
     system / plan / ruler  --job_for_*-->  SimJob(scene, settings, run settings, expectation,
                                                   thresholds, scale)
-    SimJob  --execute-->  scaled scene -> backend -> run loop -> recording (user units)
+    SimJob  --execute-->  scaled scene -> engine limits (sim.limits.check_scene) -> backend
+                          -> run loop -> recording (user units)
                           -> judge -> Judgement -> RunResult(summary, recording, judgement)
 
 Everything that decides a run is in the job, built by one of three builders from the settings
@@ -38,6 +39,7 @@ from sim.backends import make_backend
 from sim.classify import Thresholds
 from sim.expectation import Expectation, Judgement, ModeSet, Switches
 from sim.judge import judge
+from sim.limits import check_scene
 from sim.run import Recording, RunSettings, run_scene
 from sim.scene import Scene
 from sim.schedule import contact_drive_speed, effort_force, plan_layout
@@ -115,6 +117,7 @@ def execute(job: SimJob) -> RunResult:
     """Run ``job`` in its engine and judge it (module docstring)."""
     s = job.scale
     scene = scaled_masses(scaled_scene(job.scene, s), job.settings.mass_scale)
+    check_scene(scene)  # the scene as built: InputError naming body, value, limit
     run = replace(job.run, slip_speed=job.run.slip_speed * s,
                   penetration_tol=job.run.penetration_tol * s)
     wall = time.perf_counter()

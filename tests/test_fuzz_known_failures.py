@@ -1,6 +1,8 @@
-"""Defects the extended fuzz campaign found in areas being rewritten by other engineers, pinned
-as strict ``xfail``: each flips to a pass (and must then lose its mark) when its owner fixes it.
-The owner and what the code must do are in each reason; docs/robustness.md lists them."""
+"""Defects the extended fuzz campaign found in areas being rewritten by other engineers: each was
+pinned here as a strict ``xfail`` until its owner fixed it, and is now a plain test.  A new
+finding goes here the same way (a strict ``xfail`` whose reason names the owner and what the
+code must do; docs/robustness.md lists what is refused now).  The ``HAND_FILE`` and
+``PLAN_LOADER`` reasons are kept for them."""
 
 from __future__ import annotations
 
@@ -35,69 +37,70 @@ def _plan_exit(path, capsys):
     return code, capsys.readouterr().err
 
 
-@pytest.mark.xfail(strict=True, reason=f"segment.mode 'XYZ' is answered 'cannot guarantee the "
-                                       f"mode' (exit 1): {HAND_FILE}")
 def test_hand_mode_label_of_unknown_letters_is_bad_input(tmp_path, capsys):
     path = _hand(tmp_path, "two_finger_hand.json",
                  lambda d: d["segment"].__setitem__("mode", "XYZ"))
     code, err = _plan_exit(path, capsys)
-    assert code == 2 and "mode" in err, err
+    assert code == 2 and "segment.mode: expected a mode family of 4 contacts" in err, err
+    assert "got 'XYZ'" in err, err
 
 
-@pytest.mark.xfail(strict=True, reason=f"a 5-token mode for 4 contacts is answered 'cannot "
-                                       f"guarantee the mode' (exit 1): {HAND_FILE}")
 def test_hand_mode_label_of_the_wrong_length_is_bad_input(tmp_path, capsys):
     path = _hand(tmp_path, "two_finger_hand.json",
                  lambda d: d["segment"].__setitem__("mode", "S+1 S+2 S-3 S-4 S5"))
     code, err = _plan_exit(path, capsys)
-    assert code == 2 and "mode" in err, err
+    assert code == 2 and "segment.mode: expected" in err and "expected 4 tokens" in err, err
 
 
-@pytest.mark.xfail(strict=True, reason=f"a surface edge given in reverse (the workpiece on its "
-                                       f"outer side) is answered 'segment cannot start' (exit "
-                                       f"1): {HAND_FILE}")
 def test_reversed_surface_edge_is_bad_input(tmp_path, capsys):
     def reverse(d):
         d["environment"][0]["edge"] = d["environment"][0]["edge"][::-1]
 
     code, err = _plan_exit(_hand(tmp_path, "table_push_hand.json", reverse), capsys)
-    assert code == 2 and "edge" in err, err
+    assert code == 2 and "environment[0].edge: expected the workpiece on the inward side" in err, err
 
 
-@pytest.mark.xfail(strict=True, reason="'goal': {'contacts': []} loads (a 0-segment plan that "
-                                       "validate refuses later): planner/files/hand_goal.py "
-                                       "(formats owner) must require at least one goal contact")
 def test_goal_without_contacts_is_bad_input(tmp_path):
     from planner.errors import InputError
     from planner.files.hand_file import load_hand_file
 
     path = _hand(tmp_path, "figure9_task_hand.json",
                  lambda d: d["goal"].__setitem__("contacts", []))
-    with pytest.raises(InputError, match="contacts"):
+    with pytest.raises(InputError, match=r"goal.contacts: expected a non-empty list.*got \[\]"):
         load_hand_file(path)
 
 
-@pytest.mark.xfail(strict=True, reason=f"segment.steps 10000000 is accepted and runs unbounded: "
-                                       f"{HAND_FILE} (bound it, e.g. like --waypoints)")
 def test_unbounded_segment_steps_are_bad_input(tmp_path):
     from planner.errors import InputError
     from planner.files.hand_file import load_hand_file
 
     path = _hand(tmp_path, "two_finger_hand.json",
                  lambda d: d["segment"].__setitem__("steps", 10_000_000))
-    with pytest.raises(InputError, match="steps"):
+    with pytest.raises(InputError, match=r"segment.steps: expected at most 10000 .*, got 10000000"):
         load_hand_file(path)
+
+
+def _saved_plan(root, name, **options):
+    from planner.plan.hand_planner import plan_hand
+    from planner.plan.plan_file import save_plan
+
+    hand = root / name
+    hand.write_bytes((DATA / name).read_bytes())
+    return json.loads(save_plan(plan_hand(hand, waypoints=3, **options),
+                                root / "plan.json").read_text())
 
 
 @pytest.fixture(scope="module")
 def task_plan(tmp_path_factory):
-    from planner.plan.hand_planner import plan_hand
-    from planner.plan.plan_file import save_plan
+    """A plan whose segment has no effort-controlled joint (table push, per-contact friction)."""
+    return _saved_plan(tmp_path_factory.mktemp("plan"), "table_push_hand.json",
+                       model="independent")
 
-    root = tmp_path_factory.mktemp("plan")
-    hand = root / "hand.json"
-    hand.write_bytes((DATA / "table_push_hand.json").read_bytes())
-    return json.loads(save_plan(plan_hand(hand, waypoints=3), root / "plan.json").read_text())
+
+@pytest.fixture(scope="module")
+def band_plan(tmp_path_factory):
+    """A plan whose segment has one effort-controlled joint: its waypoints carry a band."""
+    return _saved_plan(tmp_path_factory.mktemp("band"), "two_finger_hand.json")
 
 
 def _resigned(data, tmp_path):
@@ -116,32 +119,35 @@ def _set_waypoint(key, value):
     return edit
 
 
-@pytest.mark.parametrize("edit", [
-    pytest.param(_set_waypoint("margin", 5.0),
-                 marks=pytest.mark.xfail(strict=True, reason=f"a margin that contradicts the "
-                                                             f"band: {PLAN_LOADER}")),
-    pytest.param(lambda d: d["segments"][0].__setitem__("released", [["x"], 99]),
-                 marks=pytest.mark.xfail(strict=True, reason=f"a garbage 'released': "
-                                                             f"{PLAN_LOADER}")),
-    pytest.param(lambda d: d["segments"][0]["event"].__setitem__("kind", "teleport"),
-                 marks=pytest.mark.xfail(strict=True, reason=f"an unknown event.kind: "
-                                                             f"{PLAN_LOADER}")),
-], ids=["margin", "released", "event_kind"])
-def test_inconsistent_plans_are_refused(task_plan, tmp_path, edit):
+@pytest.mark.parametrize("plan, edit, match", [
+    ("band_plan", _set_waypoint("margin", 5.0),
+     r"segments\[0\]\.waypoints\[0\]\.margin: expected at most .* inside bands\[0\] .*got 5"),
+    ("task_plan", lambda d: d["segments"][0].__setitem__("released", [["x"], 99]),
+     r"segments\[0\]\.released: expected a list of contact objects, got"),
+    ("task_plan", lambda d: d["segments"][0].__setitem__("released", [{"kind": "palm",
+                                                                       "vertex": 99}]),
+     r"segments\[0\]\.released\[0\]\.vertex: expected an integer in \[0, 3\], got"),
+    ("task_plan", lambda d: d["segments"][0]["event"].__setitem__("kind", "teleport"),
+     r"segments\[0\]\.event\.kind: expected one of .*, got 'teleport'"),
+], ids=["margin", "released", "released_contact", "event_kind"])
+def test_inconsistent_plans_are_refused(request, tmp_path, plan, edit, match):
     from planner.errors import InputError
     from planner.plan.plan_file import load_plan
 
-    data = copy.deepcopy(task_plan)
+    data = copy.deepcopy(request.getfixturevalue(plan))
     edit(data)
-    with pytest.raises(InputError):
+    with pytest.raises(InputError, match=match):
         load_plan(_resigned(data, tmp_path))
 
 
-@pytest.mark.xfail(strict=True, reason="the system loader builds the dense (2 n_c, 2 n_c) "
-                                       "Jacobian of contact velocities before any budget check: "
-                                       "planner/files/system_file.py (formats owner) must pass "
-                                       "cost= to read_json (reader.dense_bytes of what it "
-                                       "allocates), so --memory-gib refuses it first")
+def test_consistent_plans_load(request, tmp_path):
+    """The checks above refuse only the edits: the re-signed plans themselves load."""
+    from planner.plan.plan_file import load_plan
+
+    for name in ("band_plan", "task_plan"):
+        assert load_plan(_resigned(copy.deepcopy(request.getfixturevalue(name)), tmp_path))
+
+
 def test_system_loader_checks_the_budget_before_allocating(tmp_path):
     import numpy as np
 
@@ -160,17 +166,14 @@ def test_system_loader_checks_the_budget_before_allocating(tmp_path):
         "manipulator": {"contact_velocities": rng.normal(size=(n, 2)).round(3).tolist()}}))
     set_memory_budget(64 * 2 ** 20)
     try:
-        with pytest.raises(InputError, match="memory budget"):
+        with pytest.raises(InputError, match=r"expected a request within the memory budget "
+                                             r"\(0.0625 GiB\), got .*the \(4000, 4000\) "
+                                             r"Jacobian of 2000 contacts' velocities"):
             load_system(path)
     finally:
         set_memory_budget(None)
 
 
-@pytest.mark.xfail(strict=True, reason="qsplan/commands/validate.py (lead): the command must "
-                                       "declare its entries (output_set(..., entries=('summary."
-                                       "json', 'timeline.png', 'animation.gif', 'mu_<v>/' per "
-                                       "value))) so a FIFO at OUT/summary.json is refused "
-                                       "before any simulation")
 def test_validate_refuses_a_special_entry_before_simulating(tmp_path, monkeypatch, capsys):
     import os
 
@@ -184,7 +187,9 @@ def test_validate_refuses_a_special_entry_before_simulating(tmp_path, monkeypatc
     os.mkfifo(out / "summary.json")
     code = main(["validate", str(ROOT / "tests" / "data" / "plan_v1_two_finger.json"),
                  "--mu", "0.1", "--out", str(out), "--no-render"])
-    assert code == 2 and not ran, capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert code == 2 and not ran, err
+    assert "summary.json" in err and "FIFO" in err, err
 
 
 def test_simulate_summary_never_names_the_staging_folder(tmp_path):
@@ -195,9 +200,6 @@ def test_simulate_summary_never_names_the_staging_folder(tmp_path):
     assert ".qsplan-staging" not in (out / "summary.json").read_text()
 
 
-@pytest.mark.xfail(strict=True, reason="qsplan/commands/simulate.py (lead): -q is ignored (the "
-                                       "result line is printed); the same in validate, "
-                                       "scenarios run and demo")
 def test_quiet_simulate_prints_nothing(tmp_path, capsys):
     from qsplan.cli import main
 

@@ -11,8 +11,9 @@ its capsule link; fixed surfaces besides the palm (a table) are listed under ``e
 an optional ``goal`` says where a whole task should end (:mod:`planner.files.hand_goal`).
 
 Public: :func:`load_hand` / :func:`load_hand_file` (from a path), :func:`hand_from_dict` /
-:func:`hand_file_from_dict` (from parsed content) and :func:`hand_from_plan` (the hand a plan
-embeds: the one entry point for the simulator side).
+:func:`hand_file_from_dict` (from parsed content), :func:`hand_from_plan` (the hand a plan
+embeds: the one entry point for the simulator side) and :func:`contact_spec` (one contact
+object against a loaded hand).
 """
 
 from __future__ import annotations
@@ -40,6 +41,7 @@ from planner.files.reader import read_json
 from planner.model.geometry import rot90
 from planner.model.hand import CONTACT_KINDS, JOINT_KINDS, ContactSpec, Finger, Hand, Link, rotation
 from planner.model.kinematics import REVOLUTE
+from planner.model.modes import check_mode_claim
 from planner.model.validation import friction_interval
 from planner.model.workpiece import check_convex_ccw
 
@@ -50,6 +52,12 @@ HAND_VERSION = 1
 FINGER_MASS = 0.05  # kg
 WORKPIECE_MASS = 0.1  # kg
 SEGMENT_DEFAULTS: Mapping[str, float | int] = {"max_time": 60.0, "waypoints": 41, "steps": 200}
+MAX_WAYPOINTS = 10_000
+"""Most waypoints a segment may have (``segment.waypoints``, ``qsplan plan --waypoints``) and most
+integration steps (``segment.steps``): the adaptive spacing starts from one waypoint per
+integration step (:func:`planner.plan.spacing.initial_times`), and every waypoint costs one
+guaranteed-set evaluation, about 65 ms for the two-finger hand (200 waypoints in 13 s,
+docs/robustness.md), so this bound is a plan of about 11 minutes."""
 
 
 class HandSetup(NamedTuple):
@@ -130,6 +138,13 @@ def hand_file_from_dict(data: Any, source: str = "<dict>") -> HandFile:
             return _hand_file(data)
     except InputError as exc:  # FileFormatError included
         raise FileFormatError(f"{source}: {exc}") from None
+
+
+def contact_spec(obj: Any, i: int, hand: Hand, section: str) -> ContactSpec:
+    """A hand-file contact object (``section[i]`` in messages) parsed against ``hand``'s
+    workpiece vertices, fingers and environment (how a plan's ``released`` contacts are read);
+    raises :class:`FileFormatError` naming the field."""
+    return _contact(obj, i, len(hand.vertices), list(hand.fingers), hand.environment, section)
 
 
 # ---- the sections ----------------------------------------------------------------------------
@@ -260,13 +275,16 @@ def _contact(d: Any, i: int, n_v: int, fingers: list[Finger],
     return ContactSpec("tip", edge=index("edge", n_v), finger=index("finger", n_f))
 
 
-def _segment(seg: Any, n_joints: int) -> SegmentSpec:
+def _segment(seg: Any, n_joints: int, n_contacts: int) -> SegmentSpec:
     seg = as_object(seg, "segment")
     check_keys(seg, "segment", required=("drive", "speed", "mode"),
                optional=tuple(SEGMENT_DEFAULTS), free=FREE_KEYS)
-    mode = string(seg["mode"], "segment.mode")
-    if not mode.strip():
-        raise FileFormatError("segment.mode: expected a mode family or label, got ''")
+    try:
+        mode = check_mode_claim(string(seg["mode"], "segment.mode"), n_contacts)
+    except FileFormatError:
+        raise
+    except InputError as exc:
+        raise FileFormatError(f"segment.mode: {exc}") from None
     if isinstance(seg["drive"], list) or isinstance(seg["speed"], list):
         raw_d, raw_s = seg["drive"], seg["speed"]
         if not (isinstance(raw_d, list) and isinstance(raw_s, list) and raw_d
@@ -284,15 +302,22 @@ def _segment(seg: Any, n_joints: int) -> SegmentSpec:
         speeds = (number(seg["speed"], "segment.speed"),)
     if not any(speeds):
         raise FileFormatError("segment.speed: expected a non-zero rate [rad/s], got 0")
+    counts = {}
+    for key, least in (("waypoints", 2), ("steps", 1)):
+        n = integer(seg.get(key, SEGMENT_DEFAULTS[key]), f"segment.{key}", least)
+        if n > MAX_WAYPOINTS:
+            raise FileFormatError(
+                f"segment.{key}: expected at most {MAX_WAYPOINTS} (each {key[:-1]} is a waypoint "
+                f"the planner evaluates, docs/file-formats.md), got {n}")
+        counts[key] = n
     return SegmentSpec(
         drive=drives[0],
         speed=speeds[0],
         mode=mode,
         max_time=number(seg.get("max_time", SEGMENT_DEFAULTS["max_time"]), "segment.max_time",
                         positive=True),
-        waypoints=integer(seg.get("waypoints", SEGMENT_DEFAULTS["waypoints"]),
-                          "segment.waypoints", 2),
-        steps=integer(seg.get("steps", SEGMENT_DEFAULTS["steps"]), "segment.steps", 1),
+        waypoints=counts["waypoints"],
+        steps=counts["steps"],
         drives=drives,
         speeds=speeds,
     )
@@ -381,7 +406,13 @@ def _hand_file(data: Any) -> HandFile:
             "palm.edge: expected the workpiece on the inward side (left of first->second point), "
             "got it on the other side"
         )
-    segment = _segment(data["segment"], hand.n_joints) if "segment" in data else None
+    for e, (_, ends) in enumerate(env):
+        if rot90(ends[1] - ends[0]) @ (centroid - ends[0]) <= 0:
+            raise FileFormatError(
+                f"environment[{e}].edge: expected the workpiece on the inward side (left of "
+                "first->second point), got it on the other side (the edge given in reverse?)")
+    segment = (_segment(data["segment"], hand.n_joints, len(contacts)) if "segment" in data
+               else None)
     interval, validate = _mu_section(data["mu"], len(contacts)) if "mu" in data else (None, ())
     goal = None
     if "goal" in data:

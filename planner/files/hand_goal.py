@@ -10,7 +10,8 @@ A goal names a workpiece pose with a tolerance, the contacts wanted at the end, 
 default to 1 % of the workpiece size and 0.02 rad; ``contacts`` uses the hand file's contact
 objects and is met when every listed contact is among the hand's contacts at the end (others may
 be present too); ``max_segments`` bounds the task planner's search depth (default 4).
-At least one of ``pose`` and ``contacts`` must be given.  The contact objects are parsed by the
+At least one of ``pose`` and ``contacts`` must be given; ``contacts``, when given, lists at least
+one contact.  The contact objects are parsed by the
 hand file loader (:mod:`planner.files.hand_file`), which passes its contact parser in.
 """
 
@@ -87,8 +88,9 @@ def parse_goal(raw: Any, size: float,
                      "goal.tolerance.position", positive=True)
     ang_tol = number(tol.get("angle", ANGLE_TOLERANCE), "goal.tolerance.angle", positive=True)
     raw_c = g.get("contacts", [])
-    if not isinstance(raw_c, list):
-        raise FileFormatError(f"goal.contacts: expected a list of contacts, got {short(raw_c)}")
+    if not isinstance(raw_c, list) or ("contacts" in g and not raw_c):
+        raise FileFormatError(f"goal.contacts: expected a non-empty list of contacts (omit the "
+                              f"key for a goal pose only), got {short(raw_c)}")
     contacts = tuple(contact(c, i) for i, c in enumerate(raw_c))
     depth = integer(g.get("max_segments", MAX_SEGMENTS), "goal.max_segments", 1, 50)
     return Goal(pose, pos_tol, ang_tol, contacts, depth)

@@ -66,7 +66,7 @@ from planner.files.multibody_file import (
     refuse_body_keys,
     workpieces_to_dict,
 )
-from planner.files.reader import parse_json, read_json
+from planner.files.reader import check_memory, dense_bytes, parse_json, read_json
 from planner.model.chain_geometry import ChainGeometry
 from planner.model.features import size_of, weight_moment_warning
 from planner.model.kinematics import chain_from_dict
@@ -88,15 +88,39 @@ _FORM_KEYS = {
 
 
 def load_system(path: str | os.PathLike[str]) -> System:
-    """Read a system file (format in the module docstring)."""
-    data = read_json(path, "system file")
+    """Read a system file (format in the module docstring); what it will allocate is checked
+    against the memory budget first (:func:`dense_cost`)."""
+    data = read_json(path, "system file", cost=dense_cost)
     return system_from_dict(data, source=f"system file {str(path)!r}")
 
 
 def system_from_json(text: str | bytes, source: str = "<string>") -> System:
     """Parse system-file text (same rules as a file, :func:`planner.files.reader.parse_json`)."""
-    return system_from_dict(parse_json(text, f"system file {source}"),
-                            source=f"system file {source}")
+    data = parse_json(text, f"system file {source}")
+    need, request = dense_cost(data)
+    check_memory(need, f"system file {source}: {request}", "use a smaller problem")
+    return system_from_dict(data, source=f"system file {source}")
+
+
+def dense_cost(data: Any) -> tuple[int, str]:
+    """``(bytes, description)`` of the largest dense array the loader builds from parsed (not
+    yet checked) content: the ``(2 n_c, 2 n_c)`` Jacobian of ``contact_velocities`` or the
+    ``(n_c, 2, n_theta)`` contact Jacobians of a ``chain`` (float64; ``n_c`` counts ``contacts``
+    or ``mu``); malformed content costs 0 here and is refused by the field checks."""
+    raw = data.get("contacts", data.get("mu")) if isinstance(data, Mapping) else None
+    n_c = len(raw) if isinstance(raw, list) else 0
+    manip = data.get("manipulator") if isinstance(data, Mapping) else None
+    if not isinstance(manip, Mapping):
+        return 0, "nothing"
+    if "contact_velocities" in manip:
+        return (dense_bytes(2 * n_c, 2 * n_c),
+                f"the ({2 * n_c}, {2 * n_c}) Jacobian of {n_c} contacts' velocities")
+    chain = manip.get("chain")
+    joints = chain.get("joints") if isinstance(chain, Mapping) else None
+    if isinstance(joints, list):
+        return (dense_bytes(n_c, 2, len(joints)),
+                f"the ({n_c}, 2, {len(joints)}) contact Jacobians of a chain")
+    return 0, "nothing"
 
 
 def _numbers(value: Any, key: str) -> Any:

@@ -305,3 +305,34 @@ def frictionless_duplicates_removed(boundary: tuple[Mode, ...], labels: set[str]
                 continue
         out.append(b)
     return tuple(out)
+
+
+def family_names(n_contacts: int) -> tuple[str, ...]:
+    """Every class name (:attr:`Mode.family`) a mode of ``n_contacts`` contacts can have, from
+    ``B`` (every contact breaking) to ``nR`` (all rolling)."""
+    out: list[str] = []
+    for n_r in range(n_contacts + 1):
+        for n_s in range(n_contacts + 1 - n_r):
+            codes = (ROLL,) * n_r + (SLIDE,) * n_s + (BREAK,) * (n_contacts - n_r - n_s)
+            name = Mode(codes, (0,) * n_contacts).family
+            if name not in out:
+                out.append(name)
+    return tuple(out)
+
+
+def check_mode_claim(text: str, n_contacts: int) -> str:
+    """A claimed mode of ``n_contacts`` contacts: a class name of :func:`family_names` (kept
+    as given) or a full mode string (docs/conventions.md, "Mode notation"; returned in its
+    canonical spelling, single spaces).  Raises :class:`InputError` saying which of the two was
+    expected and why ``text`` is neither."""
+    families = family_names(n_contacts)
+    if text in families:
+        return text
+    try:
+        return Mode.parse(text, n_contacts).label
+    except InputError as exc:
+        shown = ", ".join(families[:8]) + (" ..." if len(families) > 8 else "")
+        raise InputError(
+            f"expected a mode family of {n_contacts} contacts ({shown}) or a mode string of "
+            f"{n_contacts} tokens such as {Mode((SLIDE,) * n_contacts, (1,) * n_contacts).label!r}"
+            f", got {text[:60]!r} ({exc})") from None

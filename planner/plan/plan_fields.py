@@ -11,6 +11,7 @@ from typing import Any
 
 from planner.errors import FileFormatError, InputError
 from planner.files.fields import check_keys, friction_values, short
+from planner.files.hand_file import contact_spec
 from planner.model.modes import Mode
 from planner.model.validation import FrictionValue
 from planner.plan.model import EVENT_KINDS, Event, Segment, segment_hand
@@ -168,8 +169,9 @@ def segment_intervals(ivs: tuple[tuple[float, float], ...], n_contacts: int, whe
 
 def checked_segment(seg: Segment, where: str) -> Segment:
     """Check a built segment against its embedded hand: joints per control entry and
-    waypoint, the claim's contacts, the commands per partition.  ``where``: the segment's
-    name in messages (``""`` for a version-1 plan)."""
+    waypoint, the claim's contacts, the ``released`` contact objects, the commands per
+    partition and each waypoint's margin against its bands (:func:`check_margin`).
+    ``where``: the segment's name in messages (``""`` for a version-1 plan)."""
     at = f"{where}." if where else ""
     try:
         hand = seg.hand_model.hand
@@ -185,6 +187,8 @@ def checked_segment(seg: Segment, where: str) -> Segment:
         Mode.parse(seg.claim, n_c)
     except InputError as exc:
         raise FileFormatError(f"{at}claim: {exc}") from None
+    for i, c in enumerate(seg.released):
+        contact_spec(c, i, hand, f"{at}released")
     n_v, n_e = len(seg.velocity_joints), len(seg.effort_joints)
     for k, w in enumerate(seg.waypoints):
         wat = f"{at}waypoints[{k}]"
@@ -196,7 +200,33 @@ def checked_segment(seg: Segment, where: str) -> Segment:
                 f"{wat}: expected {n_v} velocity_commands and {n_e} torque_commands and bands "
                 f"(one per velocity-/effort-controlled joint), got {len(w.velocity_commands)}, "
                 f"{len(w.torque_commands)} and {len(w.bands)}")
+        check_margin(w.margin, w.torque_commands, w.bands, wat)
     return seg
+
+
+#: Relative rounding allowed between a margin and its bands: the planner computes both from the
+#: same region in float64 (a Chebyshev ball and its axis slices), far below this.
+MARGIN_RTOL = 1e-9
+
+
+def check_margin(margin: float, taus: tuple[float, ...], bands: tuple[tuple[float, float], ...],
+                 where: str) -> None:
+    """A waypoint's ``margin`` against its commands and ``bands`` (docs/plan-format.md): a
+    margin ``m >= 0`` is the radius of a ball of commands around ``torque_commands`` inside the
+    guaranteed region, so its slice along joint ``j`` lies in ``bands[j]``:
+    ``lower_j <= tau_j - m`` and ``tau_j + m <= upper_j``.  A negative margin (the command
+    outside at an end of the hold interval) is not bounded by the bands: the band may be the
+    one end's own."""
+    if not taus or not margin >= 0:
+        return
+    for j, (tau, (lo, hi)) in enumerate(zip(taus, bands)):
+        room = min(tau - lo, hi - tau)
+        scale = max(abs(x) for x in (tau, lo, hi, margin, 1e-300) if math.isfinite(x))
+        if margin > room + MARGIN_RTOL * scale:
+            raise FileFormatError(
+                f"{where}.margin: expected at most {room:.6g}, the room torque_commands[{j}] = "
+                f"{tau:.6g} has inside bands[{j}] = [{lo:.6g}, {hi:.6g}] (a ball of radius "
+                f"margin around the command lies inside every band), got {margin:.6g}")
 
 
 def embedded_hand(hand: dict[str, Any], contacts: list[Any], q: Any, where: str

@@ -5,9 +5,10 @@
   over the hold interval).  It becomes a plan of one segment: the rate and the effort are the
   one-element ``velocity_commands`` and ``torque_commands``, the band the one ``bands`` entry.
 * Version 2: a whole task; its waypoints give ``velocity_commands``, ``torque_commands``, the
-  first of each again as ``velocity_command``/``torque_command`` and ``band`` = the first
-  effort's command ``-+ margin``.  Each effort joint's band becomes its command ``-+ margin``
-  (the Chebyshev ball's extent along that joint: inside the guaranteed region).
+  first of each again as ``velocity_command``/``torque_command`` (checked to be equal) and
+  ``band`` = the first effort's command ``-+ margin``.  Each effort joint's band becomes its
+  command ``-+ margin`` (the Chebyshev ball's extent along that joint: inside the guaranteed
+  region).
 
 Both are verified as version 3 is (:func:`planner.plan.plan_file.plan_from_dict` checks the
 digest first): unknown or missing keys, every field's type and shape, the embedded hand.
@@ -121,6 +122,11 @@ def _waypoint(w: Any, where: str, keys: tuple[str, ...], control: tuple[str, ...
     if "velocity_commands" in keys:  # version 2
         vels = pf.nums(w["velocity_commands"], f"{where}.velocity_commands", n_v)
         taus = pf.nums(w["torque_commands"], f"{where}.torque_commands", n_e)
+        for key, one, first in (("velocity_command", vel, vels[:1]),
+                                ("torque_command", tau, taus[:1])):
+            if first and one != first[0]:  # the simulator reads the list
+                raise FileFormatError(f"{where}.{key}: expected the first of {key}s, "
+                                      f"{first[0]!r}, got {one!r}")
         bands = tuple([band] + [(x - margin, x + margin) for x in taus[1:]]) if n_e else ()
     else:
         vels, taus, bands = (vel,), (tau,), (band,)

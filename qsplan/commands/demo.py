@@ -57,6 +57,11 @@ NEGATIVE_MU = 0.2
 RIVAL = "R2S"
 MAX_JOBS = 64
 TASK = "two-finger hand, guaranteed 4S under uncertain friction (Sec. 5.2)"
+OUTPUTS = ("plan.json", "negative_control/", "task/", "figures/", "story/", "checks.json",
+           "REPORT.md", "index.html")
+"""The entries ``--out`` gets (module docstring, step 3), checked before any work; the folders
+of :data:`RENDERED` only without ``--no-render``."""
+RENDERED = ("figures/", "story/")
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -104,12 +109,22 @@ def run(args: argparse.Namespace) -> int:
     check_int(args.jobs, "--jobs", 1, MAX_JOBS)
     from planner.files.outputs import output_set
 
-    with output_set(args.out, "dir") as work:
-        return _run(args, engines, work)
+    entries = OUTPUTS if not args.no_render else tuple(
+        e for e in OUTPUTS if e not in RENDERED)
+    # the destination and every entry are checked before any work
+    with output_set(args.out, "dir", entries=entries) as work:
+        lines, faults, code = _run(args, engines, work)
+    if not getattr(args, "quiet", False):  # printed once the report is in place
+        print("\n".join(lines))
+    for line in faults:
+        print(line, file=sys.stderr)
+    return code
 
 
-def _run(args: argparse.Namespace, engines: list[str], out: Path) -> int:
-    """The demo with every output written below ``out`` (the staging folder of --out)."""
+def _run(args: argparse.Namespace, engines: list[str], out: Path
+         ) -> tuple[list[str], list[str], int]:
+    """The demo with every output written below ``out`` (the staging folder of --out).
+    Returns the result lines, the simulator faults (for stderr) and the exit code."""
     from planner.errors import FileFormatError
     from planner.files.atomic import atomic_write_json, atomic_write_text
     from planner.plan.hand_planner import plan_hand
@@ -223,15 +238,11 @@ def _run(args: argparse.Namespace, engines: list[str], out: Path) -> int:
     from qsplan.report import write_report
 
     write_report(out, out / "index.html")
-    for c in checks:
-        print(f"[{'ok' if c['held'] else 'FAIL'}] {c['check']}: {c['measured']} "
-              f"(expected {c['expected']})")
-    print(f"qsplan demo: {status}; report in {final} ({total:.0f} s)")
-    if faults:
-        for r in faults:
-            print(f"simulator fault: {r['engine']}: {r['fault']}", file=sys.stderr)
-        return 3
-    return 0 if held else 1
+    lines = [f"[{'ok' if c['held'] else 'FAIL'}] {c['check']}: {c['measured']} "
+             f"(expected {c['expected']})" for c in checks]
+    lines.append(f"qsplan demo: {status}; report in {final} ({total:.0f} s)")
+    fault_lines = [f"simulator fault: {r['engine']}: {r['fault']}" for r in faults]
+    return lines, fault_lines, 3 if faults else 0 if held else 1
 
 
 def _report_md(whole, neg, checks, results, figures, quick, n_wp, t_plan, t_sims, total,

@@ -11,10 +11,10 @@ from pathlib import Path
 from typing import Any
 
 from planner.errors import InputError
+from planner.files.hand_file import MAX_WAYPOINTS
 from qsplan.options import MU_MAX, check_int, fmt, parse_number, parse_range
 from scenarios.registry import shipped_file
 
-MAX_WAYPOINTS = 10_000
 FIGURES = ("fig10_bounds_mu_lo.png", "fig11_bounds_mu_hi.png", "fig12_rival_bounds_mu_hi.png",
            "fig13_guaranteed.png", "regions.png", "task_story.png", "task_regions.png")
 """The entries ``--figures`` may get (``planner.plots.bounds.plot_bounds`` for one effort joint,

@@ -6,6 +6,9 @@ The scenario package and the simulators are imported lazily inside the command.
 from __future__ import annotations
 
 import argparse
+import contextlib
+import io
+from typing import Any
 
 DESCRIPTION = """\
 List or run the registered scenarios: the paper's examples (Sec. 4.1 eq. 37, Sec. 4.3 eq. 42)
@@ -57,10 +60,28 @@ def _run(args: argparse.Namespace) -> int:
     if args.name not in names:  # bad input before any folder is touched
         raise InputError(f"unknown scenario {args.name!r}: expected one of {', '.join(names)}; "
                          f"got {args.name!r}")
-    with output_set(str(args.out), "dir") as work:
+    # the destination and every entry are checked before any work
+    with output_set(str(args.out), "dir", entries=output_entries(
+            all_scenarios()[args.name], render=not args.no_render)) as work:
         final = args.out
         args.out = work
         try:
-            return execute(args)
+            with contextlib.redirect_stdout(io.StringIO()) as result:
+                code = execute(args)
         finally:
             args.out = final
+    if not getattr(args, "quiet", False):  # printed once the outputs are in place
+        print(result.getvalue(), end="")
+    return code
+
+
+def output_entries(scenario: Any, render: bool) -> tuple[str, ...] | None:
+    """The entries ``--out`` gets: a simulator scenario's run folder
+    (:func:`scenarios.runs.write_run`: ``summary.json`` and, with ``render``, the pictures),
+    another scenario's declared ``outputs``; None (checked after the run) when it declares
+    none."""
+    from scenarios.registry import RUN_ENTRIES
+
+    if scenario.spec is not None:
+        return RUN_ENTRIES if render else RUN_ENTRIES[:1]
+    return scenario.outputs or None

@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from qsplan.options import MU_MAX, parse_number, parse_numbers
+from scenarios.registry import RUN_ENTRIES
 from sim.backends import ENGINES, require_engine
 
 
@@ -54,8 +55,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--duration", help="simulated time [s] (default per engine)")
     p.add_argument("--speed", help="speed of the fastest contact [m/s] (default per engine, "
                                    "scaled to the scene)")
-    p.add_argument("--out", help="output folder: summary.json (+ timeline.png); written into "
-                                 "place only when the run has finished")
+    p.add_argument("--out", help="output folder: summary.json (+ timeline.png, animation.gif); "
+                                 "written into place only when the run has finished")
     p.add_argument("--no-render", action="store_true", help="skip the timeline plot")
     p.set_defaults(func=run)
 
@@ -78,15 +79,24 @@ def run(args: argparse.Namespace) -> int:
         "speed": None if args.speed is None else parse_number(args.speed, "--speed",
                                                               lo=0.0, hi=10.0),
     }
+    entries = RUN_ENTRIES[:1] if args.no_render else RUN_ENTRIES
     if args.out is not None:
         from planner.files.outputs import output_set
 
-        with output_set(args.out, "dir") as work:  # the destination is checked first
-            return _run(args, options, work)
-    return _run(args, options, None)
+        # the destination and every entry are checked before any work
+        with output_set(args.out, "dir", entries=entries) as work:
+            line, code = _run(args, options, work)
+    else:
+        line, code = _run(args, options, None)
+    if not getattr(args, "quiet", False):  # printed once the outputs are in place
+        print(json.dumps(line, default=str))
+    return code
 
 
-def _run(args: argparse.Namespace, options: dict[str, Any], work: Path | None) -> int:
+def _run(args: argparse.Namespace, options: dict[str, Any], work: Path | None
+         ) -> tuple[dict[str, Any], int]:
+    """Simulate and judge; write the run into ``work`` (the staging folder of --out).  Returns
+    the result line and the exit code."""
     from planner.files.system_file import load_system
     from scenarios.runs import simulate_system, write_run
     from sim.verdict import Outcome
@@ -100,8 +110,7 @@ def _run(args: argparse.Namespace, options: dict[str, Any], work: Path | None) -
     line = {k: summary[k] for k in ("engine", "status", "agreement", "judged_steps", "reason")}
     line["predicted"] = summary["predicted"]["labels"]
     line["observed"] = summary["observed"]["counts"]
-    print(json.dumps(line, default=str))
     outcome = res.verdict.outcome
     if outcome is Outcome.FAULT:
-        return 3
-    return 0 if outcome is Outcome.AGREED else 1
+        return line, 3
+    return line, 0 if outcome is Outcome.AGREED else 1

@@ -11,10 +11,12 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import Any
 
 from planner.errors import InputError
 from planner.model.validation import FrictionValue
 from qsplan.options import MU_MAX, fmt, parse_number
+from scenarios.registry import RUN_ENTRIES
 from sim.backends import ENGINES, require_engine
 
 
@@ -89,36 +91,64 @@ def check_contacts(mus: list[FrictionValue], n_c: int) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from planner.plan.plan_file import load_plan
+
     require_engine(args.engine, "--engine")
     mus = parse_mu_list(args.mu) if args.mu is not None else None
     path = Path(args.plan)
     if not path.is_file():
         raise InputError(f"plan: expected an existing plan file, got {str(path)!r}")
-    if args.out is not None:
-        from planner.files.outputs import output_set
+    if args.out is not None:  # the destination first; its entries need the plan's mu values
+        from planner.files.outputs import check_output_path
 
-        with output_set(args.out, "dir") as work:
-            return _run(args, path, mus, work)
-    return _run(args, path, mus, None)
-
-
-def _run(args: argparse.Namespace, path: Path, mus: list[FrictionValue] | None,
-         work: Path | None) -> int:
-    """Validate the plan at ``path``; outputs go to ``work`` (the staging folder of --out).
-    A plan of one segment and a whole task both run through
-    :func:`scenarios.runs.validate_plan` (one continuous run, a verdict per segment)."""
-    from planner.plan.plan_file import load_plan
-    from scenarios.runs import validate_plan, write_run
-    from sim.verdict import Outcome
-
+        check_output_path(args.out, "dir")
     plan = load_plan(path)  # FileFormatError (a ValueError) -> exit 2 in cli.main
     if not plan.segments:
         raise InputError(f"plan: expected at least one segment to run, got a partial plan that "
                          f"stops before its first ({str(path)!r})")
     mus = _mu_values(mus, plan.validate_mu)
     check_contacts(mus, len(plan.segments[0].mu_intervals))
+    render = not args.no_render and len(plan.segments) == 1
+    if args.out is not None:
+        from planner.files.outputs import output_set
+
+        # the destination and every entry are checked before any simulation
+        with output_set(args.out, "dir", entries=output_entries(mus, render)) as work:
+            lines, code = _run(args, plan, path, mus, work, render)
+    else:
+        lines, code = _run(args, plan, path, mus, None, render)
+    if not getattr(args, "quiet", False):  # printed once the outputs are in place
+        print("\n".join(lines))
+    return code
+
+
+def mu_folder(mu: FrictionValue) -> str:
+    """The folder of one friction value's run when several are validated: ``mu_0.1``,
+    ``mu_0.1-0.2-0.3`` (per contact)."""
+    return f"mu_{mu_text(mu).replace('/', '-')}"
+
+
+def output_entries(mus: list[FrictionValue], render: bool) -> tuple[str, ...]:
+    """The entries ``--out`` gets: one friction value's run folder
+    (:func:`scenarios.runs.write_run`: ``summary.json`` and, with ``render``, ``timeline.png``
+    and ``animation.gif``), or one ``mu_<v>/`` folder per value."""
+    if len(mus) == 1:
+        return RUN_ENTRIES if render else RUN_ENTRIES[:1]
+    return tuple(dict.fromkeys(f"{mu_folder(mu)}/" for mu in mus))
+
+
+def _run(args: argparse.Namespace, plan: Any, path: Path, mus: list[FrictionValue],
+         work: Path | None, render: bool) -> tuple[list[str], int]:
+    """Validate ``plan`` (read from ``path``) at each friction value; outputs go to ``work``
+    (the staging folder of --out).  A plan of one segment and a whole task both run through
+    :func:`scenarios.runs.validate_plan` (one continuous run, a verdict per segment).  Returns
+    the lines to print and the exit code."""
+    from scenarios.runs import validate_plan, write_run
+    from sim.verdict import Outcome
+
     n_seg = len(plan.segments)
     statuses = []
+    lines: list[str] = []
     for mu in mus:
         res = validate_plan(plan, args.engine, mu, name=f"validate {path.name} mu={mu_text(mu)}",
                             source=str(path))
@@ -126,30 +156,29 @@ def _run(args: argparse.Namespace, path: Path, mus: list[FrictionValue] | None,
         statuses.append(v.outcome)
         wall = f"[{res.summary.wall_time_s:.1f} s]"
         if n_seg > 1:
-            print(f"{args.engine} mu={mu_text(mu)}: {v.outcome.value.upper()} (whole task, "
-                  f"{len(res.judgement.segments)} of {n_seg} segments run) {wall}")
+            lines.append(f"{args.engine} mu={mu_text(mu)}: {v.outcome.value.upper()} (whole "
+                         f"task, {len(res.judgement.segments)} of {n_seg} segments run) {wall}")
             for sv in res.judgement.segments:
                 pm = sv.verdict.plan
                 extra = (f"claim observed {pm.claim_fraction:.1%}, final position "
                          f"{pm.final_error_of_travel:.2%} of its travel" if pm is not None else
                          sv.verdict.reason)
-                print(f"  segment {sv.index + 1} {sv.claim}: {sv.verdict.outcome.value} "
-                      f"({extra})")
+                lines.append(f"  segment {sv.index + 1} {sv.claim}: {sv.verdict.outcome.value} "
+                             f"({extra})")
         elif v.plan is not None:
             pm = v.plan
-            print(f"{args.engine} mu={mu_text(mu)}: {v.outcome.value.upper()}  "
-                  f"claim {pm.claim.label!r} observed {pm.claim_fraction:.1%} (predicted modes "
-                  f"{pm.predicted_fraction:.1%}), final position "
-                  f"{pm.final_error_of_travel:.2%} of travel {wall}")
+            lines.append(f"{args.engine} mu={mu_text(mu)}: {v.outcome.value.upper()}  "
+                         f"claim {pm.claim.label!r} observed {pm.claim_fraction:.1%} (predicted "
+                         f"modes {pm.predicted_fraction:.1%}), final position "
+                         f"{pm.final_error_of_travel:.2%} of travel {wall}")
         else:
-            print(f"{args.engine} mu={mu_text(mu)}: {v.outcome.value.upper()} {wall}")
+            lines.append(f"{args.engine} mu={mu_text(mu)}: {v.outcome.value.upper()} {wall}")
         if v.outcome is not Outcome.AGREED:
-            for r in v.reasons:
-                print(f"    {r}")
+            lines.extend(f"    {r}" for r in v.reasons)
         if work is not None:
-            out = work if len(mus) == 1 else work / f"mu_{mu_text(mu).replace('/', '-')}"
-            write_run(res, out, render=not args.no_render and n_seg == 1)
-    return _exit_code(statuses)
+            out = work if len(mus) == 1 else work / mu_folder(mu)
+            write_run(res, out, render=render)
+    return lines, _exit_code(statuses)
 
 
 def _mu_values(mus: list[FrictionValue] | None, validate_mu: tuple[FrictionValue, ...]
