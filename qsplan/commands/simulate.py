@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from planner.errors import InputError
-from qsplan.options import MU_MAX, parse_number, parse_numbers
+from qsplan.options import MU_MAX, input_warnings, parse_number, parse_numbers
 from sim.settings import ENGINES
 
 
@@ -93,7 +93,8 @@ def _run(args: argparse.Namespace, options: dict[str, Any], work: Path | None) -
     from scenarios.runs import simulate_system, write_run
     from sim.verdict import Outcome
 
-    system = load_system(args.system)  # FileFormatError -> exit 2
+    with input_warnings("simulate"):  # a GeometryWarning: one line on stderr
+        system = load_system(args.system)  # FileFormatError -> exit 2
     res = simulate_system(system, args.engine, name=f"simulate {Path(args.system).name}",
                           source=str(args.system), **options)
     summary = res.summary.to_dict()
