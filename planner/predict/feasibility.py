@@ -19,8 +19,7 @@ largest commanded contact-point speed, forces by the largest applicable force of
 the smallest normalised slack is the mode's ``margin``.  Closed constraints (Coulomb, eq. 28) pass
 when ``margin >= -tol`` and the mode is flagged ``on_boundary`` when ``|margin| <= tol``.  Strict
 kinematic constraints (breaking contacts separate, sliding contacts slip) need ``margin > tol``;
-modes that miss them by at most ``tol`` and whose forces pass eq. (28) are listed in
-:attr:`Prediction.boundary_modes` (:func:`boundary_modes_of`).
+modes that miss them by at most ``tol``, forces passing eq. (28), are ``boundary_modes``.
 Matrices whose equilibrated determinant is below ``singular_tol`` violate the rank conditions
 (30)-(32) and the mode is counted as ``degenerate``.
 """
@@ -46,6 +45,7 @@ from planner.model.modes import (
 )
 from planner.model.system import System
 from planner.model.validation import as_friction
+from planner.predict.boundary import boundary_modes_of
 from planner.predict.indeterminate import (
     DEFAULT_MAX_ROW_SUBSETS,
     GEN_TOL,
@@ -353,31 +353,6 @@ def predict_candidates(
         max_subsets=max_subsets, relaxed=relaxed, method=method,
     )
     return prediction, len(idx)
-
-
-def boundary_modes_of(system: System, cand: CandidateSet, kin: KinematicStage,
-                      mu_arr: np.ndarray, *, tol: float, singular_tol: float) -> tuple[Mode, ...]:
-    """The boundary-tolerance modes among ``cand``: candidates that miss a strict kinematic
-    constraint (eq. 25: a breaking contact separates; eq. 16: a sliding contact slips) by at
-    most ``tol`` (``kin.boundary``) and whose contact forces pass the force stage (eqs. 26-28,
-    Coulomb to ``-tol``): the modes that would be feasible if that strict inequality were closed.
-
-    A sliding contact with ``xi = 0`` (its slip speed exactly zero) is force-tested sliding
-    towards ``+t`` (``c_t = -mu c_n``), the direction that owns it in the pruned search
-    (:class:`planner.predict.search_tree.LeafBatches`), and keeps the unsigned label ``S``.
-    Because the set depends on each candidate's own arithmetic only, exhaustive enumeration
-    and the pruned search (whose relaxations every such mode satisfies) list the same modes.
-    """
-    bidx = kin.boundary.nonzero()[0]
-    if not len(bidx):
-        return ()
-    xi_b = kin.xi.take(bidx, axis=0)
-    own_xi = np.where(cand.masks[1].take(bidx, axis=0) & (xi_b == 0), 1, xi_b)
-    fs = force_stage(system, cand, bidx, own_xi, mu_arr, tol=tol, singular_tol=singular_tol)
-    ok = fs.nonsingular[0] & (fs.margin[0] >= -tol)
-    codes = cand.codes
-    return tuple(Mode(tuple(codes[i].tolist()), tuple(xi_b[j].tolist()))
-                 for j, i in enumerate(bidx.tolist()) if ok[j])
 
 
 def finish_prediction(

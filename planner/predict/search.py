@@ -48,7 +48,7 @@ the velocity rows to ``tol * velocity_scale`` (kinematic boundary cases included
 pruned.  The children partition the candidates, and each surviving candidate is decided by
 the same arithmetic as :func:`planner.predict.feasibility.feasible_modes` (same row order and
 equilibration, one candidate's arithmetic independent of its batch).  The boundary-tolerance
-modes (:func:`planner.predict.feasibility.boundary_modes_of`: a strict kinematic row missed by at
+modes (:func:`planner.predict.boundary.boundary_modes_of`: a strict kinematic row missed by at
 most ``tol``, the forces passing eq. 28) satisfy every ancestor's relaxation too (the power row
 within ``mu tol`` of the velocity scale), so the search lists the same ones.  Difference by
 design: ``degenerate`` counts singular candidates among those tested.
