@@ -14,9 +14,11 @@ fix (docs/conventions.md, "Geometry of contacts"):
    angles or positions) every contact's signed gap is within :data:`START_GAP` times the
    workpiece's size.  The loader re-closes the configuration (Gauss-Newton,
    :meth:`planner.model.hand.Hand.close`), so written coordinates may be rounded; a gap or an
-   overlap of a quarter of the workpiece's size is no rounding but a wrong pose, angle or
-   feature index (a wrong vertex of a polygon whose size is ``L`` is typically ``L/2`` or more
-   away).
+   overlap of a quarter of the workpiece's size ``L`` is no rounding but a wrong pose, angle or
+   feature index: it is below the edge length ``L sin(pi / n)`` of a regular polygon of up to
+   12 edges (``0.26 L`` at 12), the step a neighbouring vertex or edge index makes, and far
+   above what rounded angles leave (the shipped files: at most ``0.1 L``, a finger angle written
+   0.15 rad off).
 2. **On both features.** At the closed configuration the contact point lies on the palm or
    surface segment, along the finger link, or on the workpiece edge: its fraction along the
    feature is in ``[0, 1]`` to :data:`GEOMETRY_TOL`.
