@@ -10,11 +10,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from planner.model.modes import CandidateSet, Mode
+from planner.model.modes import SLIDE, CandidateSet, Mode, candidates_from_codes
 from planner.model.system import System
 from planner.predict.stages import KinematicStage, force_stage
 
-__all__ = ["boundary_modes_of"]
+__all__ = ["boundary_modes_of", "force_checked"]
 
 
 def boundary_modes_of(system: System, cand: CandidateSet, kin: KinematicStage,
@@ -31,12 +31,22 @@ def boundary_modes_of(system: System, cand: CandidateSet, kin: KinematicStage,
     and the pruned search (whose relaxations every such mode satisfies) list the same modes.
     """
     bidx = kin.boundary.nonzero()[0]
-    if not len(bidx):
+    return force_checked(system, cand.codes.take(bidx, axis=0), kin.xi.take(bidx, axis=0),
+                         mu_arr, tol=tol, singular_tol=singular_tol)
+
+
+def force_checked(system: System, codes: np.ndarray, xi: np.ndarray, mu_arr: np.ndarray, *,
+                  tol: float, singular_tol: float) -> tuple[Mode, ...]:
+    """The candidates ``codes (m, n_c)`` on a kinematic boundary, with their sliding directions
+    ``xi (m, n_c)``, whose forces pass the force stage at friction ``mu_arr (n_c,)`` (see
+    :func:`boundary_modes_of`; also used by :func:`planner.predict.batch.predict_batch`)."""
+    if not len(codes):
         return ()
-    xi_b = kin.xi.take(bidx, axis=0)
-    own_xi = np.where(cand.masks[1].take(bidx, axis=0) & (xi_b == 0), 1, xi_b)
-    fs = force_stage(system, cand, bidx, own_xi, mu_arr, tol=tol, singular_tol=singular_tol)
+    cand = candidates_from_codes(np.asarray(codes, dtype=np.int8), system.dof)
+    xi = np.asarray(xi)
+    own_xi = np.where((cand.codes == SLIDE) & (xi == 0), 1, xi)
+    fs = force_stage(system, cand, np.arange(len(codes)), own_xi, mu_arr, tol=tol,
+                     singular_tol=singular_tol)
     ok = fs.nonsingular[0] & (fs.margin[0] >= -tol)
-    codes = cand.codes
-    return tuple(Mode(tuple(codes[i].tolist()), tuple(xi_b[j].tolist()))
-                 for j, i in enumerate(bidx.tolist()) if ok[j])
+    return tuple(Mode(tuple(cand.codes[j].tolist()), tuple(xi[j].tolist()))
+                 for j in np.flatnonzero(ok).tolist())
