@@ -272,6 +272,25 @@ def _figures(root: Path, images: list[Path], heading: str | None,
     return out
 
 
+def distinct_pictures(root: Path, images: list[Path]) -> list[Path]:
+    """``images`` without byte-identical repeats (the runs of one plan or system at several
+    frictions or engines draw the same problem): the first of each kept."""
+    import hashlib
+
+    seen: set[str] = set()
+    out = []
+    for rel in images:
+        try:
+            with open(root / rel, "rb") as f:  # never more than an embeddable image
+                digest = hashlib.sha256(f.read(MAX_EMBED_BYTES + 1)).hexdigest()
+        except OSError:
+            digest = str(rel)
+        if digest not in seen:
+            seen.add(digest)
+            out.append(rel)
+    return out
+
+
 def report_title(run_dir: str | Path) -> str:
     """The run folder's name as the report shows it: its final name when it is a staging
     folder being written (:func:`planner.files.outputs.final_path`)."""
@@ -311,7 +330,7 @@ def build_html(run_dir: str | Path) -> str:
     problems = [rel for rel in rest if rel.name == PROBLEM_PICTURE]
     if problems:
         out.append("<h2>The problem (qsplan draw of the file each run came from)</h2>")
-        out += _figures(root, problems, title, budget)
+        out += _figures(root, distinct_pictures(root, problems), title, budget)
         rest = [rel for rel in rest if rel not in problems]
     if any(rel.parts[0] == "story" for rel in rest if len(rel.parts) > 1):
         for name, title in STORY_FOLDERS:
