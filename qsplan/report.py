@@ -2,7 +2,8 @@
 
 Scans a run directory recursively for
 
-* ``*.png``, ``*.gif``: embedded as base64 ``<img>``, grouped by folder;
+* ``*.png``, ``*.gif``: embedded as base64 ``<img>``, grouped by folder; ``problem.png`` (the
+  drawing of the file a run came from, written with the run) first;
 * ``checks*.json``: ``{"task", "held", "checks": [{"check", "expected", "measured", "held"}]}``
   as ``qsplan demo`` writes it, shown first;
 * ``summary*.json``: one table row each (``scenario``, ``engine``, ``expect``, ``status``,
@@ -35,6 +36,7 @@ from pathlib import Path
 from planner.errors import InputError, QsplanError
 from planner.files.atomic import atomic_write_bytes
 from planner.files.reader import read_json
+from planner.plots.draw_file import PROBLEM_PICTURE
 
 _MIME = {".png": "image/png", ".gif": "image/gif"}
 SUMMARY_FIELDS = ("scenario", "engine", "expect", "status", "agreement", "passed", "reason")
@@ -270,6 +272,25 @@ def _figures(root: Path, images: list[Path], heading: str | None,
     return out
 
 
+def distinct_pictures(root: Path, images: list[Path]) -> list[Path]:
+    """``images`` without byte-identical repeats (the runs of one plan or system at several
+    frictions or engines draw the same problem): the first of each kept."""
+    import hashlib
+
+    seen: set[str] = set()
+    out = []
+    for rel in images:
+        try:
+            with open(root / rel, "rb") as f:  # never more than an embeddable image
+                digest = hashlib.sha256(f.read(MAX_EMBED_BYTES + 1)).hexdigest()
+        except OSError:
+            digest = str(rel)
+        if digest not in seen:
+            seen.add(digest)
+            out.append(rel)
+    return out
+
+
 def report_title(run_dir: str | Path) -> str:
     """The run folder's name as the report shows it: its final name when it is a staging
     folder being written (:func:`planner.files.outputs.final_path`)."""
@@ -287,8 +308,9 @@ STORY_FOLDERS = (("story", "The task: start, segments and goal"),
 
 
 def build_html(run_dir: str | Path) -> str:
-    """The report page as one HTML string with every image inlined as base64: the story
-    figures first (:data:`STORY_FOLDERS`), then what held (checks, summaries, plans), then the
+    """The report page as one HTML string with every image inlined as base64: the drawing of
+    the problem (:data:`planner.plots.draw_file.PROBLEM_PICTURE`), the story figures
+    (:data:`STORY_FOLDERS`), then what held (checks, summaries, plans), then the
     other figures."""
     root = Path(run_dir)
     found = scan_run(root)
@@ -305,6 +327,11 @@ def build_html(run_dir: str | Path) -> str:
         f"<h1>qsplan report: {esc(title)}</h1>",
     ]
     rest = list(found.images)
+    problems = [rel for rel in rest if rel.name == PROBLEM_PICTURE]
+    if problems:
+        out.append("<h2>The problem (qsplan draw of the file each run came from)</h2>")
+        out += _figures(root, distinct_pictures(root, problems), title, budget)
+        rest = [rel for rel in rest if rel not in problems]
     if any(rel.parts[0] == "story" for rel in rest if len(rel.parts) > 1):
         for name, title in STORY_FOLDERS:
             mine = [rel for rel in rest if len(rel.parts) > 1 and rel.parts[0] == name]

@@ -120,10 +120,42 @@ def write_run(result: RunResult, out_dir: str | Path, *, render: bool = True,
         from sim.render import draw_run
 
         files = draw_run(result, out, animation=animation)
+        from planner.plots.draw_file import PROBLEM_PICTURE
+
+        problem = draw_problem(summary.source, out / PROBLEM_PICTURE)
+        if problem is not None:
+            files = {"problem": problem, **files}
         summary = replace(summary, files={k: Path(v).name for k, v in files.items()})
     data = {**summary.to_dict(), **(extra or {})}
     atomic_write_json(out / "summary.json", data)
     return data
+
+
+def draw_problem(source: str | None, out: Path) -> Path | None:
+    """Draw the file a run came from (``source``: a path, or the name of a shipped file) into
+    ``out`` with :func:`planner.plots.draw_file.draw_file`: the system, hand or plan as
+    ``qsplan draw`` shows it.  None when there is no source or it cannot be found or drawn
+    (a partial plan): the run's own results do not depend on the picture."""
+    import warnings
+
+    from planner.errors import GeometryWarning, QsplanError
+    from planner.plots.draw import save_drawing
+    from planner.plots.draw_file import draw_file
+    from scenarios.registry import shipped_file
+
+    if not source:
+        return None
+    try:
+        path = Path(source) if Path(source).is_file() else shipped_file(source, "system")
+    except QsplanError:
+        return None
+    try:
+        with warnings.catch_warnings():  # the loader's warning was shown when the run began
+            warnings.simplefilter("ignore", GeometryWarning)
+            fig = draw_file(path)
+    except QsplanError:
+        return None
+    return save_drawing(fig, out)
 
 
 def run_scenario(scenario: Any, out_dir: str | Path, **options: Any) -> dict[str, Any]:

@@ -213,12 +213,12 @@ def plan_layout(plan: Any, *, torques: np.ndarray | None = None,
     parts = []
     for seg in segs:
         h, q = seg.hand_model
-        cs = list(seg.contacts)
-        if len(cs) != h.n_contacts:
+        objects = tuple(seg.contacts)
+        if len(objects) != h.n_contacts:
             raise InputError(f"plan: expected {h.n_contacts} contact objects for a "
-                             f"segment, got {len(cs)}")
+                             f"segment, got {len(objects)}")
         parts.append((h, np.asarray(q, dtype=float),
-                      SegmentSchedule.from_segment(seg, h.n_contacts, torques), tuple(cs)))
+                      SegmentSchedule.from_segment(seg, h.n_contacts, torques), objects))
     if waypoints is not None:
         if len(parts) != 1:
             raise InputError(f"waypoints: expected a one-segment plan, got {len(parts)} "
@@ -227,10 +227,11 @@ def plan_layout(plan: Any, *, torques: np.ndarray | None = None,
     keys: list[str] = []
     specs: list[Any] = []
     refs: list[np.ndarray] = []
-    members, starts = [], []
+    members: list[tuple[int, ...]] = []
+    starts: list[float] = []
     t0 = 0.0
     for h, q, sched, cs in parts:
-        idx = []
+        idx: list[int] = []
         for i, c in enumerate(cs):
             if _key(c) not in keys:
                 keys.append(_key(c))

@@ -107,3 +107,16 @@ def test_systems_with_different_numbers_of_bodies_are_refused():
     assert (one.n_contacts, one.n_joints, one.n_bodies) == (two.n_contacts, two.n_joints, 1)
     with pytest.raises(InputError, match=r"systems\[1\]: expected .*1 bodies.*got .*2 bodies"):
         feasible_modes_batch([one, two])
+
+
+def test_batch_lists_the_same_boundary_modes():
+    """A box on 8 evenly spaced supports pushed by one finger (tests/test_search.py's
+    geometry-first box) at three frictions: many kinematic boundary candidates, only some with
+    forces within Coulomb; the batch and the single call list the same boundary-tolerance
+    modes."""
+    from test_search import box_on_supports as pushed_box
+
+    systems = [pushed_box(8, mu) for mu in (0.2, 0.5, 0.9)]
+    single = [feasible_modes(s) for s in systems]
+    assert all(p.boundary_modes for p in single)
+    assert_same(single, feasible_modes_batch(systems))

@@ -10,6 +10,7 @@ import re
 import subprocess
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from qsplan.cli import main
@@ -90,3 +91,58 @@ def test_demo_report_images_load(tmp_path):
     loaded, total = _loaded_images(page, tmp_path / "profile")
     assert total >= 4
     assert loaded == total
+
+
+PROBE = ("<script>window.onload=()=>{const i=document.querySelector(\"img[alt='problem.png']\");"
+         "const r=i.getBoundingClientRect();document.body.setAttribute('data-problem',"
+         "[r.x,r.y,r.width,r.height,i.naturalWidth].map(Math.round).join(','))}</script></body>")
+WINDOW = (1100, 1000)
+
+
+def _problem_rect(page: Path, profile: Path) -> tuple[int, int, int, int, int]:
+    """Where the problem drawing sits on the page, as laid out by Chromium at WINDOW:
+    ``(x, y, width, height, naturalWidth)`` in CSS pixels."""
+    probe = page.with_name("probe_problem.html")
+    probe.write_text(page.read_text().replace("</body>", PROBE))
+    out = subprocess.run(
+        [str(CHROMIUM), *FLAGS, f"--user-data-dir={profile}", "--hide-scrollbars",
+         f"--window-size={WINDOW[0]},{WINDOW[1]}", "--dump-dom", probe.as_uri()],
+        capture_output=True, text=True, timeout=50).stdout
+    m = re.search(r'data-problem="(\d+),(\d+),(\d+),(\d+),(\d+)"', out)
+    assert m, f"no problem drawing on the page; chromium printed {out[:300]!r}"
+    x, y, w, h, nat = (int(v) for v in m.groups())
+    return x, y, w, h, nat
+
+
+def screenshot(page: Path, out: Path, profile: Path) -> Path:
+    """A screenshot of ``page`` (the top WINDOW pixels) taken by headless Chromium."""
+    subprocess.run([str(CHROMIUM), *FLAGS, f"--user-data-dir={profile}", "--hide-scrollbars",
+                    f"--window-size={WINDOW[0]},{WINDOW[1]}", f"--screenshot={out}",
+                    page.as_uri()], capture_output=True, text=True, timeout=50)
+    assert out.exists(), "chromium wrote no screenshot"
+    return out
+
+
+def test_screenshot_of_a_run_report_shows_the_problem_drawing(tmp_path):
+    """``qsplan simulate`` of the geometry-first box writes problem.png (its ``qsplan draw``) into
+    the run folder; the report shows it first; in Chromium's screenshot the drawing's area holds
+    the workpiece's fill (tab:blue at alpha 0.2 on white: about (210, 227, 240)) and the red
+    contact markers (tab:red (214, 39, 40)), i.e. the drawing itself, rendered, at the top."""
+    from PIL import Image
+
+    run = tmp_path / "run"
+    system = Path(__file__).parent.parent / "scenarios" / "data" / "geometry_box_low.json"
+    assert main(["-q", "simulate", str(system), "--duration", "0.5", "--out", str(run)]) == 0
+    assert (run / "problem.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    page = write_report(run, tmp_path / "report.html")
+    x, y, w, h, natural = _problem_rect(page, tmp_path / "profile")
+    assert natural > 0 and w > 300 and h > 200 and y + h <= WINDOW[1]  # decoded, on screen
+    shot = Image.open(screenshot(page, tmp_path / "shot.png", tmp_path / "profile2"))
+    pixels = np.asarray(shot.convert("RGB").crop((x, y, x + w, y + h)), dtype=int)
+    fill = np.all(np.abs(pixels - (210, 227, 240)) <= 6, axis=2).mean()
+    red = np.all(np.abs(pixels - (214, 39, 40)) <= 20, axis=2).sum()
+    assert fill > 0.05, f"workpiece fill covers {fill:.1%} of the drawing"
+    assert red >= 20, f"{red} contact-red pixels"
+    # outside the drawing (the table below it) there is no workpiece fill: the check can fail
+    below = np.asarray(shot.convert("RGB").crop((0, y + h + 60, WINDOW[0], WINDOW[1])), dtype=int)
+    assert np.all(np.abs(below - (210, 227, 240)) <= 6, axis=2).mean() < 0.01

@@ -262,3 +262,18 @@ def test_existing_files_keep_their_answers():
             assert m.qdot.tolist() == q, name
             if f is not None:
                 assert m.contact_forces.tolist() == f, name
+
+
+def test_simulate_prints_the_weight_warning_as_one_line(tmp_path):
+    """``qsplan simulate`` reports the forgotten moment as ``modes`` does: one clean line on
+    stderr, not a Python warnings line with a file name and a source line."""
+    wrong = json.loads(json.dumps(OLD_BOX))
+    wrong["workpiece"]["com"] = [0.05, 0.1]
+    wrong["external_wrench"] = [0, -1, 0]
+    res = qsplan("simulate", str(write(tmp_path, "w.json", wrong)), "--duration", "0.4",
+                 "--no-render")
+    assert res.returncode in (0, 1), res.stderr
+    lines = [ln for ln in res.stderr.splitlines() if "looks like the weight" in ln]
+    assert len(lines) == 1 and lines[0].startswith(
+        "qsplan simulate: warning: workpiece: external_wrench [0, -1, 0] looks like the weight")
+    assert "GeometryWarning" not in res.stderr and "warnings.warn" not in res.stderr

@@ -40,9 +40,14 @@ def test_carried_block_is_force_indeterminate_2r(mu):
 def test_carried_block_slips_below_drag_ratio():
     pred = feasible_modes(carried_block(0.05))
     assert pred.status is Status.JAMMED  # 2S has rank W_A = 2 (condition 30): not a mode
-    # one contact rolling forces the other to roll too: sliding there is a strict-boundary case
-    # (xi = 0 there, written "S" without a sign)
-    assert sorted(m.label for m in pred.boundary_modes) == ["R1 S2", "S1 R2"]
+    # one contact rolling forces the other to roll too: sliding there is a kinematic boundary
+    # case (xi = 0, written "S" without a sign), but at mu = 0.05 no forces carry the drag 0.1
+    # (at most 0.05 of friction): not a boundary-tolerance mode either
+    assert pred.boundary_modes == ()
+    # at mu = 0.2 the zero-speed slider's friction (force-tested towards +t: c_t = -mu c_n,
+    # i.e. +mu c_n along world x on the block) and the roller carry the drag: both are listed
+    assert sorted(m.label for m in feasible_modes(carried_block(0.2)).boundary_modes) == [
+        "R1 S2", "S1 R2"]
 
 
 def test_indeterminate_search_can_be_disabled():

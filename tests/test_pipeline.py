@@ -58,8 +58,8 @@ def test_simulate_goes_through_the_pipeline(counted, tmp_path):
 
 @pytest.fixture(scope="module")
 def short_plan(tmp_path_factory):
-    from planner.plan.plan_file import save_plan
     from planner.plan.hand_planner import plan_hand
+    from planner.plan.plan_file import save_plan
     from scenarios.registry import shipped_file
 
     plan = plan_hand(shipped_file("two_finger_hand"), mu=(0.0, 0.2), policy="midband",

@@ -99,3 +99,25 @@ def test_the_story_comes_first_then_the_torque_regions_then_the_tables(tmp_path)
                                      "<th>scenario</th>", "task/pymunk/timeline.png")]
     assert order == sorted(order)
     assert page.index("The task: start, segments and goal") < page.index("What held")
+
+
+def test_problem_drawings_first_and_once(tmp_path):
+    """problem.png of each run folder (the drawing of its source file) is shown before the
+    tables; byte-identical drawings (one plan validated at several frictions) appear once."""
+    from qsplan.report import build_html
+
+    png = bytes.fromhex("89504e470d0a1a0a0000000d4948445200000001000000010806000000"
+                        "1f15c4890000000d49444154789c6360f8cfc0f01f0005000201a5f7a3"
+                        "5e0000000049454e44ae426082")
+    for name in ("a", "b"):
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "problem.png").write_bytes(png)
+        (tmp_path / name / "timeline.png").write_bytes(png)
+    (tmp_path / "c").mkdir()
+    (tmp_path / "c" / "problem.png").write_bytes(png + b"\0")  # another problem
+    page = build_html(tmp_path)
+    head = page.index("The problem (qsplan draw")
+    assert head < page.index("What held and what did not")
+    section = page[head:page.index("What held and what did not")]
+    assert "a/problem.png" in section and "c/problem.png" in section
+    assert "b/problem.png" not in page and page.count("timeline.png</figcaption>") == 2

@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from randsys import random_system as random_system_mixed
 from search_nodes import mode_in_subtree
 
 from planner.errors import InputError
-from planner.model.modes import enumerate_modes
+from planner.model.modes import SLIDE, enumerate_modes
+from planner.model.system import System
 from planner.predict.feasibility import feasible_modes
 from planner.predict.search import candidates_from_codes, canonical_order, search_modes
 from planner.sweeps.random_systems import random_system
@@ -25,7 +28,7 @@ def assert_same(pred_a, pred_b):
                 getattr(a, name), getattr(b, name), rtol=1e-12, atol=1e-12, err_msg=name
             )
         assert a.margin == pytest.approx(b.margin, rel=1e-9, abs=1e-12)
-    assert set(m.label for m in pred_a.boundary_modes) <= set(
+    assert sorted(m.label for m in pred_a.boundary_modes) == sorted(
         m.label for m in pred_b.boundary_modes
     )
 
@@ -237,3 +240,49 @@ def test_coupled_relaxation_is_a_relaxation_and_prunes_more(n_c):
             both += f_inf
             only_coupled += c_inf and not f_inf
     assert both > 0 and only_coupled > 0
+
+
+def box_on_supports(n: int, mu: float = 0.5):
+    """A box 0.2 m x 0.1 m, 0.1 kg, on ``n`` evenly spaced table contacts (friction group
+    ``table``), pushed at height 0.03 m on its left face by a frictionless finger moving right:
+    force-indeterminate sliding (every support slides, S-), written by its geometry."""
+    from planner import FeatureContact, WorkpieceGeometry, finger, surface
+
+    w = 0.2
+    contacts = [FeatureContact("table", point=[w * i / (n - 1), 0.0], surface="table")
+                for i in range(n)]
+    contacts.append(FeatureContact(0.0, point=[0.0, 0.03], finger="pusher"))
+    return System.from_geometry(
+        WorkpieceGeometry([[0, 0], [w, 0], [w, 0.1], [0, 0.1]], mass=0.1), contacts,
+        surfaces=[surface("table", [[-1, 0], [1, 0]]), finger("pusher", velocity=(0.001, 0))],
+        gravity=(0, -9.81), friction={"table": mu})
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+@pytest.mark.parametrize("n", [6, 12, 20])
+def test_boundary_modes_same_from_search_and_enumeration(n, engine):
+    """The boundary-tolerance modes (a strict kinematic row missed by at most tol, forces within
+    Coulomb) are one list whichever way the candidates are visited.  On the box on n supports
+    they are the determinate two-support subsets of the sliding mode: two supports, one on each
+    side of where the normal load must pass, sliding (S-), the others breaking at v_n = 0."""
+    system = box_on_supports(n)
+    exhaustive = feasible_modes(system)
+    searched = search_modes(system, engine=engine).prediction
+    assert exhaustive.labels == searched.labels == [
+        " ".join([f"S-{i + 1}" for i in range(n)] + [f"R{n + 1}"])]
+    labels = sorted(m.label for m in exhaustive.boundary_modes)
+    assert labels and labels == sorted(m.label for m in searched.boundary_modes)
+    for m in exhaustive.boundary_modes:  # each: two sliding supports, the finger S at 0 speed
+        assert m.codes.count(SLIDE) == 3 and m.codes[-1] == SLIDE
+
+
+@pytest.mark.parametrize("name", ["example_4_1.json", "example_4_3.json", "part_tool_wall.json",
+                                  "ruler_block.json", "geometry_ladder.json"])
+def test_boundary_modes_same_on_the_shipped_examples(name):
+    from planner.files.system_file import load_system
+
+    system = load_system(Path(__file__).resolve().parent.parent / "scenarios" / "data" / name)
+    a = feasible_modes(system)
+    b = search_modes(system).prediction
+    assert a.labels == b.labels
+    assert [m.label for m in a.boundary_modes] == [m.label for m in b.boundary_modes]

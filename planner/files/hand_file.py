@@ -36,6 +36,7 @@ from planner.files.fields import (
     string,
     type_name,
 )
+from planner.files.hand_checks import check_hand_contacts
 from planner.files.hand_goal import Goal, parse_goal
 from planner.files.reader import read_json
 from planner.model.geometry import rot90
@@ -419,6 +420,7 @@ def _hand_file(data: Any) -> HandFile:
         goal = parse_goal(data["goal"], hand.length_scale, lambda c, i: _contact(
             c, i, len(V), fingers, env, "goal.contacts"))
     q0 = np.concatenate([pose, angles])
+    check_hand_contacts(hand, q0)  # touching, on both features, normals into the workpiece
     try:
         fixed = hand.default_fixed(q0)
         q0 = hand.close(q0, fixed=fixed)

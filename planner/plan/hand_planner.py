@@ -22,8 +22,28 @@ TASK_SPEED = 0.02  # rad/s or m/s
 TASK_STEPS = 120
 
 
+def default_mu_model(mu: Any) -> str:
+    """The friction model a friction description asks for: ``independent`` (one coefficient per
+    contact, each in its own interval) when it gives one interval per contact -- a list of
+    ``(lo, hi)`` pairs, equal or not --, ``common`` (one coefficient shared by every contact,
+    the paper's model) for one interval or one number."""
+    pairs = isinstance(mu, (list, tuple)) and len(mu) > 1 and all(
+        isinstance(x, (list, tuple)) for x in mu)
+    return "independent" if pairs else "common"
+
+
+def used_mu_model(model: str, plan: Plan) -> str:
+    """The model a plan's guarantee actually holds for: a segment with other than one
+    effort-controlled joint is guaranteed over the box of per-contact intervals
+    (:func:`planner.plan.polytope.torque_region`, sound for both models), so a ``common``
+    request whose plan has such a segment is recorded ``independent`` (what was checked)."""
+    if model == "common" and any(len(seg.effort_joints) != 1 for seg in plan.segments):
+        return "independent"
+    return model
+
+
 def plan_hand(source: str | os.PathLike[str] | HandFile, *, mu: Any = None,
-              model: str = "common", policy: str = "midband",
+              model: str | None = None, policy: str = "midband",
               control: tuple[int, ...] | None = None, waypoints: int | None = None,
               max_expansions: int | None = None, validate_mu: Any = None) -> Plan:
     """Plan the hand file ``source`` (a path, or a loaded :class:`HandFile`).
@@ -34,7 +54,8 @@ def plan_hand(source: str | os.PathLike[str] | HandFile, *, mu: Any = None,
     number of effort-controlled joints; ``control`` the velocity-controlled joints, default
     any; the band curves of Figures 10-13 with one effort joint).  ``mu``: the friction interval
     (``(lo, hi)``, one pair per contact, or a number; default the file's ``mu.interval``);
-    ``model``: ``common`` or ``independent``; ``policy``: ``midband``, ``constant`` or
+    ``model``: ``common`` or ``independent`` (default :func:`default_mu_model` of the friction
+    used; the plan records :func:`used_mu_model`); ``policy``: ``midband``, ``constant`` or
     ``rival:MODE``; ``waypoints``: that many evenly spaced per segment (default the file's
     ``segment.waypoints`` when given, else the spacing rule, :mod:`planner.plan.spacing`);
     ``validate_mu``: friction values for the simulators (default the file's ``mu.validate``
@@ -51,6 +72,8 @@ def plan_hand(source: str | os.PathLike[str] | HandFile, *, mu: Any = None,
             raise InputError(f"{name}: expected a friction interval (mu.interval in the file, "
                              "or --mu), got none")
         mu = hf.mu_interval[0] if len(hf.mu_interval) == 1 else list(hf.mu_interval)
+    if model is None:
+        model = default_mu_model(mu)
     lo, hi = friction_interval(mu, hf.hand.n_contacts)
     validate = validation_frictions(hf.validate_mu if validate_mu is None else validate_mu,
                                     lo, hi)
@@ -71,7 +94,8 @@ def plan_hand(source: str | os.PathLike[str] | HandFile, *, mu: Any = None,
                            steps=seg.steps if seg else TASK_STEPS, waypoints=n_wp,
                            max_expansions=max_expansions or 40)
         plan = plan_task(hf.hand, hf.q0, hf.goal, opts, data=hf.data, validate_mu=validate)
-        return replace(plan, notes=f"source {name}" + (f"; {plan.notes}" if plan.notes else ""))
+        return replace(plan, mu_model=used_mu_model(model, plan),
+                       notes=f"source {name}" + (f"; {plan.notes}" if plan.notes else ""))
     if seg is None:
         raise InputError(f"{name}: expected a 'goal' or a 'segment' section to plan, got "
                          "neither")
@@ -79,6 +103,7 @@ def plan_hand(source: str | os.PathLike[str] | HandFile, *, mu: Any = None,
                            mode=seg.mode, mu=mu, model=model, policy=policy, control=control,
                            waypoints=n_wp, max_time=seg.max_time, steps=seg.steps, curves=True)
     ivs = tuple((float(a), float(b)) for a, b in zip(lo, hi))
-    return Plan(hand=dict(hf.data), segments=(segment,), mu_model=model,
+    plan = Plan(hand=dict(hf.data), segments=(segment,), mu_model=model,
                 mu_intervals=ivs[:1] if len(set(ivs)) == 1 else ivs, validate_mu=validate,
                 notes=f"source {name}")
+    return replace(plan, mu_model=used_mu_model(model, plan))

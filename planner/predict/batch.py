@@ -37,6 +37,7 @@ from planner.model.modes import (
 )
 from planner.model.system import System
 from planner.model.validation import as_friction
+from planner.predict.boundary import force_checked
 from planner.predict.feasibility import STREAM_ELEMENTS, Prediction, finish_prediction
 from planner.predict.indeterminate import (
     DEFAULT_MAX_ROW_SUBSETS,
@@ -251,8 +252,9 @@ def _block(
                 margin=m_p,
                 on_boundary=abs(m_p) <= tol,
             ))
-        bound = tuple(Mode(tuple(code_list[i]), tuple(xi[b, i].tolist()))
-                      for i in bm[bound_start[b]:bound_start[b + 1]].tolist())
+        mine = bm[bound_start[b]:bound_start[b + 1]]
+        bound = force_checked(system, codes[mine], xi[b, mine], mus[b], tol=tol,
+                              singular_tol=singular_tol)
         known = None
         if relaxed_kin is not None and structure_ok[b]:
             known = (tuple(relaxed_kin[b]), relaxed_limit[b])

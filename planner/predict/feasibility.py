@@ -19,7 +19,7 @@ largest commanded contact-point speed, forces by the largest applicable force of
 the smallest normalised slack is the mode's ``margin``.  Closed constraints (Coulomb, eq. 28) pass
 when ``margin >= -tol`` and the mode is flagged ``on_boundary`` when ``|margin| <= tol``.  Strict
 kinematic constraints (breaking contacts separate, sliding contacts slip) need ``margin > tol``;
-modes that miss them by at most ``tol`` are listed in :attr:`Prediction.boundary_modes`.
+modes that miss them by at most ``tol``, forces passing eq. (28), are ``boundary_modes``.
 Matrices whose equilibrated determinant is below ``singular_tol`` violate the rank conditions
 (30)-(32) and the mode is counted as ``degenerate``.
 """
@@ -45,6 +45,7 @@ from planner.model.modes import (
 )
 from planner.model.system import System
 from planner.model.validation import as_friction
+from planner.predict.boundary import boundary_modes_of
 from planner.predict.indeterminate import (
     DEFAULT_MAX_ROW_SUBSETS,
     GEN_TOL,
@@ -338,8 +339,7 @@ def predict_candidates(
                 on_boundary=abs(m_j) <= tol,
             )
         )
-    boundary = tuple(Mode(tuple(codes[i].tolist()), tuple(xi[i].tolist()))
-                     for i in kin.boundary.nonzero()[0].tolist())
+    boundary = boundary_modes_of(system, cand, kin, mu_arr, tol=tol, singular_tol=singular_tol)
     degenerate = (extra_degenerate + len(cand) - int(np.count_nonzero(kin.nonsingular))
                   + len(idx) - int(np.count_nonzero(f_ok)))
     if relaxed_from_candidates is None:

@@ -47,9 +47,11 @@ the velocity rows to ``tol * velocity_scale`` (kinematic boundary cases included
 ``100 eps * velocity_scale``), and the power row holds with ``c^T v <= 0``; so it is never
 pruned.  The children partition the candidates, and each surviving candidate is decided by
 the same arithmetic as :func:`planner.predict.feasibility.feasible_modes` (same row order and
-equilibration, one candidate's arithmetic independent of its batch).  Differences by design:
-``degenerate`` counts singular candidates among those tested, and ``boundary_modes`` lists only
-kinematic boundary cases whose subtree was not proved infeasible (a subset).
+equilibration, one candidate's arithmetic independent of its batch).  The boundary-tolerance
+modes (:func:`planner.predict.boundary.boundary_modes_of`: a strict kinematic row missed by at
+most ``tol``, the forces passing eq. 28) satisfy every ancestor's relaxation too (the power row
+within ``mu tol`` of the velocity scale), so the search lists the same ones.  Difference by
+design: ``degenerate`` counts singular candidates among those tested.
 
 Cost
 ----

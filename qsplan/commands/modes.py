@@ -45,7 +45,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--boundary", action="store_true",
                    help="also list the boundary-tolerance modes: candidates that miss a strict "
                         "kinematic constraint (a breaking contact separating, a sliding one "
-                        "slipping) by at most the tolerance; not feasible, counted by default")
+                        "slipping) by at most the tolerance, with contact forces that satisfy "
+                        "Coulomb; not feasible, counted by default; the same list with --search")
     p.add_argument(
         "--indeterminate", action=argparse.BooleanOptionalAction, default=None,
         help="search the relaxed-utility (force-indeterminate) modes at any n_c, whatever the "
@@ -246,7 +247,7 @@ def format_prediction(pred: Any, system: Any = None, *, boundary: bool = False) 
         lines.append("")
         n_b = len(pred.boundary_modes)
         lines.append(f"boundary-tolerance modes: {n_b} (not feasible: each misses a strict "
-                     "kinematic constraint by at most the tolerance; "
+                     "kinematic constraint by at most the tolerance, its forces within Coulomb; "
                      + ("listed below)" if boundary else "--boundary lists them)"))
         if boundary:
             lines += [f"  {signed_label(m)}" for m in pred.boundary_modes]

@@ -44,7 +44,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "separated by commas; default from the hand file")
     p.add_argument("--model", default=None, choices=("common", "independent"),
                    help="one coefficient for all contacts (paper) or one per contact; default "
-                        "common, or independent when the intervals differ per contact")
+                        "common for one interval, independent for one interval per contact "
+                        "(--mu or the file's mu.interval); the plan records the model its "
+                        "guarantee holds for (independent when a segment has other than one "
+                        "effort-controlled joint: checked over the box)")
     p.add_argument("--policy", default="midband",
                    help="effort choice: midband, constant, or rival:MODE (negative control); "
                         "one segment only")
@@ -106,8 +109,6 @@ def run(args: argparse.Namespace) -> int:
     check_int(args.max_expansions, "--max-expansions", 1, 1000)
     t0 = time.perf_counter()
     path = shipped_file(args.scenario)
-    if args.model is None:
-        args.model = _default_model(mu, path)
     with contextlib.ExitStack() as stack:
         fig_dir = stack.enter_context(output_set(args.figures, "dir", "--figures",
                                                  entries=FIGURES)) \
@@ -226,17 +227,3 @@ def diagnosis_lines(d: Any) -> list[str]:
                      + (f"[{fmt(lo[0])}, {fmt(hi[0], '.4g')}]" if len(set(lo)) == 1
                         and len(set(hi)) == 1 else f"{widest}"))
     return lines
-
-
-def _default_model(mu: object, path: Path) -> str:
-    """``common`` unless the friction intervals (``--mu``, else the hand file's) differ per
-    contact: then one coefficient per contact (``independent``) is what the file describes."""
-    from planner.files.hand_file import load_hand_file
-
-    if mu is None:
-        intervals = [tuple(p) for p in load_hand_file(path).mu_interval or ()]
-    elif isinstance(mu, list):
-        intervals = [tuple(p) for p in mu]
-    else:
-        intervals = [tuple(mu)]  # type: ignore[arg-type]
-    return "independent" if len(set(intervals)) > 1 else "common"

@@ -14,7 +14,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from qsplan.options import MU_MAX, parse_number, parse_numbers
+from qsplan.options import MU_MAX, input_warnings, parse_number, parse_numbers
 from scenarios.registry import RUN_ENTRIES
 from sim.backends import ENGINES, require_engine
 
@@ -101,7 +101,8 @@ def _run(args: argparse.Namespace, options: dict[str, Any], work: Path | None
     from scenarios.runs import simulate_system, write_run
     from sim.verdict import Outcome
 
-    system = load_system(args.system)  # FileFormatError -> exit 2
+    with input_warnings("simulate"):  # a GeometryWarning: one line on stderr
+        system = load_system(args.system)  # FileFormatError -> exit 2
     res = simulate_system(system, args.engine, name=f"simulate {Path(args.system).name}",
                           source=str(args.system), **options)
     summary = res.summary.to_dict()

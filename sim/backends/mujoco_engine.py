@@ -1,10 +1,12 @@
 """MuJoCo backend of :class:`sim.scene.Backend`, model built with ``mujoco.MjSpec``.
 
 The scene plane is MuJoCo's x-y plane (z out of the plane). Settings that make MuJoCo resolve
-stick/slip (docs/simulation-measurements.md, "Engine facts"): elliptic friction cone, ``noslip_iterations = 20``, ``noslip_tolerance =
-1e-12``, explicit ``<pair condim=3>`` per contact pair (all other collisions disabled, pair
-friction changed between steps through ``model.pair_friction``), and one extra out-of-plane slide
-degree of freedom on every dynamic body (noslip does nothing in a strictly planar model).
+stick/slip (docs/simulation-measurements.md, "Engine facts"): elliptic friction cone,
+``noslip_iterations = 20``, ``noslip_tolerance = 1e-12``, explicit ``<pair condim=3>`` per contact
+pair (all other collisions disabled, pair friction changed between steps through
+``model.pair_friction``), and one extra out-of-plane slide degree of freedom on every dynamic body
+(noslip does nothing in a strictly planar model).
+
 
 * Polygons become thin boxes along their edges, cut back at acute vertices whose tips are
   triangular prisms (:mod:`sim.backends.mujoco_polygon`: nothing sticks out of the polygon),

@@ -1,18 +1,18 @@
 """pymunk (Chipmunk2D) backend of :class:`sim.scene.Backend`.
 
-Settings (docs/simulation-measurements.md, "Engine facts"): gravity off (loads are explicit), ``collision_slop`` scaled to the scene
-(``1e-4 * length_scale``), many solver iterations, per-pair friction set on the arbiter in a
-pre-solve callback (pymunk otherwise multiplies the two shapes' friction values), one shape per
-contact site so one arbiter holds one contact; a round shape that would sit exactly on the line
-of a polygon edge it is paired with is moved off it (:mod:`sim.backends.pymunk_edges`: Chipmunk
-reports such a contact along the edge's normal at the depth of the radius). Driven bodies are
-kinematic bodies; velocity joints: revolute = pivot + SimpleMotor of unbounded force, prismatic
-= a kinematic carriage moving along the axis with the body welded to it by pivot + gear joints;
-effort joints: pivot (or groove + gear) with the effort applied as a body torque / force every
-step. Joints on a parent
-body (chains, :meth:`PymunkBackend._add_child_joint`): the same constraints between the two
-bodies, efforts applied equal and opposite.
-"""
+Settings (docs/simulation-measurements.md, "Engine facts"): gravity off (loads are explicit),
+``collision_slop`` scaled to the scene (``1e-4 * length_scale``), many solver iterations, per-pair
+friction set on the arbiter in a pre-solve callback (pymunk otherwise multiplies the two shapes'
+friction values), one shape per contact site so one arbiter holds one contact; a round shape that
+would sit exactly on the line of a polygon edge it is paired with is moved off it
+(:mod:`sim.backends.pymunk_edges`: Chipmunk reports such a contact along the edge's normal at the
+depth of the radius). Driven bodies are kinematic bodies; velocity joints: revolute = pivot +
+SimpleMotor of unbounded force, prismatic = a kinematic carriage moving along the axis with the body
+welded to it by pivot + gear joints; effort joints: pivot (or groove + gear) with the effort applied
+as a body torque / force every step. Joints on a parent body (chains,
+:meth:`PymunkBackend._add_child_joint`): the same constraints between the two bodies, efforts
+applied equal and opposite. """
+
 
 from __future__ import annotations
 
