@@ -125,7 +125,8 @@ def hand_scene(
     :func:`sim.scene.preload_depth`: half of pymunk's collision slop;
     docs/simulation-measurements.md, "Engine facts": resting contacts that start exactly
     touching flicker, and a computed gap of +1e-17 m is no contact at all): vertex circles
-    are placed that deep, fingertip circles are shifted that far along the contact normal into the workpiece edge.
+    are placed that deep, fingertip circles are shifted that far along the contact normal into
+    the workpiece edge.
 
     ``site_configs`` (n_c,) configurations ``(3 + n_theta,)``, one per contact: where that
     contact's sites are placed (default ``q0`` for all). A whole task's scene holds every
