@@ -243,7 +243,8 @@ def test_world_motion_is_converted_to_contact_frame_velocities():
 def test_existing_files_keep_their_answers():
     """Every shipped system file written the old way: the same wrench matrix, load, commands
     and answers as before geometry-first input existed (tests/data/golden_answers.json, made
-    by the previous release on these files)."""
+    by the previous release on these files; ``part_tool_wall.json``'s part weight since carries
+    its moment about the origin, ``-0.5`` N m for its centre of mass at ``(0.5, 0.5)``)."""
     golden = json.loads((ROOT / "tests" / "data" / "golden_answers.json").read_text())
     assert len(golden) >= 8
     for name, want in golden.items():

@@ -159,7 +159,6 @@ def _scene_source(kind: str) -> str:
     ("pymunk", "far vertex", "SIGABRT"),
     ("mujoco", "tiny mass", "mass and inertia of moving bodies must be larger than mjMINVAL"),
     ("pymunk", "tiny mass", "Dynamic bodies must have a mass > 0"),
-    ("mujoco", "repeated vertex", "size 0 must be positive in geom"),
     ("mujoco", "zero capsule", "fromto points too close in geom"),
 ])
 def test_the_engines_fail_without_the_check(engine, kind, outcome, tmp_path):

@@ -35,8 +35,8 @@ def test_the_mirrored_task_is_the_mirror_image_of_the_plan(plans):
     original, mirrored = plans
     assert mirrored.reached and original.reached
     assert [s.claim for s in mirrored.segments] == [flip(s.claim) for s in original.segments]
-    assert [s.event["kind"] for s in mirrored.segments] == \
-        [s.event["kind"] for s in original.segments]
+    assert [s.event.kind for s in mirrored.segments] == \
+        [s.event.kind for s in original.segments]
     end_o = original.segments[-1].waypoints[-1].pose
     end_m = mirrored.segments[-1].waypoints[-1].pose
     assert end_m[0] == pytest.approx(-end_o[0], abs=1e-4)
