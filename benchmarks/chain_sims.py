@@ -9,7 +9,7 @@
   and judged at the friction of their negative control.
 
 Writes a JSON list of rows (atomically) and prints a table. Nothing is asserted here; the tests
-(tests/test_chain_hands_sim.py, tests/test_simulate_chain.py) hold the verdicts.
+(tests/sim/test_chain_hands_sim.py, tests/sim/test_simulate_chain.py) hold the verdicts.
 
     PYTHONPATH=. python benchmarks/chain_sims.py --out benchmarks/results/chain_sims.json
 """
@@ -33,10 +33,10 @@ from sim.settings import ENGINES
 ROOT = Path(__file__).resolve().parents[1]
 HANDS = ("prismatic_finger_hand", "two_link_finger_hand", "three_finger_hand",
          "table_push_hand")
-#: chain system file -> judging friction of its negative control (tests/test_simulate_chain.py)
+#: chain system file -> judging friction of its negative control (tests/sim/test_simulate_chain.py)
 SYSTEMS = {"two_link_finger_box": [2.0, 2.0, 0.0], "prismatic_finger_box": [2.0, 2.0, 0.0],
            "two_link_effort_finger_box": [2.0, 2.0, 0.5]}
-#: friction of the velocity-only hand's negative control (tests/test_chain_hands_sim.py)
+#: friction of the velocity-only hand's negative control (tests/sim/test_chain_hands_sim.py)
 VELOCITY_ONLY_NEGATIVE = [0.4, 0.4, 2.0]
 
 

@@ -21,7 +21,7 @@ engines' verdicts taken in the same run.
   files, with the pairwise engine-engine agreement.
 
 Wall times are per run on whatever load the machine has; ratios between engines are taken from
-the same run. Nothing is asserted here (tests/test_dart_backend.py).
+the same run. Nothing is asserted here (tests/sim/test_dart_backend.py).
 
     PYTHONPATH=. python benchmarks/dart_engine.py ladder users --points 3
     PYTHONPATH=. python benchmarks/dart_engine.py ruler --engines pymunk,dart --switches 5

@@ -22,7 +22,7 @@ scenes used before.
 
 Cases: the ladder of ``tests/data`` held by fixed contacts (fingertips at its two 30-deg
 corners) and on environment surfaces, the box of ``scenarios/data`` pushed low and high, the
-triangle of ``tests/test_contact_features.py``, Examples 4.1 and 4.3, the stacked blocks on
+triangle of ``tests/sim/test_contact_features.py``, Examples 4.1 and 4.3, the stacked blocks on
 their corners. Per run: the verdict, how far the workpiece moved in the first 40 ms and over
 the run, the deepest penetration, the contact point's offset from the file's contact point at
 the first judged step and its step-to-step noise (detrended standard deviation), the twist and
@@ -213,7 +213,7 @@ def run_case(system: Any, features: bool = False, duration: float | None = None
             "cpu_s": cpu, "reason": v.reason}
 
 
-#: The triangle of tests/test_contact_features.py (63, 41, 76 deg) on a table, pushed on its
+#: The triangle of tests/sim/test_contact_features.py (63, 41, 76 deg) on a table, pushed on its
 #: sloped side by a frictionless finger.
 TRIANGLE = {
     "contacts": [

@@ -17,7 +17,7 @@ nearest face that is a mode boundary (``d * f``, ``d`` the distance to the face,
 infinite end -- are skipped, and a region with no other face is counted as ``outside_open``) is
 checked the same way; the smallest ``f`` at which some sample admits a rival or loses the mode is
 reported per waypoint (None: not found up to 4; the region is an inner approximation, one
-failing row per rival).  Nothing is asserted here; tests/test_region_check.py holds a short
+failing row per rival).  Nothing is asserted here; tests/planner/test_region_check.py holds a short
 version and the mutation test.
 
     PYTHONPATH=. python benchmarks/region_check.py --seed 0 --hands 12 \

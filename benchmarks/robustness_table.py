@@ -3,7 +3,7 @@
 Campaigns (each ``--n`` inputs unless stated):
 
 ``system loader: mutated trees``
-    valid system files (``tests/test_fuzz.py:seed_system_files``: the paper's examples, a
+    valid system files (``tests/planner/test_fuzz.py:seed_system_files``: the paper's examples, a
     chain-form hand, random systems in every manipulator form) mutated by ``mutate_tree`` --
     including the values and nesting depths known to crash (``KNOWN_CRASH_VALUES``, depth 5000)
     -- and fed to ``system_from_dict``; an accepted system must round-trip through
@@ -12,7 +12,7 @@ Campaigns (each ``--n`` inputs unless stated):
     the same files serialised and corrupted by ``mutate_text`` (truncated, bit flips, non-UTF-8,
     NaN literals, deep nesting, BOM, duplicate keys), written to disk and read by ``load_system``.
 ``system loader: hypothesis JSON``
-    hypothesis' arbitrary JSON trees and "plausible" system dicts (``tests/test_fuzz.py``).
+    hypothesis' arbitrary JSON trees and "plausible" system dicts (``tests/planner/test_fuzz.py``).
 ``plan loader: mutated files``
     if ``planner.plan.plan_file`` exists: a valid plan file mutated at tree and byte level and
     read by
@@ -31,7 +31,7 @@ Campaigns (each ``--n`` inputs unless stated):
     garbage arguments to ``System.from_contacts``, ``System.from_wrench_matrix`` and
     ``feasible_modes(system, mu, tol=...)``.
 ``simulator fault suite``
-    every injected fault of ``tests/test_sim_faults.py`` on both engines plus clean runs: a
+    every injected fault of ``tests/sim/test_sim_faults.py`` on both engines plus clean runs: a
     missed fault or a false alarm is a wrong answer.
 
 A *crash* is any exception that is not a ``planner.errors.QsplanError`` (the documented

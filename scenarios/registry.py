@@ -25,9 +25,10 @@ __all__ = ["DATA_DIR", "Expect", "Parameter", "PlanRun", "RulerRun", "RunSpec", 
 
 #: The shipped system and hand files (``example_4_1``, ``two_finger_hand``, ...).
 DATA_DIR = Path(__file__).resolve().parent / "data"
-RUN_ENTRIES = ("summary.json", "timeline.png", "animation.gif")
-"""The entries of a run folder (:func:`scenarios.runs.write_run`: the summary and the pictures
-of :func:`sim.render.draw_run`); without rendering only the summary."""
+RUN_ENTRIES = ("summary.json", "timeline.png", "animation.gif", "problem.png")
+"""The entries of a run folder (:func:`scenarios.runs.write_run`: the summary, the pictures
+of :func:`sim.render.draw_run` and the drawing of the problem's file); without rendering only
+the summary."""
 
 
 def shipped_file(name: str | os.PathLike[str], what: str = "hand") -> Path:

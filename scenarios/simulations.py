@@ -6,7 +6,7 @@ Each is a shipped file with friction and an expectation (:mod:`scenarios.registr
 :func:`scenarios.runs.run_spec` through the same path as ``qsplan simulate`` / ``validate`` run a
 user's file -- the same scene, scale, speed, settings and judge. Every one runs on every engine
 of the settings table. The expected modes of the several-workpiece files are derived by hand in
-``tests/test_multibody.py``.
+``tests/planner/test_multibody.py``.
 """
 
 from __future__ import annotations

@@ -2,7 +2,7 @@
 
 A case is an argv for ``qsplan.cli.main`` plus what it must do: ``bad=True`` inputs must exit
 2; every input must end without a traceback and without a partial output set
-(:func:`run_case`).  Used by ``tests/test_fuzz_cli.py`` and ``benchmarks/fuzz_cli.py``.
+(:func:`run_case`).  Used by ``tests/qsplan/test_fuzz_cli.py`` and ``benchmarks/fuzz_cli.py``.
 """
 
 from __future__ import annotations

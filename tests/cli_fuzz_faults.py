@@ -10,7 +10,7 @@ full or revoked file system), one stderr line for an interrupt, the process gone
 :data:`EXIT_S` seconds of a signal with no child left, every output set either the old one or a
 complete new one (never a mix), no staging folder left (unless the message names it: a file
 system that refuses deletions), special files never replaced or deleted.  Used by
-``tests/test_fuzz_faults.py`` (a seeded handful) and ``benchmarks/fuzz_cli.py --faults``.
+``tests/qsplan/test_fuzz_faults.py`` (a seeded handful) and ``benchmarks/fuzz_cli.py --faults``.
 """
 
 from __future__ import annotations

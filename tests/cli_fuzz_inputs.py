@@ -1,4 +1,4 @@
-"""Hostile inputs for the command-line fuzz campaign (``tests/test_fuzz_cli.py``,
+"""Hostile inputs for the command-line fuzz campaign (``tests/qsplan/test_fuzz_cli.py``,
 ``benchmarks/fuzz_cli.py``): valid fixtures, mutated system/hand/plan files, hostile output
 paths."""
 

@@ -1,5 +1,5 @@
-"""Helpers for tests of the exact search's nodes (tests/test_search.py,
-tests/test_native_search.py)."""
+"""Helpers for tests of the exact search's nodes (tests/planner/test_search.py,
+tests/planner/test_native_search.py)."""
 
 from __future__ import annotations
 

@@ -156,6 +156,7 @@ def test_module_size(mod):
     assert n <= MAX_LINES, f"{MODULES[mod].relative_to(ROOT)}: {n} lines (limit {MAX_LINES})"
 
 
+@pytest.mark.long
 def test_the_library_imports_no_simulator_or_plotting_library():
     """``import planner`` and every planner subpackage load without matplotlib, pymunk, mujoco."""
     subs = sorted({m for m in MODULES if m.startswith("planner")})

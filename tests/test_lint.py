@@ -10,6 +10,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -23,6 +25,7 @@ def test_ruff_is_clean():
     assert res.returncode == 0, res.stdout + res.stderr
 
 
+@pytest.mark.long
 def test_mypy_is_clean_on_every_package():
     res = _run("mypy", "--no-incremental")
     assert res.returncode == 0, res.stdout + res.stderr

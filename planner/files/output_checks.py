@@ -175,12 +175,16 @@ def _check_tree(folder: Path, what: str) -> None:
                              f"which the command replaces as a whole, got the mount point "
                              f"{str(d)!r}; it is not replaced")
         if not os.access(d, os.W_OK | os.X_OK):
+            if not os.path.lexists(d):  # moved away meanwhile (another writer): nothing to check
+                continue
             raise InputError(f"{what}: expected a writable folder {str(d)!r} inside "
                              f"{str(folder)!r}, which the command replaces as a whole, got "
                              f"{unwritable(d)}")
         try:
             with os.scandir(d) as it:
                 found = [(Path(e.path), e.stat(follow_symlinks=False).st_mode) for e in it]
+        except FileNotFoundError:  # moved away meanwhile (another writer)
+            continue
         except OSError as exc:
             raise InputError(f"{what}: expected a readable folder, got {str(d)!r} "
                              f"({exc.strerror})") from None

@@ -14,7 +14,11 @@ from planner.model.modes import SLIDE, CandidateSet, Mode, candidates_from_codes
 from planner.model.system import System
 from planner.predict.stages import KinematicStage, force_stage
 
-__all__ = ["boundary_modes_of", "force_checked"]
+__all__ = ["CHUNK", "boundary_modes_of", "force_checked"]
+
+CHUNK = 256
+"""Candidates force-tested at once: the force stage's arrays grow with the batch, and a large
+enumeration can leave thousands of kinematic boundary candidates."""
 
 
 def boundary_modes_of(system: System, cand: CandidateSet, kin: KinematicStage,
@@ -40,13 +44,15 @@ def force_checked(system: System, codes: np.ndarray, xi: np.ndarray, mu_arr: np.
     """The candidates ``codes (m, n_c)`` on a kinematic boundary, with their sliding directions
     ``xi (m, n_c)``, whose forces pass the force stage at friction ``mu_arr (n_c,)`` (see
     :func:`boundary_modes_of`; also used by :func:`planner.predict.batch.predict_batch`)."""
-    if not len(codes):
-        return ()
-    cand = candidates_from_codes(np.asarray(codes, dtype=np.int8), system.dof)
-    xi = np.asarray(xi)
-    own_xi = np.where((cand.codes == SLIDE) & (xi == 0), 1, xi)
-    fs = force_stage(system, cand, np.arange(len(codes)), own_xi, mu_arr, tol=tol,
-                     singular_tol=singular_tol)
-    ok = fs.nonsingular[0] & (fs.margin[0] >= -tol)
-    return tuple(Mode(tuple(cand.codes[j].tolist()), tuple(xi[j].tolist()))
-                 for j in np.flatnonzero(ok).tolist())
+    out: list[Mode] = []
+    codes, xi = np.asarray(codes, dtype=np.int8), np.asarray(xi)
+    for lo in range(0, len(codes), CHUNK):  # bounded memory on large enumerations
+        cand = candidates_from_codes(codes[lo:lo + CHUNK], system.dof)
+        x = xi[lo:lo + CHUNK]
+        own_xi = np.where((cand.codes == SLIDE) & (x == 0), 1, x)
+        fs = force_stage(system, cand, np.arange(len(cand.codes)), own_xi, mu_arr, tol=tol,
+                         singular_tol=singular_tol)
+        ok = fs.nonsingular[0] & (fs.margin[0] >= -tol)
+        out.extend(Mode(tuple(cand.codes[j].tolist()), tuple(x[j].tolist()))
+                   for j in np.flatnonzero(ok).tolist())
+    return tuple(out)

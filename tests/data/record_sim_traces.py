@@ -1,4 +1,4 @@
-"""Record the short simulator traces that tests/test_sim_flicker.py classifies.
+"""Record the short simulator traces that tests/sim/test_sim_flicker.py classifies.
 
 Run from the repository root: ``PYTHONPATH=.:tests python tests/data/record_sim_traces.py``.
 Each trace is one paper-example run (at :data:`RECORDED_WITH`: the scale, speed, mass, time step

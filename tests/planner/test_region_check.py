@@ -1,0 +1,98 @@
+"""The region benchmark in short: guaranteed regions of random hands under dense friction sampling.
+
+benchmarks/region_check.py draws random hands (:mod:`planner.sweeps.random_hands`), plans them
+and checks, with the independent full mode enumeration (``feasible_modes``), that inside each
+region the claimed mode is the only feasible one at every friction sample.  Here: two hands and
+a handful of samples, the mirror map, and a mutation test -- a deliberately widened region must
+be caught by the same check.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib.util
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from planner.files.hand_file import hand_file_from_dict
+from planner.plan.model import Segment
+from planner.sweeps.random_hands import mirror_hand, random_hand
+
+ROOT = Path(__file__).resolve().parents[2]
+_spec = importlib.util.spec_from_file_location("region_check", ROOT / "benchmarks" /
+                                               "region_check.py")
+assert _spec and _spec.loader
+rc = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(rc)
+
+
+def _plan(name: str, seed: int):
+    rng = np.random.default_rng(seed)
+    d = random_hand(rc.template(name), rng, mu_range=(0.0, 0.3))
+    return (*rc.plan_hand(d), rng)
+
+
+@pytest.fixture(scope="module")
+def three_finger():
+    return _plan("three_finger_hand", 0)
+
+
+def test_random_hands_are_seeded_and_differ_from_the_template():
+    t = rc.template("two_link_finger_hand")
+    a = random_hand(t, np.random.default_rng(3))
+    b = random_hand(t, np.random.default_rng(3))
+    c = random_hand(t, np.random.default_rng(4))
+    assert a == b and a != c
+    assert a["workpiece"]["vertices"] != t["workpiece"]["vertices"]
+    assert a["mu"] != t["mu"]
+    hand_file_from_dict(a)  # the contacts close
+
+
+def test_mirror_is_an_involution_and_flips_the_drive():
+    t = rc.template("two_link_finger_hand")
+    m = mirror_hand(t)
+    assert m["segment"]["speed"] == [-0.02, -0.01]
+    hf, hm = hand_file_from_dict(t), hand_file_from_dict(m)
+    # the workpiece's x is mirrored at the closed configuration
+    assert hm.q0[0] == pytest.approx(-hf.q0[0], abs=1e-9)
+    mm = mirror_hand(m)
+    assert np.allclose(mm["workpiece"]["vertices"], t["workpiece"]["vertices"])
+    assert [c.get("edge") for c in mm["contacts"]] == [c.get("edge") for c in t["contacts"]]
+
+
+@pytest.mark.parametrize("name,seed", [("three_finger_hand", 0), ("two_link_finger_hand", 1)])
+@pytest.mark.long
+def test_regions_of_random_hands_hold_under_friction_sampling(name, seed):
+    hand, rp, lo, hi, rng = _plan(name, seed)
+    rp = dataclasses.replace(rp, waypoints=rp.waypoints[::5], regions=rp.regions[::5])
+    row = rc.check_plan(hand, rp, lo, hi, rng, n_tau=2, n_mu=8, outside=False)
+    assert row["samples"] >= 8 * 3 * len(rp.waypoints)
+    assert row["violations"] == []
+
+
+@pytest.mark.long
+def test_a_widened_region_is_caught(three_finger):
+    """Mutation: every face of the region pushed out by twice the margin (the centre stays);
+    the check must then find a friction sample where the claimed mode is not the only one."""
+    hand, rp, lo, hi, rng = three_finger
+    w = rp.waypoints[0]
+    reg = rp.regions[0]
+    norms = np.linalg.norm(reg.A, axis=1)
+    wide = dataclasses.replace(reg, b=reg.b + 2.0 * reg.margin * norms)
+    mutant: Segment = dataclasses.replace(rp, waypoints=(w,), regions=(wide,))
+    row = rc.check_plan(hand, mutant, lo, hi, rng, n_tau=6, n_mu=8, outside=False)
+    assert row["violations"], "a widened region passed the check"
+    # ... and the outside probe of the real region finds a rival or a lost mode just past a face
+    real = rc.check_plan(hand, dataclasses.replace(rp, waypoints=(w,), regions=(reg,)), lo, hi,
+                         rng, n_tau=0, n_mu=8)
+    assert real["violations"] == [] and real["outside_factor"][0] is not None
+
+
+def test_results_file_shape():
+    path = ROOT / "benchmarks" / "results" / "region_check.json"
+    res = json.loads(path.read_text())
+    s = res["summary"]
+    assert s["violations"] == 0 and s["plans"] > 0 and s["friction_samples"] > 0
