@@ -162,6 +162,7 @@ def _handler(signum: int, frame: Any) -> None:
     if _STATE["signum"] is not None:
         return  # already ending: a second signal changes nothing
     _STATE["signum"], _STATE["t_signal"] = signum, time.monotonic()
+    threading.excepthook = _quiet_after_signal  # before the workers die under their threads
     kill_children()
     if not _STATE["armed"] and _STATE["process"]:
         say(describe(signum))  # importing, parsing or exiting: nothing to unwind
@@ -174,6 +175,15 @@ def _handler(signum: int, frame: Any) -> None:
     if outputs is not None and outputs.defer_interrupt(deliver):
         return
     deliver()
+
+
+def _quiet_after_signal(args: threading.ExceptHookArgs) -> None:
+    """Thread exceptions once the command is ending on a signal: a process pool's management
+    thread fails when it finds the workers the handler killed ("terminate_broken"), which is
+    the intended end of those workers, not a fault to print; before a signal, Python's own
+    hook."""
+    if _STATE["signum"] is None:
+        threading.__excepthook__(args)
 
 
 def _before_fork() -> None:

@@ -130,8 +130,8 @@ def mu_folder(mu: FrictionValue) -> str:
 
 def output_entries(mus: list[FrictionValue], render: bool) -> tuple[str, ...]:
     """The entries ``--out`` gets: one friction value's run folder
-    (:func:`scenarios.runs.write_run`: ``summary.json`` and, with ``render``, ``timeline.png``
-    and ``animation.gif``), or one ``mu_<v>/`` folder per value."""
+    (:func:`scenarios.runs.write_run`: ``summary.json`` and, with ``render``, ``timeline.png``,
+    ``animation.gif`` and ``problem.png``), or one ``mu_<v>/`` folder per value."""
     if len(mus) == 1:
         return RUN_ENTRIES if render else RUN_ENTRIES[:1]
     return tuple(dict.fromkeys(f"{mu_folder(mu)}/" for mu in mus))

@@ -162,7 +162,8 @@ def test_validate_checks_every_mu_folder_first(out_with_fifo, monkeypatch, capsy
 def test_validate_entries():
     from qsplan.commands.validate import output_entries
 
-    assert output_entries([0.1], True) == ("summary.json", "timeline.png", "animation.gif")
+    assert output_entries([0.1], True) == ("summary.json", "timeline.png", "animation.gif",
+                                            "problem.png")
     assert output_entries([0.1], False) == ("summary.json",)
     assert output_entries([0.1, (0.1, 0.2, 0.3), 0.1], True) == ("mu_0.1/", "mu_0.1-0.2-0.3/")
 
