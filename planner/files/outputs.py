@@ -25,7 +25,8 @@ on what the block wrote, at the end (after the work).
 
 Committing: a new destination is one ``rename`` of the staging folder (missing parent folders
 are created, like ``mkdir -p``, only then).  Into an existing folder, the written entries
-replace the entries of the same name, each as a whole, other files stay: the targets are
+replace the entries of the same name, each as a whole, and a declared entry this run did not
+write goes with the old set (a set is never half old, half new); other files stay: the targets are
 checked again, the old entries are moved aside and the new ones moved in, and if any rename
 fails every rename is undone (the old set stays whole).  The commit is one uninterruptible step:
 an interrupt that a handler defers through :func:`defer_interrupt` (the command line's does)
@@ -46,7 +47,7 @@ import os
 import shutil
 import tempfile
 import threading
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
 
 from planner.errors import InputError
@@ -271,18 +272,24 @@ def _commit_dir(staging: Path, dest: Path, home: Path, what: str,
         check_output_path(dest, "dir", what)
         same = dest.absolute() == home.absolute()
         with contextlib.nullcontext() if same else _folder_lock(dest):
-            for e in written:
+            # a declared entry this run did not write belongs to the old set: it goes too
+            stale = [e for e in (declared or ()) if e not in written
+                     and os.path.lexists(dest / e.name)]
+            for e in written + stale:
                 check_entry(dest, e, what)  # again: the world may have changed meanwhile
-            return True, _swap_in(staging, dest, [e.name for e in written])
+            return True, _swap_in(staging, dest, [e.name for e in written],
+                                  [e.name for e in stale])
 
 
-def _swap_in(staging: Path, dest: Path, names: list[str]) -> Path:
-    """Old entries aside, new entries in; every rename undone if one fails."""
+def _swap_in(staging: Path, dest: Path, names: list[str],
+             stale: Sequence[str] = ()) -> Path:
+    """Old entries aside (``names`` and the ``stale`` declared entries not written this
+    time), new entries in; every rename undone if one fails."""
     old = Path(tempfile.mkdtemp(prefix=OLD_PREFIX, dir=dest))
     moved_old: list[str] = []
     moved_new: list[str] = []
     try:
-        for n in names:
+        for n in [*names, *stale]:
             if os.path.lexists(dest / n):
                 os.rename(dest / n, old / n)
                 moved_old.append(n)
