@@ -141,6 +141,21 @@ def test_a_failing_rename_undoes_the_whole_commit(tmp_path, monkeypatch):
     assert not any(".qsplan-" in k for k in after)
 
 
+def test_a_declared_entry_not_written_goes_with_the_old_set(tmp_path):
+    """``plan --figures`` declares every picture it may draw; a plan that draws Figures 10-13
+    into a folder holding a task's pictures from before must not leave them beside the new
+    figures (a set half old, half new). Files the command does not declare stay."""
+    dest = tmp_path / "figs"
+    dest.mkdir()
+    for name in ("fig10.png", "task_story.png", "notes.txt"):
+        (dest / name).write_text("old")
+    with output_set(dest, "dir", entries=("fig10.png", "task_story.png")) as work:
+        (work / "fig10.png").write_text("new")
+    assert sorted(p.name for p in dest.iterdir()) == ["fig10.png", "notes.txt"]
+    assert (dest / "fig10.png").read_text() == "new"
+    assert (dest / "notes.txt").read_text() == "old"
+
+
 def test_a_new_destination_is_one_rename(tmp_path, monkeypatch):
     renames = []
     real = os.rename
