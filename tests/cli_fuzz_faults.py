@@ -51,7 +51,7 @@ class Job:
 
 def jobs(plan_file: Path, run_dir: Path) -> dict[str, Job]:
     from qsplan.commands.muspace import OUTPUTS
-    from qsplan.commands.plan import FIGURES
+    from qsplan.commands.plan import BOUNDS_FIGURES
 
     return {j.name: j for j in (
         Job("modes", ("modes", str(DATA / "example_4_3.json"), "--search")),
@@ -59,7 +59,7 @@ def jobs(plan_file: Path, run_dir: Path) -> dict[str, Job]:
             (("out", "dir"),), {"out": OUTPUTS}),
         Job("plan", ("plan", "two_finger_hand", "--mu", "0:0.2", "--waypoints", "6", "--out",
                      "plan.json", "--figures", "figs"),
-            (("plan.json", "file"), ("figs", "dir")), {"figs": FIGURES}),
+            (("plan.json", "file"), ("figs", "dir")), {"figs": BOUNDS_FIGURES}),
         Job("sweep scenes", ("sweep", "scenes", "--contacts", "9", "--count", "30",
                              "--workers", "2", "--out", "s.json"), (("s.json", "file"),)),
         Job("sweep mu", ("sweep", "mu", EX41, "--grid", "14", "--workers", "2", "--out",

@@ -15,10 +15,14 @@ from planner.files.hand_file import MAX_WAYPOINTS
 from qsplan.options import MU_MAX, check_int, fmt, parse_number, parse_range
 from scenarios.registry import shipped_file
 
-FIGURES = ("fig10_bounds_mu_lo.png", "fig11_bounds_mu_hi.png", "fig12_rival_bounds_mu_hi.png",
-           "fig13_guaranteed.png", "regions.png", "task_story.png", "task_regions.png")
-"""The entries ``--figures`` may get (``planner.plots.bounds.plot_bounds`` for one effort joint,
-``plot_regions`` for several, ``planner.plots.task`` for a task), checked before any work."""
+BOUNDS_FIGURES = ("fig10_bounds_mu_lo.png", "fig11_bounds_mu_hi.png",
+                  "fig12_rival_bounds_mu_hi.png", "fig13_guaranteed.png")
+"""Figures 10-13 of a one-segment plan with one effort joint
+(``planner.plots.bounds.plot_bounds``)."""
+FIGURES = (*BOUNDS_FIGURES, "regions.png", "task_story.png", "task_regions.png")
+"""The entries ``--figures`` may get (:data:`BOUNDS_FIGURES`; ``plot_regions`` for other
+segments, ``planner.plots.task`` for a task), checked before any work; an entry of an earlier
+set that this plan does not draw goes with the old set."""
 
 
 def register(sub: argparse._SubParsersAction) -> None:
