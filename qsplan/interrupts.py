@@ -78,15 +78,21 @@ def signal_name(signum: int) -> str:
 def outputs_status() -> str:
     """What became of this process's outputs so far: those committed, those not written."""
     outputs = sys.modules.get("planner.files.outputs")
-    done = [str(p) for p in outputs.committed_outputs()] if outputs else []
-    pending = [str(p) for p in outputs.pending_outputs()] if outputs else []
+
+    def listed(name: str) -> list[str]:
+        # a signal may come while the module is still being imported (partly initialised):
+        # then it has no outputs to report yet
+        get = getattr(outputs, name, None)
+        return [str(p) for p in get()] if get is not None else []
+
+    done, pending = listed("committed_outputs"), listed("pending_outputs")
     parts = []
     if done:
         parts.append(f"outputs written: {', '.join(map(repr, done))}")
     if pending:
         parts.append(f"not written: {', '.join(map(repr, pending))} (previous contents left "
                      "as they were)")
-    left = [str(p) for p in outputs.staging_left()] if outputs else []
+    left = listed("staging_left")
     if left:
         parts.append(f"the file system refused to delete the staging folder "
                      f"{', '.join(map(repr, left))}")
@@ -172,7 +178,8 @@ def _handler(signum: int, frame: Any) -> None:
     def deliver() -> None:
         raise Interrupted(signum)
 
-    if outputs is not None and outputs.defer_interrupt(deliver):
+    defer = getattr(outputs, "defer_interrupt", None)  # None while the module is imported
+    if defer is not None and defer(deliver):
         return
     deliver()
 
@@ -298,9 +305,9 @@ def end_if_interrupted(code: int) -> None:
 def force_exit(signum: int) -> None:
     """End the process now: staging folders deleted (after a running commit), children
     killed, the line printed, exit ``128 + signum``."""
-    outputs = sys.modules.get("planner.files.outputs")
-    if outputs is not None:
-        outputs.abandon_staging()
+    abandon = getattr(sys.modules.get("planner.files.outputs"), "abandon_staging", None)
+    if abandon is not None:  # None while the module is still being imported
+        abandon()
     kill_children()
     say(describe(signum))
     os._exit(128 + signum)

@@ -236,3 +236,17 @@ def test_closed_stdout_of_a_real_simulation(tmp_path):
         os.close(write_end)
     assert res.returncode == 1, res.stderr
     assert (tmp_path / "o" / "summary.json").is_file()
+
+
+def test_a_signal_while_the_outputs_module_is_imported(monkeypatch):
+    """A signal can arrive while ``planner.files.outputs`` is still being imported (the module
+    is in ``sys.modules`` without its functions yet): the status line says no outputs were
+    written instead of raising AttributeError (found by the fuzz campaign: a SIGTERM 0.74 s
+    into ``qsplan plan`` printed a traceback)."""
+    import types
+
+    from qsplan import interrupts
+
+    monkeypatch.setitem(sys.modules, "planner.files.outputs",
+                        types.ModuleType("planner.files.outputs"))
+    assert interrupts.outputs_status() == "no outputs written"
