@@ -17,6 +17,7 @@ import time
 from pathlib import Path
 
 import pytest
+from cli_fuzz_faults import alive
 
 ROOT = Path(__file__).resolve().parents[2]
 DRIVER = Path(__file__).parents[1] / "cli_driver.py"
@@ -37,18 +38,6 @@ def _files(root: Path) -> dict[str, bytes]:
             if p.is_file()}
 
 
-def _alive(pids: list[int]) -> list[int]:
-    out = []
-    for pid in pids:
-        try:
-            state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
-        except OSError:
-            continue
-        if state != "Z":
-            out.append(pid)
-    return out
-
-
 def _children(pid: int) -> list[int]:
     kids = []
     for name in os.listdir("/proc"):
@@ -64,7 +53,7 @@ def _children(pid: int) -> list[int]:
 
 def _reap(pids: list[int]) -> None:
     """Kill what a failed test left running (the test's own children's children)."""
-    for pid in _alive(pids):
+    for pid in alive(pids):
         os.kill(pid, signal.SIGKILL)
 
 
@@ -130,7 +119,7 @@ def test_pool_workers_are_killed(tmp_path, sig):
         assert proc.returncode == 128 + getattr(signal, sig), err
         assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
         time.sleep(0.2)
-        assert _alive(kids) == []
+        assert alive(kids) == []
         assert _files(tmp_path) == before
     finally:
         _reap(kids + [proc.pid])
@@ -156,7 +145,7 @@ def test_sweep_workers_end_with_the_command(tmp_path):
         assert proc.returncode == 143, err
         assert err.strip().splitlines() == [err.strip()] and "interrupted by SIGTERM" in err
         time.sleep(0.2)
-        assert _alive(kids) == []
+        assert alive(kids) == []
         assert out.read_bytes() == b"old\n" and sorted(p.name for p in tmp_path.iterdir()) == [
             "s.json"]
     finally:
