@@ -127,7 +127,10 @@ class SearchStats:
     candidates : int
         Eq. (49) count ``candidate_count(n_c, 3 + |tau_I|)``.
     tested : int
-        Candidates that went through the batched kinematic stage (eqs. 23-25).
+        Kinematic tests in the batched stage (eqs. 23-25), one per leaf that reaches a
+        candidate: a candidate sliding at a contact lies in both that contact's ``S+`` and
+        ``S-`` branches (each keeps it only when the computed ``xi`` is its own), so this count
+        can exceed ``candidates`` when little is pruned.
     force_tested : int
         Candidates that passed it and went through the force stage (eqs. 26-28).
     lp_solves : int

@@ -147,8 +147,11 @@ def run(args: argparse.Namespace) -> int:
         return 0
     print(format_prediction(pred, system, boundary=args.boundary))
     if stats is not None:
-        print(f"\nsearch: tested {stats.tested} of {stats.candidates} candidates "
-              f"(eq. 49), {stats.lp_solves} pruning LPs, {_engine_note(stats.engine)}")
+        # a candidate with sliding contacts can sit in both the S+ and the S- branch of a
+        # contact, so the kinematic tests can outnumber the eq. (49) candidates
+        print(f"\nsearch: {stats.tested} kinematic tests for the {stats.candidates} candidates "
+              f"of eq. (49) (one per sliding-direction branch that reaches the candidate), "
+              f"{stats.lp_solves} pruning LPs, {_engine_note(stats.engine)}")
     return 0
 
 
