@@ -27,6 +27,11 @@ contact forces grow: the window-mean total normal force exceeds ``jam_force``, o
 penetration depth of the contacts touching throughout the trailing ``jam_rate_window`` grows
 faster than ``jam_depth_rate`` (soft engines yield instead of blowing up). A body that moves as
 predicted while the forces build up and level off is not jammed.
+
+Motion by position correction (:func:`correction_steps`): an engine that removes overlap
+outside its velocity solve turns penetration it could not prevent into motion, without
+friction. Such steps show neither the predicted mode nor a jam; the judge reports a run
+dominated by them as one the engine cannot judge (:mod:`sim.judge`).
 """
 
 from __future__ import annotations
@@ -182,6 +187,37 @@ def twist_error(observed: np.ndarray, predicted: np.ndarray, length_scale: float
     diff = np.max(diff, axis=-1)
     size = max(float(np.linalg.norm(pred.reshape(nb, 3) * wvec)), float(floor))
     return diff / size if size > 0 else np.where(diff > 0, np.inf, 0.0)
+
+
+def correction_steps(rec: Recording, th: Thresholds,
+                     bodies: tuple[str, ...] = ("workpiece",)) -> np.ndarray:
+    """(T,) bool: steps at which a workpiece is moved by position correction rather than by
+    its velocities (docs/simulation.md, "Observed-mode classifier").
+
+    ``rec.correction`` (:class:`sim.run.Recording`) is the displacement the engine gave a body
+    beyond ``twist * dt``.  Its rate, averaged over the centred ``th.window``, is a speed of
+    hidden penetration growth: overlap the velocity solve let grow and the engine removed by
+    pushing bodies apart -- frictionlessly in pymunk (Chipmunk's bias velocities carry no
+    friction impulse).  A step counts when, for some workpiece, that rate exceeds the jam
+    depth rate ``th.jam_depth_rate`` (the same growth the penetration rule of :func:`jam_steps`
+    calls a jam) *and* half of the workpiece's own speed from its poses (more of its motion is
+    correction than velocity).  Both speeds are ``|(v_x, v_y, w)|_L`` with ``L =
+    th.length_scale``.  All False for recordings without ``correction``."""
+    T = len(rec.times)
+    if rec.correction is None or T < 3 or not np.isfinite(th.jam_depth_rate):
+        return np.zeros(T, dtype=bool)
+    idx = [rec.body_names.index(b) for b in bodies if b in rec.body_names]
+    if not idx:
+        return np.zeros(T, dtype=bool)
+    corr = rec.correction[:, idx].reshape(T, -1)
+    rate = window_mean(np.gradient(corr, rec.times, axis=0), np.ones_like(corr), rec.times,
+                       th.window).reshape(T, len(idx), 3)
+    speed = workpiece_twist(rec, th.window, tuple(rec.body_names[i] for i in idx))
+    speed = speed.reshape(T, len(idx), 3)
+    wvec = np.array([1.0, 1.0, th.length_scale])
+    c = np.linalg.norm(np.nan_to_num(rate) * wvec, axis=-1)
+    v = np.linalg.norm(np.nan_to_num(speed) * wvec, axis=-1)
+    return np.any((c > th.jam_depth_rate) & (c > 0.5 * v), axis=1)
 
 
 def jam_steps(rec: Recording, th: Thresholds,

@@ -49,6 +49,7 @@ from planner.predict.family import admits_unloaded, nearest_certificate
 from planner.predict.stages import FeasibleMode
 from sim.classify import (
     Thresholds,
+    correction_steps,
     flicker_fraction,
     judged_mask,
     observed_modes,
@@ -170,11 +171,11 @@ def judge_modes(rec: Recording, exp: ModeSet, th: Thresholds
     base = Verdict(outcome, tuple(reasons), agreement=agreement, judged_steps=len(judged),
                    observed_counts=counts)
     if not exp.modes or len(judged) < 2:
-        return base, observed
+        return _moved_by_correction(base, rec, exp, th, mask, judged), observed
     verdict = _motion(rec, exp, th, judged, mask, matcher, base)
     if verdict.outcome is Outcome.DISAGREED and agreement < MODE_FRACTION_REQUIRED:
         verdict = _engine_cannot_tell(verdict, rec, exp, th, mask)
-    return verdict, observed
+    return _moved_by_correction(verdict, rec, exp, th, mask, judged), observed
 
 
 def judge_moves(rec: Recording, exp: ModeSet, th: Thresholds) -> Verdict:
@@ -321,3 +322,26 @@ def _engine_cannot_tell(verdict: Verdict, rec: Recording, exp: ModeSet, th: Thre
         f"the workpiece's mean twist is within {min(errors):.1%} of {nearest.label}'s but "
         f"contacts are missing on {lost:.1%} of the judged steps (stick-slip or chatter): "
         "this engine cannot resolve the contact modes here",))
+
+
+def _moved_by_correction(verdict: Verdict, rec: Recording, exp: ModeSet, th: Thresholds,
+                         mask: np.ndarray, judged: Sequence[ObservedMode]) -> Verdict:
+    """A disagreement is ``inconclusive`` when the engine moved a workpiece by position
+    correction rather than by its velocities (:func:`sim.classify.correction_steps`) on more
+    than ``1 - MODE_FRACTION_REQUIRED`` of the judged steps that were read as a contact mode
+    (``judged``: the observed mode of each judged step; a step read as a jam showed the forces
+    or penetration of one, which the engine does measure): the motion seen there is the
+    engine's overlap removal, which carries no friction (docs/simulation.md, "Engine limits"),
+    so the run can confirm neither the prediction nor a rival."""
+    if verdict.outcome is not Outcome.DISAGREED:
+        return verdict
+    read_as_mode = np.array([o != JAM for o in judged], dtype=bool)
+    steps = correction_steps(rec, th, exp.bodies)[mask] & read_as_mode
+    share = float(np.mean(steps)) if len(steps) else 0.0
+    if share <= 1.0 - MODE_FRACTION_REQUIRED:
+        return verdict
+    return replace(verdict, outcome=Outcome.INCONCLUSIVE, reasons=verdict.reasons + (
+        f"the engine moved the workpiece by position correction, not by its velocities, on "
+        f"{share:.1%} of the judged steps (overlap the drive made and the engine removed "
+        f"without friction, faster than {th.jam_depth_rate:.3g} m/s): this engine cannot "
+        "judge this run",))

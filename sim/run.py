@@ -168,7 +168,13 @@ class Recording:
 
     times (T,) [s]; poses (T, B, 3) [m, m, rad]; present (T, P) bool; points, normals
     (T, P, 2); normal_force, tangent_force (T, P) [N]; slip_velocity (T, P) [m/s];
-    depth (T, P) [m]; mu_used (T, P) the Coulomb coefficient in force during the step.
+    depth (T, P) [m]; mu_used (T, P) the Coulomb coefficient in force during the step;
+    correction (T, B, 3) [m, m, rad] the part of each body's displacement since the start that
+    its velocities do not account for (the sum over steps of ``pose change - twist * dt``): an
+    engine that removes overlap by moving bodies apart outside its velocity solve (pymunk's
+    bias velocities, docs/simulation-measurements.md "Position correction") shows it here, an
+    engine whose positions are integrated from its velocities (MuJoCo, DART) keeps it at
+    rounding level. ``None`` in recordings made without it.
     """
 
     engine: str
@@ -186,6 +192,7 @@ class Recording:
     mu_used: np.ndarray
     fault: Fault | None = None
     jammed_at: float | None = None
+    correction: np.ndarray | None = None
 
     def until(self, t: float) -> Recording:
         """The steps recorded at or before ``t`` [s], without the fault or jam that ended the
@@ -194,6 +201,8 @@ class Recording:
         cut = {f: getattr(self, f)[:k] for f in (
             "times", "poses", "present", "points", "normals", "normal_force", "tangent_force",
             "slip_velocity", "depth", "mu_used")}
+        if self.correction is not None:
+            cut["correction"] = self.correction[:k]
         return replace(self, fault=None, jammed_at=None, **cut)
 
 
@@ -267,7 +276,10 @@ def run_scene(scene: Scene, backend: Backend, settings: RunSettings) -> Recordin
     moving = [b.name for b in scene.bodies if b.kind != BodyKind.STATIC]
     n_steps = int(round(settings.duration / settings.dt))
     rows: dict[str, list] = {k: [] for k in (
-        "t", "pose", "present", "point", "normal", "fn", "ft", "vt", "depth", "mu")}
+        "t", "pose", "present", "point", "normal", "fn", "ft", "vt", "depth", "mu", "corr")}
+    start = backend.state()
+    prev_pose = np.array([start[b].pose for b in body_names], dtype=float)
+    corr = np.zeros((len(body_names), 3))
     mu_now = np.array([p.mu_static for p in pairs], dtype=float)
     slipping = np.zeros(len(pairs), dtype=bool)
     fault: Fault | None = None
@@ -291,6 +303,10 @@ def run_scene(scene: Scene, backend: Backend, settings: RunSettings) -> Recordin
         readings = backend.contacts()
         pose = np.array([states[b].pose for b in body_names], dtype=float)
         twist = np.array([states[b].twist for b in body_names], dtype=float)
+        moved = pose - prev_pose
+        moved[:, 2] = (moved[:, 2] + np.pi) % (2.0 * np.pi) - np.pi
+        corr += moved - twist * settings.dt
+        prev_pose = pose
         rd = [readings[nm] for nm in names]
         present = np.array([r.present for r in rd], dtype=bool)
         fn = np.array([r.normal_force for r in rd])
@@ -309,6 +325,7 @@ def run_scene(scene: Scene, backend: Backend, settings: RunSettings) -> Recordin
             rows["vt"].append(vt)
             rows["depth"].append(depth)
             rows["mu"].append(mu_now.copy())
+            rows["corr"].append(corr.copy())
         # -- faults ---------------------------------------------------------------------
         problem = backend.health()
         if problem:
@@ -372,4 +389,5 @@ def run_scene(scene: Scene, backend: Backend, settings: RunSettings) -> Recordin
         mu_used=arr("mu", (P,)),
         fault=fault,
         jammed_at=jammed_at,
+        correction=arr("corr", (len(body_names), 3)),
     )

@@ -103,8 +103,12 @@ def unscaled_recording(rec: Recording, s: float) -> Recording:
         return rec
     poses = rec.poses.copy()
     poses[..., :2] /= s
+    corr = rec.correction
+    if corr is not None:
+        corr = corr.copy()
+        corr[..., :2] /= s
     return replace(rec, poses=poses, points=rec.points / s,
-                   slip_velocity=rec.slip_velocity / s, depth=rec.depth / s)
+                   slip_velocity=rec.slip_velocity / s, depth=rec.depth / s, correction=corr)
 
 
 def scaled_masses(scene: Scene, factor: float) -> Scene:
