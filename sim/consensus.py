@@ -253,7 +253,7 @@ class Consensus:
                                    f"verdict is unexplained (a model error is not excluded)")
         weak = self.majority_causes
         if weak:
-            parts.append("the majority's runs measured artefacts too ("
+            parts.append("The majority's runs measured artefacts too ("
                          + "; ".join(f"{title(e)}: {'; '.join(c)}" for e, c in weak.items())
                          + ")")
         return ". ".join(parts)
