@@ -103,3 +103,16 @@ def consensus_table(rows: list[dict[str, Any]], where: Callable[[dict[str, Any]]
         out.append(f"| {case} | {n['points']} | {n['unanimous']} | {n['explained']} | "
                    f"{n['unexplained']} | {n['none']} | {odds} |")
     return "\n".join(out)
+
+
+def odd_unrecorded(rows: list[dict[str, Any]], where: Callable[[dict[str, Any]], str],
+                   seed: int) -> list[tuple[str, int, str, int]]:
+    """``(case, index, engine, seed)`` of each point of ``seed`` away from region boundaries
+    whose odd engine's row recorded no engine artefacts (a row written before they were)."""
+    out = []
+    for (case, index, s), v in sorted(_select(rows, where, "away").items()):
+        if s != seed or len(v) < 3:
+            continue
+        c = consensus_of({e: r["status"] for e, r in v.items()})
+        out += [(case, index, e, s) for e in c.odd if "artefacts" not in v[e]]
+    return out

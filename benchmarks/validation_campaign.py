@@ -59,7 +59,7 @@ from sim.judge import judge
 from sim.scenes.system import commanded_contact_speed
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # the sibling benchmarks module
-from campaign_engines import consensus_table, pairwise_table  # noqa: E402
+from campaign_engines import consensus_table, odd_unrecorded, pairwise_table  # noqa: E402
 from campaign_hands import hand_entries, refresh_where, run_hand  # noqa: E402
 
 NEAR = 0.03
@@ -393,7 +393,11 @@ def main() -> None:
                     "region boundaries")
     ap.add_argument("--also", default="",
                     help="comma-separated JSONL files whose rows join --jsonl's in the tables "
-                    "(the same points run in other engines)")
+                    "(the same points run in other engines; a row of --jsonl replaces theirs)")
+    ap.add_argument("--redo-odd", action="store_true",
+                    help="run again, into --jsonl, each row of --also away from region "
+                    "boundaries whose engine is the odd one of its point and that recorded no "
+                    "engine artefacts (rows of files written before they were recorded)")
     ap.add_argument("--refresh-where", action="store_true",
                     help="re-derive the hand rows' near flags of --jsonl from their plans (the "
                     "planner only, no simulation) and rewrite the file")
@@ -412,8 +416,9 @@ def main() -> None:
     if args.refresh_where:
         refresh_where(args.jsonl, done, NEAR, SLIP)
         return
+    also = [r for f in args.also.split(",") if f for r in read_rows(f)]
     if args.table_only:
-        rows = done + [r for f in args.also.split(",") if f for r in read_rows(f)]
+        rows = also + done
         print(table(rows))
         print("\nEngine pairs with the same verdict, away from region boundaries:\n")
         print(pairwise_table(rows, where))
@@ -431,6 +436,8 @@ def main() -> None:
     todo = [(c, i, e, args.seed) for j, (c, i, e) in enumerate(
         tasks(cases, args.engines.split(","), points))
         if j % n == k and (c, i, e, args.seed) not in have]
+    if args.redo_odd:
+        todo = [t for t in odd_unrecorded(also, where, args.seed) if t not in have]
     rows = [r for r in done if r.get("seed") == args.seed]
     print(f"{len(todo)} runs to do, {len(rows)} rows already in {args.jsonl}", flush=True)
 

@@ -47,3 +47,9 @@ def test_consensus_counts_odd_engines_explained_by_recorded_artefacts():
     text = m.consensus_table(ROWS, m.where)
     assert "| stacked | 3 | 1 | 1 | 1 | 0 | MuJoCo 2 |" in text
     assert "| ex41 |" not in text  # no point away from boundaries ran in all three engines
+
+
+def test_odd_rows_without_recorded_artefacts_are_the_ones_to_run_again():
+    m = campaign()
+    assert m.odd_unrecorded(ROWS, m.where, 5) == [("stacked", 2, "mujoco", 5)]
+    assert m.odd_unrecorded(ROWS, m.where, 4) == []
