@@ -99,3 +99,23 @@ def test_simulate_in_several_engines_writes_each_run_and_their_consensus(tmp_pat
     schema = load_schema("run-summary")
     for e in ("pymunk", "dart"):
         jsonschema.validate(json.loads((out / e / "summary.json").read_text()), schema)
+
+
+@pytest.mark.long
+def test_validate_in_several_engines_writes_each_and_their_consensus(tmp_path, capsys):
+    from qsplan.cli import main
+
+    plan = tmp_path / "plan.json"
+    assert main(["-q", "plan", "two_finger_hand", "--waypoints", "6", "--out", str(plan)]) == 0
+    out = tmp_path / "val"
+    code = main(["validate", str(plan), "--engine", "pymunk,mujoco", "--mu", "0.05,0.1",
+                 "--no-render", "--out", str(out)])
+    text = capsys.readouterr().out
+    assert sorted(p.name for p in out.iterdir()) == ["consensus.json", "mujoco", "pymunk"]
+    assert (out / "pymunk" / "mu_0.05" / "summary.json").is_file()
+    c = json.loads((out / "consensus.json").read_text())
+    assert c["engines"] == ["pymunk", "mujoco"] and [r["mu"] for r in c["runs"]] == ["0.05",
+                                                                                    "0.1"]
+    assert "consensus mu=0.05: " in text and "consensus mu=0.1: " in text
+    agreed = all(r["whole"]["majority"] == "agreed" for r in c["runs"])
+    assert code == (0 if agreed else 1)
