@@ -387,6 +387,8 @@ def main() -> None:
                     "engine, seed) rows it already holds (resumable)")
     ap.add_argument("--workers", type=int, default=1, help="processes")
     ap.add_argument("--chunk", default="0/1", help="K/N: run only tasks with number %% N == K")
+    ap.add_argument("--start", type=int, default=0,
+                    help="run only the points of index >= this (the others stay to be run)")
     ap.add_argument("--table-only", action="store_true",
                     help="print the tables of --jsonl (and --also): per case, engine and where; "
                     "engine pairs with the same verdict and the engines' consensus, away from "
@@ -435,7 +437,7 @@ def main() -> None:
         points = dict.fromkeys(cases, int(args.points))
     todo = [(c, i, e, args.seed) for j, (c, i, e) in enumerate(
         tasks(cases, args.engines.split(","), points))
-        if j % n == k and (c, i, e, args.seed) not in have]
+        if j % n == k and i >= args.start and (c, i, e, args.seed) not in have]
     if args.redo_odd:
         todo = [t for t in odd_unrecorded(also, where, args.seed) if t not in have]
     rows = [r for r in done if r.get("seed") == args.seed]
