@@ -49,9 +49,13 @@ def _cases(keys: Any) -> list[str]:
 
 
 def pairwise_table(rows: list[dict[str, Any]], where: Callable[[dict[str, Any]], str],
-                   at: str | None = "away") -> str:
-    """Markdown: per case (and the drawn kinds together) and engine pair, ``same of both``."""
+                   at: str | None = "away", common: bool = False) -> str:
+    """Markdown: per case (and the drawn kinds together) and engine pair, ``same of both``;
+    ``common``: only the points every engine ran (every column on the same points)."""
     pts = _select(rows, where, at)
+    if common:
+        every = {e for v in pts.values() for e in v}
+        pts = {k: v for k, v in pts.items() if set(v) == every}
     engines = sorted({e for v in pts.values() for e in v},
                      key=lambda e: ("pymunk", "mujoco", "dart").index(e)
                      if e in ("pymunk", "mujoco", "dart") else 9)

@@ -424,6 +424,8 @@ def main() -> None:
         print(table(rows))
         print("\nEngine pairs with the same verdict, away from region boundaries:\n")
         print(pairwise_table(rows, where))
+        print("\nThe same on the points every engine ran:\n")
+        print(pairwise_table(rows, where, common=True))
         print("\nThe engines' consensus, away from region boundaries:\n")
         print(consensus_table(rows, where))
         return

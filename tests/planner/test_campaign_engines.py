@@ -38,6 +38,9 @@ def test_pairwise_agreement_away_from_boundaries():
     assert "| case | pymunk - MuJoCo | pymunk - DART | MuJoCo - DART |" in text
     assert "| stacked | 1 of 3 (33%) | 3 of 3 (100%) | 1 of 3 (33%) |" in text
     assert "| ex41 | 1 of 1 (100%) | 0 of 0 | 0 of 0 |" in text
+    common = m.pairwise_table(ROWS, m.where, common=True)
+    assert "| stacked | 1 of 3 (33%) | 3 of 3 (100%) | 1 of 3 (33%) |" in common
+    assert "| ex41 |" not in common  # no point away from boundaries ran in all three
     anywhere = m.pairwise_table(ROWS, m.where, None)
     assert "| ex41 | 1 of 2 (50%) | 0 of 1 (0%) | 1 of 1 (100%) |" in anywhere
 
