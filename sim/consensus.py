@@ -9,8 +9,10 @@ recording, each against a threshold derived from the judge's and the classifier'
   plan segment's claim; a frictionless contact has no stiction and is left out) whose
   window-mean ``|v_t|`` exceeds the classifier's slip threshold on more than
   ``1 - MODE_FRACTION_REQUIRED`` of the judged steps;
-* **lift-off** -- a contact the prediction keeps closed (not ``B``) whose window token is ``B``
-  (mean normal force below the classifier's force floor) on more than that fraction;
+* **lift-off** -- a contact the prediction keeps loaded (closed in every predicted mode, and
+  loaded by every certificate of each: a force-indeterminate mode may unload a closed contact,
+  which the judge accepts) whose window token is ``B`` (mean normal force below the
+  classifier's force floor) on more than that fraction;
 * **chatter** -- a contact whose per-step token (:func:`sim.classify.raw_tokens`) changes more
   often than once per classifier window on average over the judged steps: a quasistatic run
   changes modes only at predicted events, and the window mean reads one mode per window;
@@ -64,7 +66,10 @@ def title(engine: str) -> str:
 def _contact_roles(expectation: Expectation, n_pairs: int, times: np.ndarray
                    ) -> tuple[np.ndarray, np.ndarray]:
     """``(stick, closed)``, each (T, P) bool: the steps at which the prediction keeps a pair
-    sticking (``R`` with friction) / closed (not ``B``). A predicted jam, a static system
+    sticking (``R`` with friction) / loaded (closed, ``R`` or ``S``, in every predicted mode,
+    and no member of any predicted mode's certificate family unloads it -- a
+    force-indeterminate mode may leave a closed contact without load, which the judge accepts,
+    :func:`planner.predict.family.admits_unloaded`). A predicted jam, a static system
     predicted to move and a ruler (its sticking finger alternates) keep none."""
     T = len(times)
     stick = np.zeros((T, n_pairs), dtype=bool)
@@ -76,7 +81,14 @@ def _contact_roles(expectation: Expectation, n_pairs: int, times: np.ndarray
         if expectation.system is not None:
             rough = np.asarray(expectation.system.mu, dtype=float)[:n] > 0
         stick[:, :n] = np.all(codes[:, :n] == ROLL, axis=0) & rough
-        closed[:, :n] = np.all(codes[:, :n] != BREAK, axis=0)
+        loaded = np.all(codes[:, :n] != BREAK, axis=0)
+        if expectation.system is not None:
+            from planner.predict.family import admits_unloaded
+
+            for j in np.flatnonzero(loaded):
+                loaded[j] = not any(admits_unloaded(expectation.system, m.mode, [int(j)])
+                                    for m in expectation.modes)
+        closed[:, :n] = loaded
     elif isinstance(expectation, PlanSchedule):
         starts = [seg.start for seg in expectation.segments] + [np.inf]
         for k, seg in enumerate(expectation.segments):
@@ -165,8 +177,8 @@ def engine_measures(rec: Recording, expectation: Expectation, th: Thresholds, *,
             if frac > OFF_MODE_FRACTION:
                 arts.append({"kind": "lift_off", "contact": nm, "value": frac,
                              "threshold": OFF_MODE_FRACTION,
-                             "text": f"contact {nm}, predicted to stay closed, carried no "
-                                     f"load on {frac:.0%} of the judged steps"})
+                             "text": f"contact {nm}, predicted to carry load, carried none "
+                                     f"on {frac:.0%} of the judged steps"})
     changes = _changes(raw)
     for j, nm in enumerate(names):
         out["chatter"][nm] = int(changes[j])

@@ -254,3 +254,25 @@ def test_the_recorded_summaries_are_what_the_three_engines_do_now():
     c = consensus(runs)
     assert c.majority == "agreed" and c.odd == ("mujoco",) and c.explained
     assert any("predicted to stick, slipped" in t for t in c.causes["mujoco"])
+
+
+def test_a_contact_a_force_indeterminate_mode_may_unload_is_no_lift_off():
+    """A body resting on three table contacts at x = 0, 0.5, 1 with its weight at x = 0.25:
+    ``R1 R2 R3`` is force-indeterminate -- a certificate with no load at contact 2 (or 3)
+    exists, none with no load at contact 1."""
+    from planner.model.system import System
+    from planner.predict.feasibility import feasible_modes
+
+    system = System.from_contacts(points=[[0, 0], [0.5, 0], [1, 0]],
+                                  normals=[[0, 1], [0, 1], [0, 1]], mu=[0.5, 0.5, 0.5],
+                                  external_wrench=(0, -1, -0.25),
+                                  contact_velocities=[[0, 0], [0, 0], [0, 0]])
+    modes = feasible_modes(system).all_modes
+    assert [m.label for m in modes] == ["R1 R2 R3"]
+    exp = ModeSet(tuple(modes), system, 1.0, ("workpiece",), 0.0, 1.0, 1.0, static=True)
+    for k, named in ((1, True), (2, False), (3, False)):
+        fn = np.ones((T, 3))
+        fn[:, k - 1] = 0.0
+        m = engine_measures(_rec(fn=fn, P=3), exp, TH, length_scale=LENGTH)
+        assert ("lift_off" in _kinds(m)) is named, (k, m["lift_off"])
+        assert set(m["lift_off"]) == {"c1"}
