@@ -1,4 +1,4 @@
-"""Validation campaign: seeded random points through the user's path, both engines
+"""Validation campaign: seeded random points through the user's path, in any engines
 (docs/validation-campaign.md).
 
 Cases:
@@ -26,6 +26,8 @@ agreement there while the run agreed with its own prediction is a false agreemen
         --points ex41=200,ex43=200,acute=16,supports=16,stacked=16,static=16,hand=24 --seed 4 \\
         --jsonl out.jsonl --workers 2          # the full campaign (resumable)
     python benchmarks/validation_campaign.py --jsonl out.jsonl --table-only
+    python benchmarks/validation_campaign.py --engines dart ... --jsonl dart.jsonl
+    python benchmarks/validation_campaign.py --jsonl dart.jsonl --also out.jsonl --table-only
 
 Rates are printed per case, engine and near/away; the full campaign takes hours on two cores.
 """
@@ -57,6 +59,7 @@ from sim.judge import judge
 from sim.scenes.system import commanded_contact_speed
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # the sibling benchmarks module
+from campaign_engines import consensus_table, odd_unrecorded, pairwise_table  # noqa: E402
 from campaign_hands import hand_entries, refresh_where, run_hand  # noqa: E402
 
 NEAR = 0.03
@@ -212,6 +215,7 @@ def run_point(case: str, engine: str, system: System, mu: np.ndarray, ctrl: np.n
         "reason": res.verdict.reason, "near_boundary": near_boundary(system, mu),
         "near_velocity": near_velocity(system, mu),
         "wedge": wedge_pairs(system, mu, *reach(system, mu, p)), "control_mu": ctrl.tolist(),
+        "artefacts": [a["text"] for a in s.observed["engine_measures"]["artefacts"]],
     }
     if engine == "mujoco" and MUJOCO_SETTINGS is not None:
         row["settings"] = "backend defaults"
@@ -383,7 +387,19 @@ def main() -> None:
                     "engine, seed) rows it already holds (resumable)")
     ap.add_argument("--workers", type=int, default=1, help="processes")
     ap.add_argument("--chunk", default="0/1", help="K/N: run only tasks with number %% N == K")
-    ap.add_argument("--table-only", action="store_true", help="print the table of --jsonl")
+    ap.add_argument("--start", type=int, default=0,
+                    help="run only the points of index >= this (the others stay to be run)")
+    ap.add_argument("--table-only", action="store_true",
+                    help="print the tables of --jsonl (and --also): per case, engine and where; "
+                    "engine pairs with the same verdict and the engines' consensus, away from "
+                    "region boundaries")
+    ap.add_argument("--also", default="",
+                    help="comma-separated JSONL files whose rows join --jsonl's in the tables "
+                    "(the same points run in other engines; a row of --jsonl replaces theirs)")
+    ap.add_argument("--redo-odd", action="store_true",
+                    help="run again, into --jsonl, each row of --also away from region "
+                    "boundaries whose engine is the odd one of its point and that recorded no "
+                    "engine artefacts (rows of files written before they were recorded)")
     ap.add_argument("--refresh-where", action="store_true",
                     help="re-derive the hand rows' near flags of --jsonl from their plans (the "
                     "planner only, no simulation) and rewrite the file")
@@ -402,8 +418,16 @@ def main() -> None:
     if args.refresh_where:
         refresh_where(args.jsonl, done, NEAR, SLIP)
         return
+    also = [r for f in args.also.split(",") if f for r in read_rows(f)]
     if args.table_only:
-        print(table(done))
+        rows = also + done
+        print(table(rows))
+        print("\nEngine pairs with the same verdict, away from region boundaries:\n")
+        print(pairwise_table(rows, where))
+        print("\nThe same on the points every engine ran:\n")
+        print(pairwise_table(rows, where, common=True))
+        print("\nThe engines' consensus, away from region boundaries:\n")
+        print(consensus_table(rows, where))
         return
     have = {(r["case"], r["index"], r["engine"], r["seed"]) for r in done if "index" in r}
     k, n = (int(v) for v in args.chunk.split("/"))
@@ -415,7 +439,9 @@ def main() -> None:
         points = dict.fromkeys(cases, int(args.points))
     todo = [(c, i, e, args.seed) for j, (c, i, e) in enumerate(
         tasks(cases, args.engines.split(","), points))
-        if j % n == k and (c, i, e, args.seed) not in have]
+        if j % n == k and i >= args.start and (c, i, e, args.seed) not in have]
+    if args.redo_odd:
+        todo = [t for t in odd_unrecorded(also, where, args.seed) if t not in have]
     rows = [r for r in done if r.get("seed") == args.seed]
     print(f"{len(todo)} runs to do, {len(rows)} rows already in {args.jsonl}", flush=True)
 

@@ -88,6 +88,19 @@ def parse_range(text: str, what: str, *, lo: float = 0.0, hi: float = MU_MAX,
     return a, b
 
 
+def parse_engines(text: str, what: str) -> list[str]:
+    """Comma-separated engine names of the settings table, each installed
+    (:func:`sim.backends.require_engine`: its message names the choices or the install
+    command), without repeats."""
+    from sim.backends import ENGINES, require_engine
+
+    names = [e.strip() for e in str(text).split(",")]
+    if any(not e for e in names):
+        raise InputError(f"{what}: expected one of {', '.join(ENGINES)} or several of them "
+                         f"comma-separated, got {text!r}")
+    return list(dict.fromkeys(require_engine(e, what) for e in names))
+
+
 def check_int(value: int, what: str, lo: int, hi: int | None = None) -> int:
     """An integer option in ``[lo, hi]``."""
     if value < lo or (hi is not None and value > hi):

@@ -37,6 +37,7 @@ from planner.model.system import System
 from planner.model.wedge import wedge_pairs
 from sim.backends import make_backend
 from sim.classify import Thresholds
+from sim.consensus import engine_measures
 from sim.expectation import Expectation, Judgement, ModeSet, Switches
 from sim.judge import judge
 from sim.limits import check_scene
@@ -121,10 +122,15 @@ def execute(job: SimJob) -> RunResult:
     run = replace(job.run, slip_speed=job.run.slip_speed * s,
                   penetration_tol=job.run.penetration_tol * s)
     wall = time.perf_counter()
-    rec = run_scene(scene, make_backend(job.engine, job.settings), run)
+    backend = make_backend(job.engine, job.settings)
+    rec = run_scene(scene, backend, run)
     wall = time.perf_counter() - wall
     rec = unscaled_recording(rec, s)
     judgement = judge(rec, job.expectation, job.thresholds)
+    measures = engine_measures(rec, job.expectation, job.thresholds,
+                               length_scale=job.scene.length_scale,
+                               capped_solves=getattr(backend, "unconverged", None),
+                               solves=getattr(backend, "solves", None))
     verdict = judgement.verdict
     observed = judgement.observed
     bodies = [b for b in ("workpiece", "work0") if b in rec.body_names]
@@ -135,7 +141,7 @@ def execute(job: SimJob) -> RunResult:
         "final": mode_label(observed[-1]) if observed else None,
         "workpiece_final_pose": final_pose, "jammed_at_s": rec.jammed_at,
         "fault": rec.fault.reason if rec.fault else None,
-        "segments": observed_segments(observed, rec.times)}
+        "segments": observed_segments(observed, rec.times), "engine_measures": measures}
     if judgement.details:
         obs.update(judgement.details)
     summary = RunSummary(

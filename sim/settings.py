@@ -231,10 +231,10 @@ SETTINGS: dict[tuple[SceneKind, str], EngineSettings] = {
 #: Every engine the table knows, in the order reports list them: the choices wherever a user
 #: names an engine (``--engine``, ``--engines``, a scenario's engines).
 ENGINES: tuple[str, ...] = tuple(dict.fromkeys(engine for _, engine in SETTINGS))
-#: The engines a run uses when nobody names one (``qsplan demo``, the validation campaign, the
-#: parametrised tests): the two the validation campaign and the registered scenarios were
-#: measured in. DART (``qsplan[dart]``, an optional extra) is the referee named on request
-#: (docs/engine-dart.md: what it is for and its cost, 2-6x pymunk's time per step).
+#: The engines of the validation campaign's default and the parametrised tests: the two every
+#: install has. ``qsplan demo`` runs every installed engine instead
+#: (:func:`sim.backends.installed_engines`: DART too with the ``dart`` extra,
+#: docs/engine-dart.md: what it is for and its cost, 2-6x pymunk's time per step).
 DEFAULT_ENGINES: tuple[str, ...] = ("pymunk", "mujoco")
 
 

@@ -1,5 +1,10 @@
-"""``qsplan validate PLAN.json --engine ENGINE [--mu 0.1] [--out DIR]``: run a plan in a
-simulator and compare observed with predicted modes and poses.
+"""``qsplan validate PLAN.json --engine ENGINE[,ENGINE..] [--mu 0.1] [--out DIR]``: run a plan
+in a simulator and compare observed with predicted modes and poses.
+
+Several engines (``--engine pymunk,mujoco,dart``): the same runs in each, then per friction
+value the verdicts side by side and their consensus (:mod:`sim.consensus`: the odd engine
+and the engine artefact its run measured); ``--out`` holds one folder per engine and
+``consensus.json``, and the exit code is the consensus verdicts'.
 
 Default friction: every value of the plan's ``mu.validate`` list (the plan passes only if every
 run agrees). Exit codes: 0 agreed, 1 disagreed or inconclusive, 2 bad input (missing, malformed
@@ -15,9 +20,9 @@ from typing import Any
 
 from planner.errors import InputError
 from planner.model.validation import FrictionValue
-from qsplan.options import MU_MAX, fmt, parse_number
+from qsplan.options import MU_MAX, fmt, parse_engines, parse_number
 from scenarios.registry import RUN_ENTRIES
-from sim.backends import ENGINES, require_engine
+from sim.backends import ENGINES
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -37,7 +42,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         epilog="example: qsplan validate plan.json --engine mujoco --mu 0.1 --out val/",
     )
     p.add_argument("plan", help="plan file (JSON; see docs/plan-format.md)")
-    p.add_argument("--engine", default="pymunk", help=f"{' | '.join(ENGINES)} (default pymunk)")
+    p.add_argument("--engine", default="pymunk",
+                   help=f"{' | '.join(ENGINES)}, or several comma-separated (verdicts side by "
+                        f"side and their consensus; default pymunk)")
     p.add_argument("--mu", default=None,
                    help="friction to simulate: one number, or comma-separated values (each "
                         "its own run); a run with one coefficient per contact is written "
@@ -93,7 +100,7 @@ def check_contacts(mus: list[FrictionValue], n_c: int) -> None:
 def run(args: argparse.Namespace) -> int:
     from planner.plan.plan_file import load_plan
 
-    require_engine(args.engine, "--engine")
+    engines = parse_engines(args.engine, "--engine")
     mus = parse_mu_list(args.mu) if args.mu is not None else None
     path = Path(args.plan)
     if not path.is_file():
@@ -113,10 +120,13 @@ def run(args: argparse.Namespace) -> int:
         from planner.files.outputs import output_set
 
         # the destination and every entry are checked before any simulation
-        with output_set(args.out, "dir", entries=output_entries(mus, render)) as work:
-            lines, code = _run(args, plan, path, mus, work, render)
+        entries = output_entries(mus, render)
+        if len(engines) > 1:
+            entries = (*(f"{e}/" for e in engines), CONSENSUS_FILE)
+        with output_set(args.out, "dir", entries=entries) as work:
+            lines, code = _run_engines(args, engines, plan, path, mus, work, render)
     else:
-        lines, code = _run(args, plan, path, mus, None, render)
+        lines, code = _run_engines(args, engines, plan, path, mus, None, render)
     if not getattr(args, "quiet", False):  # printed once the outputs are in place
         print("\n".join(lines))
     return code
@@ -137,26 +147,69 @@ def output_entries(mus: list[FrictionValue], render: bool) -> tuple[str, ...]:
     return tuple(dict.fromkeys(f"{mu_folder(mu)}/" for mu in mus))
 
 
-def _run(args: argparse.Namespace, plan: Any, path: Path, mus: list[FrictionValue],
-         work: Path | None, render: bool) -> tuple[list[str], int]:
+CONSENSUS_FILE = "consensus.json"
+"""Several engines: per friction value the consensus of their runs (and per segment)."""
+
+
+def _run_engines(args: argparse.Namespace, engines: list[str], plan: Any, path: Path,
+                 mus: list[FrictionValue], work: Path | None, render: bool
+                 ) -> tuple[list[str], int]:
+    """:func:`_run` per engine (its folder ``work/<engine>`` when several); with several,
+    per friction value a consensus line and the exit code of the consensus verdicts
+    (:func:`qsplan.commands.simulate.consensus_exit_code`, the worst)."""
+    if len(engines) == 1:
+        one, code, _ = _run(args, engines[0], plan, path, mus, work, render)
+        return one, code
+    from planner.files.atomic import atomic_write_json
+    from qsplan.commands.simulate import consensus_exit_code
+    from sim.consensus import consensus, segment_consensus
+
+    lines = []
+    runs: dict[str, list[dict[str, Any]]] = {}
+    for engine in engines:
+        more, _, summaries = _run(args, engine, plan, path, mus,
+                                  None if work is None else work / engine, render)
+        lines += more
+        runs[engine] = summaries
+    codes, table = [], []
+    for k, mu in enumerate(mus):
+        same = [runs[e][k] for e in engines]
+        c = consensus(same)
+        codes.append(consensus_exit_code(c))
+        segs = segment_consensus(same) if len(plan.segments) > 1 else []
+        table.append({"mu": mu_text(mu), "whole": c.to_dict(),
+                      "segments": [sc.to_dict() for sc in segs]})
+        lines.append(f"consensus mu={mu_text(mu)}: {c.text}")
+        lines += [f"  segment {j + 1}: {sc.text}" for j, sc in enumerate(segs)
+                  if not sc.unanimous]
+    if work is not None:
+        atomic_write_json(work / CONSENSUS_FILE, {"engines": engines, "runs": table})
+    code = 3 if 3 in codes else 1 if 1 in codes else 0
+    return lines, code
+
+
+def _run(args: argparse.Namespace, engine: str, plan: Any, path: Path,
+         mus: list[FrictionValue], work: Path | None, render: bool
+         ) -> tuple[list[str], int, list[dict[str, Any]]]:
     """Validate ``plan`` (read from ``path``) at each friction value; outputs go to ``work``
     (the staging folder of --out).  A plan of one segment and a whole task both run through
     :func:`scenarios.runs.validate_plan` (one continuous run, a verdict per segment).  Returns
-    the lines to print and the exit code."""
+    the lines to print, the exit code and the summaries."""
     from scenarios.runs import validate_plan, write_run
     from sim.verdict import Outcome
 
     n_seg = len(plan.segments)
     statuses = []
     lines: list[str] = []
+    summaries: list[dict[str, Any]] = []
     for mu in mus:
-        res = validate_plan(plan, args.engine, mu, name=f"validate {path.name} mu={mu_text(mu)}",
+        res = validate_plan(plan, engine, mu, name=f"validate {path.name} mu={mu_text(mu)}",
                             source=str(path))
         v = res.verdict
         statuses.append(v.outcome)
         wall = f"[{res.summary.wall_time_s:.1f} s]"
         if n_seg > 1:
-            lines.append(f"{args.engine} mu={mu_text(mu)}: {v.outcome.value.upper()} (whole "
+            lines.append(f"{engine} mu={mu_text(mu)}: {v.outcome.value.upper()} (whole "
                          f"task, {len(res.judgement.segments)} of {n_seg} segments run) {wall}")
             for sv in res.judgement.segments:
                 pm = sv.verdict.plan
@@ -167,18 +220,20 @@ def _run(args: argparse.Namespace, plan: Any, path: Path, mus: list[FrictionValu
                              f"({extra})")
         elif v.plan is not None:
             pm = v.plan
-            lines.append(f"{args.engine} mu={mu_text(mu)}: {v.outcome.value.upper()}  "
+            lines.append(f"{engine} mu={mu_text(mu)}: {v.outcome.value.upper()}  "
                          f"claim {pm.claim.label!r} observed {pm.claim_fraction:.1%} (predicted "
                          f"modes {pm.predicted_fraction:.1%}), final position "
                          f"{pm.final_error_of_travel:.2%} of travel {wall}")
         else:
-            lines.append(f"{args.engine} mu={mu_text(mu)}: {v.outcome.value.upper()} {wall}")
+            lines.append(f"{engine} mu={mu_text(mu)}: {v.outcome.value.upper()} {wall}")
         if v.outcome is not Outcome.AGREED:
             lines.extend(f"    {r}" for r in v.reasons)
         if work is not None:
             out = work if len(mus) == 1 else work / mu_folder(mu)
-            write_run(res, out, render=render)
-    return lines, _exit_code(statuses)
+            summaries.append(write_run(res, out, render=render))
+        else:
+            summaries.append(res.summary.to_dict())
+    return lines, _exit_code(statuses), summaries
 
 
 def _mu_values(mus: list[FrictionValue] | None, validate_mu: tuple[FrictionValue, ...]

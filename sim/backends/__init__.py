@@ -21,7 +21,7 @@ from sim.scene import Backend
 from sim.settings import DEFAULT_ENGINES, ENGINES, EngineSettings, check_engine
 
 __all__ = ["BACKENDS", "DEFAULT_ENGINES", "ENGINES", "PACKAGES", "EngineSettings",
-           "check_engine", "installed", "make_backend", "require_engine"]
+           "check_engine", "installed", "installed_engines", "make_backend", "require_engine"]
 
 
 def _pymunk_options(es: EngineSettings) -> dict[str, Any]:
@@ -58,6 +58,12 @@ PACKAGES: dict[str, tuple[str, str]] = {
 def installed(engine: str) -> bool:
     """Whether the Python package ``engine`` needs can be imported (without importing it)."""
     return importlib.util.find_spec(PACKAGES[check_engine(engine)][0]) is not None
+
+
+def installed_engines() -> tuple[str, ...]:
+    """Every engine of the settings table whose package is installed, in :data:`ENGINES`'
+    order (what ``qsplan demo`` runs when no engine is named)."""
+    return tuple(e for e in ENGINES if installed(e))
 
 
 def require_engine(engine: str, what: str = "engine") -> str:

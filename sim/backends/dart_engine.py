@@ -345,6 +345,12 @@ class DartBackend:
         stats = self._solver.getStats()
         return int(stats.numSolves - stats.numConverged)
 
+    @property
+    def solves(self) -> int:
+        """Contact solves so far (two per step with contacts), of which :attr:`unconverged`
+        stopped at the cap."""
+        return int(self._solver.getStats().numSolves)
+
     def health(self) -> str | None:
         """A reason when a skeleton's coordinates or velocities are no longer finite. (Capped
         contact solves, :attr:`unconverged`, are no alarm: force-indeterminate supports and

@@ -1,6 +1,7 @@
 """Record the short simulator traces that tests/sim/test_sim_flicker.py classifies.
 
-Run from the repository root: ``PYTHONPATH=.:tests python tests/data/record_sim_traces.py``.
+Run from the repository root: ``PYTHONPATH=.:tests python tests/data/record_sim_traces.py
+[NAME ...]`` (the traces named, else all).
 Each trace is one paper-example run (at :data:`RECORDED_WITH`: the scale, speed, mass, time step
 and backend defaults the traces were recorded with -- they are recorded data of real flicker
 and jams for the classifier's tests, not the pipeline's settings) cut to the
@@ -30,6 +31,7 @@ HERE = Path(__file__).resolve().parent
 RECORDED_WITH = {
     "pymunk": {"dt": 1e-3, "creep": 1e-9, "speed": 2e-3, "mass": 0.1, "settle": 0.2},
     "mujoco": {"dt": 1e-3, "creep": 1e-8, "speed": 5e-4, "mass": 0.01, "settle": 1.5},
+    "dart": {"dt": 1e-3, "creep": 1e-6, "speed": 2e-3, "mass": 0.1, "settle": 0.3},
 }
 #: name -> (engine, data, scale, mu, start [s], stop [s])
 TRACES = {
@@ -44,6 +46,8 @@ TRACES = {
     # clean runs: 3S in pymunk, a MuJoCo jam (penetration grows, nothing predicted)
     "pymunk_ex41_3s": ("pymunk", "example_4_1", 0.01, (0.2, 0.6, 0.1), 0.0, 1.4),
     "mujoco_ex41_jam": ("mujoco", "example_4_1", 0.01, (0.75, 0.95, 0.25), 0.5, 3.0),
+    # the same 3S run in DART (the engine with true stiction, docs/engine-dart.md)
+    "dart_ex41_3s": ("dart", "example_4_1", 0.01, (0.2, 0.6, 0.1), 0.0, 1.4),
 }
 
 
@@ -74,6 +78,8 @@ def record(name: str) -> Path:
 
 
 if __name__ == "__main__":
-    for nm in TRACES:
+    import sys
+
+    for nm in sys.argv[1:] or TRACES:  # the traces named, else all
         p = record(nm)
         print(f"{p.name}: {p.stat().st_size / 1024:.0f} KiB")

@@ -69,12 +69,44 @@ def test_cli_unknown_engine_lists_the_choices(capsys):
     assert "--engine: expected one of pymunk, mujoco, dart, got 'bullet'" in capsys.readouterr().err
 
 
-def test_demo_defaults_to_the_default_engines():
+def test_demo_runs_every_installed_engine_by_default():
     import argparse
 
     from qsplan.commands import demo
 
     sub = argparse.ArgumentParser().add_subparsers()
     demo.register(sub)
-    parser = sub.choices["demo"]
-    assert parser.get_default("engines") == ",".join(DEFAULT_ENGINES)
+    assert sub.choices["demo"].get_default("engines") is None
+    expected = ["pymunk", "mujoco"] + (["dart"] if importlib.util.find_spec("dartpy") else [])
+    assert demo.chosen_engines(None) == expected
+    if "dart" in expected:
+        assert demo.chosen_engines("dart,pymunk,dart") == ["dart", "pymunk"]
+
+
+def test_demo_without_dartpy_runs_the_two_others(without_dartpy):
+    from qsplan.commands import demo
+
+    assert demo.chosen_engines(None) == ["pymunk", "mujoco"]
+    with pytest.raises(InputError, match=MISSING):
+        demo.chosen_engines("pymunk,dart")
+
+
+def test_demo_with_dart_in_the_registry_and_not_installed(monkeypatch):
+    """An engine added to the registry whose package is missing is left out of the default."""
+    import sim.backends as backends
+    from qsplan.commands import demo
+
+    monkeypatch.setitem(backends.PACKAGES, "dart", ("no_such_package_qsplan", "pip install x"))
+    assert demo.chosen_engines(None) == ["pymunk", "mujoco"]
+
+
+@pytest.mark.parametrize("text, message", [
+    ("pymunk,,dart", "--engine: expected one of pymunk, mujoco, dart or several of them "
+                     "comma-separated, got 'pymunk,,dart'"),
+    ("pymunk,bullet", "--engine: expected one of pymunk, mujoco, dart, got 'bullet'"),
+])
+def test_several_engines_bad_input(text, message, capsys):
+    from qsplan.cli import main
+
+    assert main(["simulate", BOX, "--engine", text]) == 2
+    assert message in capsys.readouterr().err
