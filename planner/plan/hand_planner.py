@@ -25,12 +25,14 @@ TASK_STEPS = 120
 
 def default_mu_model(mu: Any) -> str:
     """The friction model a friction description asks for: ``independent`` (one coefficient per
-    contact, each in its own interval) when it gives one interval per contact -- a list of
-    ``(lo, hi)`` pairs, equal or not --, ``common`` (one coefficient shared by every contact,
-    the paper's model) for one interval or one number."""
-    pairs = isinstance(mu, (list, tuple)) and len(mu) > 1 and all(
-        isinstance(x, (list, tuple)) for x in mu)
-    return "independent" if pairs else "common"
+    contact, each in its own interval) when it gives one interval per contact -- a list or
+    array of ``(lo, hi)`` pairs, equal or not --, ``common`` (one coefficient shared by every
+    contact, the paper's model) for one interval or one number."""
+    try:
+        shape = np.shape(np.asarray(mu, dtype=float))
+    except (TypeError, ValueError):  # ragged: friction_interval names the problem later
+        return "common"
+    return "independent" if len(shape) == 2 and shape[0] > 1 else "common"
 
 
 def used_mu_model(model: str, plan: Plan) -> str:
