@@ -33,13 +33,21 @@ def effort_limit_words(hand: Hand, claim: str, t: float, joints: int | Sequence[
         j, pieces = int(joints), list(need)
         unit = effort_unit(hand, (j,))
         lo_v, hi_v = float(np.ravel(lo)[0]), float(np.ravel(hi)[0])
+        ends = [abs(x) for p in pieces for x in (p.lower, p.upper, lo_v, hi_v)
+                if math.isfinite(x)]
+        tiny = 1e-9 * max(ends, default=1.0)  # rounding of an end at zero effort
+
+        def r(x: float) -> float:
+            return 0.0 if abs(x) <= tiny else x
+
         gaps = [(lo_v - p.upper, p.upper, "at most") if p.upper < lo_v else
                 (p.lower - hi_v, p.lower, "at least") for p in pieces]
         gap, end, word = min(gaps)
         return (f"the joint limits leave no guaranteed command: at t = {t:.4g} s {claim} needs "
-                f"{joint_words(hand, j)} to exert an effort of {word} {end:.4g} {unit} (the "
-                f"efforts that guarantee it: {', '.join(_rng(p.lower, p.upper) for p in pieces)}"
-                f"), but its limits are {_rng(lo_v, hi_v)} {unit}: {gap:.4g} {unit} missing")
+                f"{joint_words(hand, j)} to exert an effort of {word} {r(end):.4g} {unit} (the "
+                "efforts that guarantee it: "
+                f"{', '.join(_rng(r(p.lower), r(p.upper)) for p in pieces)}), but its limits "
+                f"are {_rng(lo_v, hi_v)} {unit}: {r(gap):.4g} {unit} missing")
     E = tuple(int(x) for x in joints)
     A, b = np.asarray(need.A, dtype=float), np.asarray(need.b, dtype=float)
     lo_a, hi_a = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
