@@ -62,6 +62,8 @@ def effort_limit_words(hand: Hand, claim: str, t: float, joints: int | Sequence[
                 + ", ".join(f"{joint_words(hand, j)} {_rng(lo_a[i], hi_a[i])}"
                             for i, j in enumerate(E)) + ")")
     gap, tau_i, i = best
+    scale = max([abs(x) for x in (*lo_a, *hi_a) if math.isfinite(x)], default=1.0)
+    tau_i = 0.0 if abs(tau_i) <= 1e-9 * scale else tau_i  # rounding of a face at zero effort
     j = E[i]
     unit = effort_unit(hand, (j,))
     word = "at least" if tau_i > hi_a[i] else "at most"

@@ -249,3 +249,47 @@ def test_per_contact_intervals_as_an_array_are_independent():
     d["mu"]["interval"] = [[0.0, 0.3]] * 4
     plan = plan_hand(hand_file_from_dict(d, "t"))
     assert plan.mu_model == "independent"
+
+
+@pytest.fixture(scope="module")
+def three_finger():
+    d = json.loads((Path(__file__).resolve().parents[2] / "scenarios" / "data" /
+                    "three_finger_hand.json").read_text())
+    d["segment"]["waypoints"] = 3
+    return d
+
+
+def test_two_effort_joints_smooth_commands_hold_over_the_friction_box(three_finger):
+    """Two effort joints (the region is a polytope over the box of per-contact intervals): the
+    smooth commands re-checked by feasible_modes at the box's corners and seeded inner points,
+    at both ends of each hold interval."""
+    seg = plan_hand(hand_file_from_dict(three_finger, "t"), control=(0,)).segments[0]
+    assert len(seg.effort_joints) == 2 and seg.policy == "smooth"
+    assert seg.extra["commands"]["within_bound"] is True
+    hand = seg.hand_model.hand
+    lo, hi = np.array(seg.mu_intervals).T
+    rng = np.random.default_rng(0)
+    corners = np.array(np.meshgrid(*zip(lo, hi), indexing="ij")).reshape(len(lo), -1).T
+    mus = np.concatenate([corners, rng.uniform(lo, hi, size=(12, len(lo)))])
+    for k, w in enumerate(seg.waypoints[:-1]):
+        for at in (w, seg.waypoints[k + 1]):
+            inputs, e = [], iter(w.torque_commands)
+            v = iter(w.velocity_commands)
+            for c in seg.control:
+                inputs.append({"effort": next(e)} if c == "effort" else {"velocity": next(v)})
+            system = hand.system(at.q, 0.0, inputs)
+            bad = [m for m in mus if feasible_modes(system, m).labels != [seg.claim]]
+            assert bad == []
+
+
+def test_two_effort_joints_limits_name_the_joint_to_widen(three_finger):
+    d = copy.deepcopy(three_finger)
+    d["limits"] = {"effort": {"top": [0.001, 1.0]}}
+    with pytest.raises(DegenerateError, match=r"needs the top finger to exert an effort of at "
+                                              r"most 0 N m \(the other effort joints within "
+                                              r"their limits\), but its limits are \[0\.001, 1\] "
+                                              r"N m: 0\.001 N m missing"):
+        plan_hand(hand_file_from_dict(d, "t"), control=(0,))
+    d["limits"] = {"effort": {"right": [-1.0, 0.003]}}
+    seg = plan_hand(hand_file_from_dict(d, "t"), control=(0,)).segments[0]
+    assert np.all(seg.torques()[:, 0] <= 0.003) and np.all(seg.margins() > 0)
