@@ -115,7 +115,9 @@ def effort_commands(hand: Hand, states: Trajectory, V: tuple[int, ...], gs: Sequ
     taus = np.array([r[0] for r in rows], dtype=float).reshape(len(rows), len(E))
     bound = None
     if E and not policy.startswith("rival:"):
-        bound = smoothest(holds, np.array(limits.effort_rate)[list(E)], names, unit).bound
+        rates = np.array(limits.effort_rate)[list(E)]
+        bound = smoothest(holds, rates, names, unit).bound
+        _check_rates(taus, states.t, rates, names, unit, policy)
     report = change_report(taus, states.t, names, unit, policy, bound)
     return wps, tuple(r[5] for r in rows), report
 
@@ -134,6 +136,25 @@ def _check_speeds(hand: Hand, states: Trajectory, V: tuple[int, ...], vel: np.nd
             k = int(over[0])
             raise DegenerateError(speed_limit_words(hand, j, float(vel[k, i]), top,
                                                     float(states.t[k])))
+
+
+def _check_rates(taus: np.ndarray, t: np.ndarray, rates: np.ndarray, names: list[str],
+                 unit: str, policy: str) -> None:
+    """Commands of a policy other than ``smooth`` (which keeps them by construction) that
+    change faster than a joint's effort-rate limit are a diagnosis."""
+    if len(t) < 2:
+        return
+    step = np.abs(np.diff(taus, axis=0))
+    allowed = np.diff(t)[:, None] * rates[None, :]
+    scale = max(float(np.max(np.abs(taus))) if taus.size else 0.0, 1e-300)
+    over = np.argwhere(step > allowed + 1e-7 * scale)
+    if over.size:
+        k, j = (int(x) for x in over[0])
+        raise DegenerateError(
+            f"policy {policy!r} changes the effort of {names[j]} by {step[k, j]:.4g} {unit} "
+            f"between t = {t[k]:.4g} and {t[k + 1]:.4g} s, more than its effort-rate limit "
+            f"({rates[j]:.4g} {unit}/s) allows ({allowed[k, j]:.4g} {unit}); the default "
+            "policy 'smooth' keeps the limits where any commands can")
 
 
 def _clip(g: Any, lo: float, hi: float) -> Any:

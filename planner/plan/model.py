@@ -301,7 +301,9 @@ def negative_control(plan: Plan) -> Plan:
         wps = tuple(replace(w, torque_commands=tuple(-x for x in w.torque_commands),
                             bands=tuple((-hi, -lo) for lo, hi in w.bands))
                     for w in s.waypoints)
-        segs.append(replace(s, waypoints=wps, policy=name, regions=(), shortfall=None))
+        extra = {k: v for k, v in s.extra.items() if k != "commands"}  # the policy's report
+        segs.append(replace(s, waypoints=wps, policy=name, regions=(), shortfall=None,
+                            extra=extra))
     return replace(plan, segments=tuple(segs),
                    notes=(plan.notes + "; " if plan.notes else "")
                    + "negative control: efforts reversed")

@@ -293,3 +293,25 @@ def test_two_effort_joints_limits_name_the_joint_to_widen(three_finger):
     d["limits"] = {"effort": {"right": [-1.0, 0.003]}}
     seg = plan_hand(hand_file_from_dict(d, "t"), control=(0,)).segments[0]
     assert np.all(seg.torques()[:, 0] <= 0.003) and np.all(seg.margins() > 0)
+
+
+def test_an_effort_rate_limit_is_kept_by_smooth_and_enforced_on_other_policies():
+    d = _triangle()
+    d["limits"] = {"effort_rate": {"left": 0.5}}
+    hf = hand_file_from_dict(d, "t")
+    seg = plan_hand(hf).segments[0]
+    dt = np.diff(seg.times())
+    assert np.all(np.abs(np.diff(seg.torques()[:, 0])) <= 0.5 * dt + 1e-9)
+    with pytest.raises(DegenerateError, match=r"policy 'midband' changes the effort of the left "
+                                              r"finger by .* more than its effort-rate limit "
+                                              r"\(0\.5 N m/s\)"):
+        plan_hand(hf, policy="midband")
+
+
+def test_a_negative_control_drops_the_policy_report(plans):
+    from planner.plan.model import Plan, negative_control
+
+    seg = plans["smooth"]
+    neg = negative_control(Plan(hand=dict(seg.hand), segments=(seg,), mu_model="common",
+                                mu_intervals=seg.mu_intervals[:1]))
+    assert "commands" not in neg.segments[0].extra and "spacing" in neg.segments[0].extra
