@@ -38,6 +38,7 @@ from planner.files.fields import (
 )
 from planner.files.hand_checks import check_hand_contacts
 from planner.files.hand_goal import Goal, parse_goal
+from planner.files.hand_limits import hand_limits
 from planner.files.reader import read_json
 from planner.model.geometry import rot90
 from planner.model.hand import CONTACT_KINDS, JOINT_KINDS, ContactSpec, Finger, Hand, Link, rotation
@@ -351,7 +352,8 @@ def _mu_section(mu: Any, n_c: int) -> tuple[tuple[tuple[float, float], ...] | No
 def _hand_file(data: Any) -> HandFile:
     data = as_object(data, "hand")
     check_keys(data, "hand", required=("palm", "fingers", "workpiece", "contacts"),
-               optional=("format", "version", "load", "segment", "mu", "environment", "goal"),
+               optional=("format", "version", "load", "segment", "mu", "environment", "goal",
+                         "limits"),
                free=FREE_KEYS)
     fmt, ver = data.get("format", HAND_FORMAT), data.get("version", HAND_VERSION)
     if fmt != HAND_FORMAT or ver != HAND_VERSION or isinstance(ver, bool):
@@ -419,6 +421,8 @@ def _hand_file(data: Any) -> HandFile:
     if "goal" in data:
         goal = parse_goal(data["goal"], hand.length_scale, lambda c, i: _contact(
             c, i, len(V), fingers, env, "goal.contacts"))
+    # Joint limits (planner.files.hand_limits): checked here, read by the planner from data.
+    hand_limits(data, hand.joint_names())
     q0 = np.concatenate([pose, angles])
     check_hand_contacts(hand, q0)  # touching, on both features, normals into the workpiece
     try:

@@ -14,6 +14,7 @@ from planner.errors import InputError
 from planner.files.hand_file import HandFile, load_hand_file
 from planner.model.validation import friction_interval, validation_frictions
 from planner.plan.model import Plan
+from planner.plan.policies import DEFAULT_POLICY
 from planner.plan.segment_planner import plan_segment
 from planner.plan.task import TaskOptions, plan_task
 
@@ -24,12 +25,14 @@ TASK_STEPS = 120
 
 def default_mu_model(mu: Any) -> str:
     """The friction model a friction description asks for: ``independent`` (one coefficient per
-    contact, each in its own interval) when it gives one interval per contact -- a list of
-    ``(lo, hi)`` pairs, equal or not --, ``common`` (one coefficient shared by every contact,
-    the paper's model) for one interval or one number."""
-    pairs = isinstance(mu, (list, tuple)) and len(mu) > 1 and all(
-        isinstance(x, (list, tuple)) for x in mu)
-    return "independent" if pairs else "common"
+    contact, each in its own interval) when it gives one interval per contact -- a list or
+    array of ``(lo, hi)`` pairs, equal or not --, ``common`` (one coefficient shared by every
+    contact, the paper's model) for one interval or one number."""
+    try:
+        shape = np.shape(np.asarray(mu, dtype=float))
+    except (TypeError, ValueError):  # ragged: friction_interval names the problem later
+        return "common"
+    return "independent" if len(shape) == 2 and shape[0] > 1 else "common"
 
 
 def used_mu_model(model: str, plan: Plan) -> str:
@@ -43,7 +46,7 @@ def used_mu_model(model: str, plan: Plan) -> str:
 
 
 def plan_hand(source: str | os.PathLike[str] | HandFile, *, mu: Any = None,
-              model: str | None = None, policy: str = "midband",
+              model: str | None = None, policy: str = DEFAULT_POLICY,
               control: tuple[int, ...] | None = None, waypoints: int | None = None,
               max_expansions: int | None = None, validate_mu: Any = None) -> Plan:
     """Plan the hand file ``source`` (a path, or a loaded :class:`HandFile`).
@@ -55,7 +58,8 @@ def plan_hand(source: str | os.PathLike[str] | HandFile, *, mu: Any = None,
     any; the band curves of Figures 10-13 with one effort joint).  ``mu``: the friction interval
     (``(lo, hi)``, one pair per contact, or a number; default the file's ``mu.interval``);
     ``model``: ``common`` or ``independent`` (default :func:`default_mu_model` of the friction
-    used; the plan records :func:`used_mu_model`); ``policy``: ``midband``, ``constant`` or
+    used; the plan records :func:`used_mu_model`); ``policy``: one of
+    :data:`planner.plan.policies.POLICIES` (default ``smooth``), ``least-effort:M`` or
     ``rival:MODE``; ``waypoints``: that many evenly spaced per segment (default the file's
     ``segment.waypoints`` when given, else the spacing rule, :mod:`planner.plan.spacing`);
     ``validate_mu``: friction values for the simulators (default the file's ``mu.validate``
@@ -82,9 +86,10 @@ def plan_hand(source: str | os.PathLike[str] | HandFile, *, mu: Any = None,
         raw.get("waypoints") if isinstance(raw, dict) else None)
     seg = hf.segment
     if hf.goal is not None:
-        if policy != "midband" or control is not None:
-            raise InputError(f"policy/control: expected the defaults for a whole task (midband, "
-                             f"every partition), got {policy!r} and {control!r}")
+        if policy != DEFAULT_POLICY or control is not None:
+            raise InputError(f"policy/control: expected the defaults for a whole task "
+                             f"({DEFAULT_POLICY}, every partition), got {policy!r} and "
+                             f"{control!r}")
         if not (np.all(lo == lo[0]) and np.all(hi == hi[0])):
             raise InputError("mu: expected one friction interval for every contact of a task "
                              "(its contact set changes), got one per contact "

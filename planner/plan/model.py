@@ -130,10 +130,12 @@ class Segment:
     configuration (no goal; :func:`segment_hand`), parsed once into :attr:`hand_model`;
     ``mu_intervals`` one ``(lo, hi)`` per contact of its set; ``released`` the contacts of the
     previous segment's set it opens (hand-file contact objects); ``event`` why it ends;
-    ``policy`` how its efforts were chosen (``midband``, ``constant``, ``rival:MODE``, or a
-    negative control's name); ``exact`` whether its regions come from the exact friction
-    dependence; ``notes`` (the control partitions tried, the waypoint spacing) and ``extra``
-    (free content: the band curves of Figures 10-13 for one effort joint).
+    ``policy`` how its efforts were chosen (:data:`planner.plan.policies.POLICIES`,
+    ``least-effort:M``, ``rival:MODE``, or a negative control's name); ``exact`` whether its
+    regions come from the exact friction dependence; ``notes`` (the control partitions tried,
+    the waypoint spacing) and ``extra`` (free content: ``commands``, the largest change of the
+    effort commands against the smooth policy's bound; the band curves of Figures 10-13 for one
+    effort joint).
 
     In memory only (not written to a file): ``regions`` the guaranteed effort region at each
     waypoint (:class:`planner.plan.polytope.TorqueRegion`, the planner's certificate) and,
@@ -299,7 +301,9 @@ def negative_control(plan: Plan) -> Plan:
         wps = tuple(replace(w, torque_commands=tuple(-x for x in w.torque_commands),
                             bands=tuple((-hi, -lo) for lo, hi in w.bands))
                     for w in s.waypoints)
-        segs.append(replace(s, waypoints=wps, policy=name, regions=(), shortfall=None))
+        extra = {k: v for k, v in s.extra.items() if k != "commands"}  # the policy's report
+        segs.append(replace(s, waypoints=wps, policy=name, regions=(), shortfall=None,
+                            extra=extra))
     return replace(plan, segments=tuple(segs),
                    notes=(plan.notes + "; " if plan.notes else "")
                    + "negative control: efforts reversed")

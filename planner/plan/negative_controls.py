@@ -22,8 +22,9 @@ def outside_torques(plan: Any, hand: Hand, mu: float | Sequence[float] | np.ndar
                     *, reach: float = 3.0) -> np.ndarray:
     """(n_waypoints, p) torque vectors outside every waypoint's region for a negative control.
 
-    From each waypoint's planned torque ``c`` (the region's Chebyshev centre, radius ``r``)
-    along the outward normal ``a`` of a facet of ``A tau <= b`` (nearest facet first):
+    From each waypoint's region's Chebyshev centre ``c`` (radius ``r``; whatever command the
+    plan's policy chose there, so the control does not depend on the policy) along the outward
+    normal ``a`` of a facet of ``A tau <= b`` (nearest facet first):
     ``c + (slack + k max(r, |c|)) a`` for ``k = reach, 3 reach``, the first point where the
     planner's own prediction (:func:`planner.predict.feasibility.feasible_modes`) at ``mu``
     does not contain the claim (a rival instead). Raises :class:`InputError` for a plan without
@@ -40,14 +41,17 @@ def outside_torques(plan: Any, hand: Hand, mu: float | Sequence[float] | np.ndar
         raise InputError(f"outside_torques: expected a planned segment with one guaranteed region "
                          f"per waypoint, got {len(plan.regions)} for {len(plan.waypoints)}")
     for w, reg in zip(plan.waypoints, plan.regions):
-        c = np.asarray(w.torque_commands, dtype=float)
+        c = np.asarray(reg.centre, dtype=float).reshape(len(E))
+        r = float(reg.margin)
+        if not (np.all(np.isfinite(c)) and np.isfinite(r)):  # no centre: the command itself
+            c, r = np.asarray(w.torque_commands, dtype=float), float(w.margin)
         A, b = np.asarray(reg.A, dtype=float), np.asarray(reg.b, dtype=float)
         norms = np.linalg.norm(A, axis=1)
         slack = (b - A @ c) / np.where(norms > 0, norms, np.inf)
         system = hand.system(w.q, mu, joint_inputs(hand, plan.velocity_joints,
                                                    w.velocity_commands))
         inputs = np.array(system.joint_inputs)
-        size = max(float(w.margin), float(np.linalg.norm(c)))
+        size = max(r, float(np.linalg.norm(c)))
         found = None
         for i in np.argsort(slack):  # nearest facet first, then further ones
             if not np.isfinite(slack[i]):

@@ -13,9 +13,10 @@
    has them; among usable partitions the one with the largest worst relative margin
    (:func:`planner.plan.partition.relative_margin`) is used, on a tie the one that
    velocity-controls the driven joints;
-3. choose the commands (:mod:`planner.plan.commands`: policy ``midband``, ``constant`` or the
-   negative control ``rival:MODE``) and, with one effort joint, the band curves of Figures
-   10-13 (:mod:`planner.plan.curves`).
+3. choose the commands (:mod:`planner.plan.commands`: the policies of
+   :mod:`planner.plan.policies` -- ``smooth`` by default -- or the negative control
+   ``rival:MODE``, inside the hand file's joint limits) and, with one effort joint, the band
+   curves of Figures 10-13 (:mod:`planner.plan.curves`).
 
 The result is a :class:`planner.plan.model.Segment`.  With ``partial=True`` a segment whose
 guarantee fails part-way stops before the first waypoint without one and says where and why
@@ -32,6 +33,7 @@ from typing import Any
 import numpy as np
 
 from planner.errors import DegenerateError, InputError
+from planner.files.hand_limits import hand_limits
 from planner.model.hand import Hand
 from planner.model.validation import friction_interval
 from planner.plan.commands import check_policy, effort_commands
@@ -44,6 +46,7 @@ from planner.plan.partition import (
     mode_unknowns,
     relative_margin,
 )
+from planner.plan.policies import DEFAULT_POLICY
 from planner.plan.polytope import empty_region
 from planner.plan.spacing import Spacing, adaptive, uniform
 from planner.plan.task_contacts import contact_dict
@@ -101,7 +104,7 @@ class _States:
 
 
 def plan_segment(hand: Hand, q0: Any, *, data: Mapping[str, Any], drive: Drive, speed: Speed,
-                 mode: str, mu: Any, model: str = "common", policy: str = "midband",
+                 mode: str, mu: Any, model: str = "common", policy: str = DEFAULT_POLICY,
                  control: Sequence[int] | None = None, waypoints: int | None = None,
                  max_time: float = 60.0, steps: int = 200, partial: bool = False,
                  trajectory: Trajectory | None = None, curves: bool = False,
@@ -173,8 +176,9 @@ def plan_segment(hand: Hand, q0: Any, *, data: Mapping[str, Any], drive: Drive, 
     one = len(best.E) == 1
     if one and (curves or policy.startswith("rival:")):
         at_lo, at_hi = bands_at_ends(hand, states, best.V, lo, hi)
-    wps, regions = effort_commands(hand, states, best.V, gs, policy, (lo, hi), at_hi)
-    extra: dict[str, Any] = {"spacing": best.spacing.to_dict()}
+    wps, regions, changes = effort_commands(hand, states, best.V, gs, policy, (lo, hi), at_hi,
+                                            hand_limits(data, hand.joint_names()))
+    extra: dict[str, Any] = {"spacing": best.spacing.to_dict(), "commands": changes}
     if one and curves and at_lo is not None and at_hi is not None:
         extra["curves"] = band_curves(states, gs, at_lo, at_hi, lo, hi)
     notes = "; ".join([_choice_words(hand, best, results),

@@ -43,6 +43,7 @@ import numpy as np
 from planner.model.hand import Hand
 from planner.plan.commands import velocity_commands
 from planner.plan.partition import Guaranteed, choose_pieces
+from planner.plan.policies import MARGIN_KEPT
 from planner.plan.polytope import TorqueRegion, band_region, chebyshev_centre
 from planner.plan.trajectory import Trajectory, mode_velocity
 
@@ -51,8 +52,6 @@ from planner.plan.trajectory import Trajectory, mode_velocity
 MODE_FRACTION = 0.95
 #: ... and the final workpiece position within this share of the segment's travel.
 POSE_TOLERANCE_OF_TRAVEL = 0.02
-#: Share of the margin the guaranteed set may move by over one hold interval.
-MARGIN_KEPT = 0.5
 #: Jumps of the guaranteed set are resolved to this share of the segment's duration ...
 SHORTEST = 0.2 * (1.0 - MODE_FRACTION) / 10
 #: ... so that this many of them use at most a fifth of the judged steps' allowance.

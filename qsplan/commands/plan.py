@@ -52,9 +52,13 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "(--mu or the file's mu.interval); the plan records the model its "
                         "guarantee holds for (independent when a segment has other than one "
                         "effort-controlled joint: checked over the box)")
-    p.add_argument("--policy", default="midband",
-                   help="effort choice: midband, constant, or rival:MODE (negative control); "
-                        "one segment only")
+    p.add_argument("--policy", default="smooth",
+                   help="effort choice inside the guaranteed efforts and the hand file's joint "
+                        "limits (docs/planning.md, 'Command policies'): smooth (default: the "
+                        "smallest largest change between waypoints that keeps the required "
+                        "margin), least-effort (least squeeze keeping that margin; "
+                        "least-effort:M with margin M), max-margin (= midband: the centre), "
+                        "constant, or rival:MODE (negative control); one segment only")
     p.add_argument("--control", default="auto",
                    help="the velocity-controlled joints, comma-separated indices, or auto (every "
                         "partition the utility conditions allow); one segment only")
@@ -181,6 +185,9 @@ def _report(plan: Any, out: Path, seconds: float, figs: list[Path], verbose: boo
               f"{fmt(seg.duration(), '.3g')} s ({seg.event.kind}): {seg.event.detail}; "
               f"{len(seg.waypoints)} waypoints; smallest margin {fmt(seg.margins().min(), '.3g')}"
               + (f" {unit}" if unit else ""))
+        line = commands_line(seg.extra.get("commands"))
+        if line:
+            print(f"     {line}")
         unresolved = seg.extra.get("spacing", {}).get("unresolved_s", [])
         if unresolved:
             print(f"     warning: over {len(unresolved)} hold interval(s) the guaranteed "
@@ -200,6 +207,27 @@ def _report(plan: Any, out: Path, seconds: float, figs: list[Path], verbose: boo
             print(f"  {line}")
     for f in figs:
         print(f"  figure: {f}")
+
+
+def commands_line(c: Any) -> str:
+    """The largest change of a segment's effort commands between waypoints against the smooth
+    policy's bound (a segment's ``extra["commands"]``, docs/plan-format.md); "" without one."""
+    if not isinstance(c, dict) or c.get("joint") is None:
+        return ""
+    unit = c.get("unit") or ""
+    a, b = c.get("between_s") or (0.0, 0.0)
+    head = (f"commands ({c.get('policy')}): largest change between waypoints "
+            f"{fmt(float(c.get('largest_change') or 0.0), '.3g')} {unit} ({c.get('joint')}, t = "
+            f"{fmt(a, '.4g')}-{fmt(b, '.4g')} s)")
+    bound = c.get("bound")
+    if bound is None:
+        return head
+    words = (f"; bound {fmt(bound, '.3g')} {unit} (the smallest largest change of any commands "
+             "that keep the required margin")
+    if c.get("policy") == "smooth":
+        return head + words + ")"
+    return head + words + (", kept)" if c.get("within_bound") else
+                           "; this policy exceeds it: the default 'smooth' keeps it)")
 
 
 def diagnosis_lines(d: Any) -> list[str]:
