@@ -224,9 +224,10 @@ def _segment(s: dict[str, Any], where: str, data: dict[str, Any],
     wps = tuple(waypoint(w, f"{where}.waypoints[{k}]", WAYPOINT_KEYS)
                 for k, w in enumerate(wps_raw))
     pf.check_times([w.t for w in wps], f"{where}.waypoints")
+    claim = pf.text(s["claim"], f"{where}.claim")
     seg = Segment(
-        claim=pf.text(s["claim"], f"{where}.claim"), control=control, waypoints=wps,
-        hand=embedded_hand(data["hand"], s["contacts"], wps[0].q, f"{where}.hand"),
+        claim=claim, control=control, waypoints=wps,
+        hand=embedded_hand(data["hand"], s["contacts"], wps[0].q, f"{where}.hand", claim),
         mu_intervals=segment_intervals(ivs, len(s["contacts"]), f"{where}.contacts"),
         event=pf.event(s["event"], f"{where}.event"), released=tuple(s["released"]),
         policy=data["policy"], exact=pf.flag(s["exact"], f"{where}.exact"),
