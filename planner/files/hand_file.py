@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -92,15 +92,17 @@ class HandFile:
     section's ``mu_interval`` (``(lo, hi)`` pairs, one or one per contact; None when absent)
     and ``validate_mu`` (friction values for the simulators), ``data`` (the parsed JSON,
     embedded verbatim in plans) and the optional ``goal`` (:class:`planner.files.hand_goal.Goal`,
-    what a whole task should reach)."""
+    what a whole task should reach) and ``mu_bodies`` (``mu.bodies``: body name -> the friction
+    interval of every contact on it; the others take ``mu_interval``)."""
 
     hand: Hand
     q0: np.ndarray
     segment: SegmentSpec | None
     mu_interval: tuple[tuple[float, float], ...] | None
-    validate_mu: tuple[float, ...]
+    validate_mu: tuple[Any, ...]
     data: Mapping[str, Any]
     goal: Goal | None = None
+    mu_bodies: Mapping[str, tuple[float, float]] = field(default_factory=dict)
 
 
 def load_hand_file(path: str | os.PathLike[str]) -> HandFile:
@@ -324,10 +326,28 @@ def _segment(seg: Any, n_joints: int, n_contacts: int) -> SegmentSpec:
     )
 
 
+def _mu_bodies(raw: Any, names: tuple[str, ...]) -> dict[str, tuple[float, float]]:
+    """``mu.bodies``: body name (``palm``, an environment surface's or a finger's name) ->
+    ``[lo, hi]``, the friction interval of every contact on that body."""
+    obj = as_object(raw, "mu.bodies")
+    out = {}
+    for key, pair in obj.items():
+        if key not in names:
+            raise FileFormatError(f"mu.bodies: expected body names among {list(names)} (the "
+                                  f"palm, environment surfaces and fingers), got {key!r}")
+        if not (isinstance(pair, list) and len(pair) == 2):
+            raise FileFormatError(f"mu.bodies.{key}: expected [lo, hi], got {short(pair)}")
+        lo, hi = (number(x, f"mu.bodies.{key}", minimum=0.0) for x in pair)
+        if hi < lo:
+            raise FileFormatError(f"mu.bodies.{key}: expected lo <= hi, got [{lo}, {hi}]")
+        out[str(key)] = (lo, hi)
+    return out
+
+
 def _mu_section(mu: Any, n_c: int) -> tuple[tuple[tuple[float, float], ...] | None,
                                             tuple[float, ...]]:
     mu = as_object(mu, "mu")
-    check_keys(mu, "mu", optional=("interval", "validate"), free=FREE_KEYS)
+    check_keys(mu, "mu", optional=("interval", "validate", "bodies"), free=FREE_KEYS)
     interval = None
     if "interval" in mu:
         raw = mu["interval"]
@@ -345,7 +365,16 @@ def _mu_section(mu: Any, n_c: int) -> tuple[tuple[tuple[float, float], ...] | No
     val = mu.get("validate", [])
     if not isinstance(val, list):
         raise FileFormatError(f"mu.validate: expected a list of numbers, got {type_name(val)}")
+    if "bodies" in mu:  # numbers or objects body -> coefficient, checked against mu.bodies
+        return interval, tuple(
+            _body_values(v, f"mu.validate[{i}]") if isinstance(v, dict)
+            else number(v, f"mu.validate[{i}]", minimum=0.0) for i, v in enumerate(val))
     return interval, tuple(number(v, f"mu.validate[{i}]", minimum=0.0) for i, v in enumerate(val))
+
+
+def _body_values(obj: dict[str, Any], where: str) -> Any:
+    """A ``mu.validate`` entry of a file with ``mu.bodies``: body name -> coefficient."""
+    return {str(k): number(x, f"{where}.{k}", minimum=0.0) for k, x in obj.items()}
 
 
 def _hand_file(data: Any) -> HandFile:
@@ -415,6 +444,17 @@ def _hand_file(data: Any) -> HandFile:
     segment = (_segment(data["segment"], hand.n_joints, len(contacts)) if "segment" in data
                else None)
     interval, validate = _mu_section(data["mu"], len(contacts)) if "mu" in data else (None, ())
+    bodies: dict[str, tuple[float, float]] = {}
+    if "mu" in data and "bodies" in data["mu"]:
+        names = ("palm", *(e[0] for e in env), *(f.name for f in fingers))
+        bodies = _mu_bodies(data["mu"]["bodies"], names)
+        for i, v in enumerate(validate):
+            if isinstance(v, dict) and set(v) - set(names):
+                raise FileFormatError(f"mu.validate[{i}]: expected body names among "
+                                      f"{list(names)}, got {sorted(set(v) - set(names))}")
+        if interval is not None and len(interval) > 1:
+            raise FileFormatError("mu: expected mu.bodies with one mu.interval (the default of "
+                                  f"the bodies not listed), got {len(interval)} intervals")
     goal = None
     if "goal" in data:
         goal = parse_goal(data["goal"], hand.length_scale, lambda c, i: _contact(
@@ -426,4 +466,4 @@ def _hand_file(data: Any) -> HandFile:
         q0 = hand.close(q0, fixed=fixed)
     except (DegenerateError, InputError) as exc:
         raise FileFormatError(f"initial configuration: {exc}") from None
-    return HandFile(hand, q0, segment, interval, validate, data, goal)
+    return HandFile(hand, q0, segment, interval, validate, data, goal, bodies)

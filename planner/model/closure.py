@@ -44,6 +44,11 @@ if TYPE_CHECKING:
 #: equilibrated rows: each row has unit norm).  Rows whose independent part is below it are
 #: counted as dependent (redundant contacts); derived in docs/planning.md ("Closure").
 RANK_RTOL = 1e-9
+#: Largest gap (fraction of the workpiece size) at which a least-squares closure that stops
+#: improving (the gap falls by less than half in a Newton step) is accepted as converged: the
+#: round-off floor of the stacked, row-scaled solve lies far below it, and 1e-10 of the size is
+#: below every tolerance the planner judges contacts by (1e-6 of the size, docs/planning.md).
+STALL = 1e-10
 
 
 def contact_name(hand: Hand, i: int) -> str:
@@ -129,10 +134,13 @@ def close_configuration(hand: Hand, q: Any, fixed: Sequence[int], *,
     scale = hand.length_scale
     square = not sticking and len(free) == hand.n_contacts
     n_r = len(sticking)
+    last = np.inf
     for _ in range(max_iter):
         g = hand.gaps(q)
-        if np.max(np.abs(g)) <= tol * scale:
-            return q
+        worst = float(np.max(np.abs(g)))
+        if worst <= tol * scale or (not square and worst <= STALL * scale and worst > 0.5 * last):
+            return q  # converged, or (least squares) stalled at round-off
+        last = worst
         if square:
             G = hand.gap_jacobian(q)[:, free]
             if abs(np.linalg.det(G)) < 1e-14 * scale ** 2:
