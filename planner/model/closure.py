@@ -52,17 +52,18 @@ STALL = 1e-10
 
 
 def contact_name(hand: Hand, i: int) -> str:
-    """Contact ``i`` by its index in the hand file's ``contacts`` list and its features."""
+    """Contact ``i`` (0-based) as the outputs number it -- ``contact i + 1``, the index in mode
+    labels -- with its features: ``"contact 2 (vertex 3 on the palm)"``."""
     c = hand.contacts[i]
     if c.kind == "palm":
         what = f"vertex {c.vertex} on the palm"
     elif c.kind == "surface":
-        what = f"vertex {c.vertex} on {hand.environment[c.surface][0]}"
+        what = f"vertex {c.vertex} on the {hand.environment[c.surface][0]}"
     elif c.kind == "side":
         what = f"vertex {c.vertex} on {hand.fingers[c.finger].name}'s side"
     else:
         what = f"{hand.fingers[c.finger].name}'s tip on edge {c.edge}"
-    return f"contact {i} ({what})"
+    return f"contact {i + 1} ({what})"
 
 
 def tangent_jacobian(hand: Hand, q: Any) -> np.ndarray:
@@ -162,8 +163,8 @@ def close_configuration(hand: Hand, q: Any, fixed: Sequence[int], *,
                 "configuration near one where every contact touches"
             )
     g = hand.gaps(q)
-    worst = np.argsort(-np.abs(g))
-    open_ = [f"{contact_name(hand, int(i))} gap {g[i]:.3g} m" for i in worst
+    order = np.argsort(-np.abs(g))
+    open_ = [f"{contact_name(hand, int(i))} gap {g[i]:.3g} m" for i in order
              if abs(g[i]) > tol * scale][:3]
     raise DegenerateError(
         f"close: contacts did not close within {max_iter} Newton steps "
