@@ -49,10 +49,10 @@ from planner.errors import DegenerateError, InputError
 from planner.files.hand_goal import Goal
 from planner.model.hand import ContactSpec, Hand
 from planner.model.modes import BREAK, ROLL, Mode, enumerate_modes
-from planner.model.validation import FrictionValue
+from planner.model.validation import FrictionValue, friction_interval
 from planner.plan.model import Plan, Segment, Shortfall
 from planner.plan.partition import joint_inputs
-from planner.plan.segment_planner import NoRegionError, plan_segment
+from planner.plan.segment_planner import NoRegionError, plan_segment, remedies
 from planner.plan.task_contacts import (
     after_event,
     contact_body,
@@ -96,6 +96,7 @@ class Rejection:
     what: str
     why: str
     shortfall: Shortfall | None = None
+    child: Any = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -241,6 +242,8 @@ def plan_task(hand: Hand, q0: Any, goal: Goal, opts: TaskOptions, *,
     def result(chain: tuple[Segment, ...], reached: bool, distance: float,
                failure: Rejection | None, notes: tuple[str, ...]) -> Plan:
         diag = None if reached else _diagnosis(distance, notes, len(chain), failure)
+        if diag is not None and diag["failed"] is not None and failure is not None:
+            diag["failed"]["remedies"] = list(_remedies(failure, contact_intervals, model))
         return Plan(hand=dict(data), segments=chain, mu_model=model,
                     mu_intervals=((lo, hi),), validate_mu=tuple(validate_mu), reached=reached,
                     diagnosis=diag, notes="; ".join(notes),
@@ -295,14 +298,14 @@ def plan_task(hand: Hand, q0: Any, goal: Goal, opts: TaskOptions, *,
                     trajectory=c.trajectory, partial=True,
                     released=tuple(contact_dict(hand, r) for r in c.released))
             except NoRegionError as exc:
-                rejections.append(Rejection(depth - 1, what, str(exc), exc.shortfall))
+                rejections.append(Rejection(depth - 1, what, str(exc), exc.shortfall, c))
                 continue
             except DegenerateError as exc:
                 rejections.append(Rejection(depth - 1, what, str(exc)))
                 continue
             if seg.shortfall is not None:
                 rejections.append(Rejection(depth - 1, what, seg.shortfall.reason,
-                                            seg.shortfall))
+                                            seg.shortfall, c))
                 continue
             end = c.trajectory.q[-1]
             after = c.hand.contacts if c.trajectory.event.kind == "goal" else after_event(
@@ -346,6 +349,23 @@ def _diagnosis(distance: float, notes: tuple[str, ...], after: int,
         else [list(sf.widest_mu[0]), list(sf.widest_mu[1])]}
     return {"distance_to_goal": distance, "notes": list(notes), "after_segments": after,
             "failed": failed}
+
+
+def _remedies(fail: Rejection, intervals: Callable[[Hand], Any], model: str
+              ) -> tuple[str, ...]:
+    """What would make the reported failure work (:func:`planner.plan.segment_planner.remedies`
+    at the waypoint where its guarantee fails); () when it is not a guarantee failure."""
+    sf, c = fail.shortfall, fail.child
+    if sf is None or c is None or sf.widest_mu is not None:
+        return ()
+    try:
+        at = c.trajectory.at_times(c.hand, np.array([sf.t]))
+        lo, hi = friction_interval(intervals(c.hand), c.hand.n_contacts)
+        return remedies(c.hand, at.q[0], sf.velocity_joints,
+                        at.thetadot[0, list(sf.velocity_joints)], c.trajectory.mode, lo, hi,
+                        model)
+    except (DegenerateError, InputError):
+        return ()
 
 
 def _nearest_failure(rejections: list[Rejection], depth: int) -> Rejection | None:

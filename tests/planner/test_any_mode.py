@@ -172,3 +172,24 @@ def test_the_shipped_field_tasks_load():
         data = json.loads((DATA_DIR / f"{name}.json").read_text())
         hf = hand_file_from_dict(copy.deepcopy(data))
         assert hf.goal is not None and np.max(np.abs(hf.hand.gaps(hf.q0))) < 1e-12
+
+
+def test_remedy_names_the_friction_a_sticking_finger_needs():
+    """The box pivot with its finger 0.02 m from the pivot corner on a 0.05 m tall box: the
+    finger must drag the top face, 0.05 mu N > 0.02 N (moments about the pivot, gravity's
+    extra term vanishing as the squeeze grows), so no effort guarantees ``R1 R2`` over
+    [0.3, 0.9] and the remedy asks for friction of at least 0.4 (hand-derived).  The table's
+    corner must hold the same horizontal force, mu_t (N + m g) >= 0.4 N, so raising one
+    contact's lower end alone never works: with model ``independent`` no contact is named."""
+    from planner.plan.segment_planner import remedies
+    from planner.plan.task_contacts import with_contacts
+
+    hf = load_hand_file(DATA_DIR / "box_pivot_up.json")
+    h = with_contacts(hf.hand, hf.hand.contacts[1:])  # vertex 1 on the table, the tip
+    lo, hi = np.array([0.3, 0.3]), np.array([0.9, 0.9])
+    out = remedies(h, hf.q0, (0,), np.array([0.01]), "R1 R2", lo, hi, "common")
+    assert len(out) == 1
+    need = float(out[0].split("at least ")[1].split(" ")[0])
+    assert 0.4 <= need <= 0.41
+    out = remedies(h, hf.q0, (0,), np.array([0.01]), "R1 R2", lo, hi, "independent")
+    assert len(out) == 1 and out[0].startswith("friction at least 0.4")
