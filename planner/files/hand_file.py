@@ -34,16 +34,15 @@ from planner.files.fields import (
     number,
     short,
     string,
-    type_name,
 )
 from planner.files.hand_checks import check_hand_contacts
+from planner.files.hand_friction import mu_bodies, mu_section
 from planner.files.hand_goal import Goal, parse_goal
 from planner.files.reader import read_json
 from planner.model.geometry import rot90
 from planner.model.hand import CONTACT_KINDS, JOINT_KINDS, ContactSpec, Finger, Hand, Link, rotation
 from planner.model.kinematics import REVOLUTE
 from planner.model.modes import check_mode_claim
-from planner.model.validation import friction_interval
 from planner.model.workpiece import check_convex_ccw
 
 HAND_FORMAT = "qsplan-hand"
@@ -326,57 +325,6 @@ def _segment(seg: Any, n_joints: int, n_contacts: int) -> SegmentSpec:
     )
 
 
-def _mu_bodies(raw: Any, names: tuple[str, ...]) -> dict[str, tuple[float, float]]:
-    """``mu.bodies``: body name (``palm``, an environment surface's or a finger's name) ->
-    ``[lo, hi]``, the friction interval of every contact on that body."""
-    obj = as_object(raw, "mu.bodies")
-    out = {}
-    for key, pair in obj.items():
-        if key not in names:
-            raise FileFormatError(f"mu.bodies: expected body names among {list(names)} (the "
-                                  f"palm, environment surfaces and fingers), got {key!r}")
-        if not (isinstance(pair, list) and len(pair) == 2):
-            raise FileFormatError(f"mu.bodies.{key}: expected [lo, hi], got {short(pair)}")
-        lo, hi = (number(x, f"mu.bodies.{key}", minimum=0.0) for x in pair)
-        if hi < lo:
-            raise FileFormatError(f"mu.bodies.{key}: expected lo <= hi, got [{lo}, {hi}]")
-        out[str(key)] = (lo, hi)
-    return out
-
-
-def _mu_section(mu: Any, n_c: int) -> tuple[tuple[tuple[float, float], ...] | None,
-                                            tuple[float, ...]]:
-    mu = as_object(mu, "mu")
-    check_keys(mu, "mu", optional=("interval", "validate", "bodies"), free=FREE_KEYS)
-    interval = None
-    if "interval" in mu:
-        raw = mu["interval"]
-        pairs = [raw] if isinstance(raw, list) and len(raw) == 2 and not any(
-            isinstance(x, list) for x in raw) else raw
-        if not isinstance(pairs, list) or len(pairs) not in (1, n_c) or not all(
-                isinstance(p, list) and len(p) == 2 for p in pairs):
-            raise FileFormatError(
-                f"mu.interval: expected [lo, hi] or {n_c} such pairs (one per contact), "
-                f"got {short(raw)}"
-            )
-        out = [(number(p[0], "mu.interval"), number(p[1], "mu.interval")) for p in pairs]
-        friction_interval(out if len(out) > 1 else out[0], n_c, "mu.interval")  # signs, order
-        interval = tuple(out)
-    val = mu.get("validate", [])
-    if not isinstance(val, list):
-        raise FileFormatError(f"mu.validate: expected a list of numbers, got {type_name(val)}")
-    if "bodies" in mu:  # numbers or objects body -> coefficient, checked against mu.bodies
-        return interval, tuple(
-            _body_values(v, f"mu.validate[{i}]") if isinstance(v, dict)
-            else number(v, f"mu.validate[{i}]", minimum=0.0) for i, v in enumerate(val))
-    return interval, tuple(number(v, f"mu.validate[{i}]", minimum=0.0) for i, v in enumerate(val))
-
-
-def _body_values(obj: dict[str, Any], where: str) -> Any:
-    """A ``mu.validate`` entry of a file with ``mu.bodies``: body name -> coefficient."""
-    return {str(k): number(x, f"{where}.{k}", minimum=0.0) for k, x in obj.items()}
-
-
 def _hand_file(data: Any) -> HandFile:
     data = as_object(data, "hand")
     check_keys(data, "hand", required=("palm", "fingers", "workpiece", "contacts"),
@@ -443,11 +391,11 @@ def _hand_file(data: Any) -> HandFile:
                 "first->second point), got it on the other side (the edge given in reverse?)")
     segment = (_segment(data["segment"], hand.n_joints, len(contacts)) if "segment" in data
                else None)
-    interval, validate = _mu_section(data["mu"], len(contacts)) if "mu" in data else (None, ())
+    interval, validate = mu_section(data["mu"], len(contacts)) if "mu" in data else (None, ())
     bodies: dict[str, tuple[float, float]] = {}
     if "mu" in data and "bodies" in data["mu"]:
         names = ("palm", *(e[0] for e in env), *(f.name for f in fingers))
-        bodies = _mu_bodies(data["mu"]["bodies"], names)
+        bodies = mu_bodies(data["mu"]["bodies"], names)
         for i, v in enumerate(validate):
             if isinstance(v, dict) and set(v) - set(names):
                 raise FileFormatError(f"mu.validate[{i}]: expected body names among "

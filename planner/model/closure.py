@@ -30,15 +30,45 @@ tangential rows at the velocity level only.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import numpy as np
 
 from planner.errors import DegenerateError, InputError
 from planner.model.geometry import rot90
 
-if TYPE_CHECKING:
-    from planner.model.hand import Hand
+
+class ContactHand(Protocol):
+    """What the closure needs of :class:`planner.model.hand.Hand` (which delegates here; a
+    protocol keeps the two modules free of an import circle)."""
+
+    @property
+    def contacts(self) -> Any: ...
+
+    @property
+    def environment(self) -> Any: ...
+
+    @property
+    def fingers(self) -> Any: ...
+
+    @property
+    def n_contacts(self) -> int: ...
+
+    @property
+    def n_joints(self) -> int: ...
+
+    @property
+    def length_scale(self) -> float: ...
+
+    def check_q(self, q: Any) -> np.ndarray: ...
+
+    def gaps(self, q: Any) -> np.ndarray: ...
+
+    def gap_jacobian(self, q: Any) -> np.ndarray: ...
+
+    def jacobian(self, q: Any) -> np.ndarray: ...
+
+    def contact_geometry(self, q: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]: ...
 
 #: Relative singular-value cut-off of the constraint rank (of the largest singular value of the
 #: equilibrated rows: each row has unit norm).  Rows whose independent part is below it are
@@ -51,7 +81,7 @@ RANK_RTOL = 1e-9
 STALL = 1e-10
 
 
-def contact_name(hand: Hand, i: int) -> str:
+def contact_name(hand: ContactHand, i: int) -> str:
     """Contact ``i`` (0-based) as the outputs number it -- ``contact i + 1``, the index in mode
     labels -- with its features: ``"contact 2 (vertex 3 on the palm)"``."""
     c = hand.contacts[i]
@@ -66,7 +96,7 @@ def contact_name(hand: Hand, i: int) -> str:
     return f"contact {i + 1} ({what})"
 
 
-def tangent_jacobian(hand: Hand, q: Any) -> np.ndarray:
+def tangent_jacobian(hand: ContactHand, q: Any) -> np.ndarray:
     """``(n_c, 3 + F)``: the tangential relative velocity ``v_it`` of each contact per state rate
     ``d/dt (x, y, phi, theta)`` (eq. 5's tangential rows ``w_it^T qdot - j_it thetadot``; ``t =
     rot90(n)``, docs/conventions.md).  Units: m/s per (m/s, m/s, rad/s, joint rate)."""
@@ -84,7 +114,7 @@ def tangent_jacobian(hand: Hand, q: Any) -> np.ndarray:
     return out
 
 
-def constraint_rows(hand: Hand, q: np.ndarray, sticking: Sequence[int]) -> np.ndarray:
+def constraint_rows(hand: ContactHand, q: np.ndarray, sticking: Sequence[int]) -> np.ndarray:
     """``(n_c + n_R, 3 + F)``: the gap rows of every contact, then the tangential rows of the
     sticking ones (module docstring)."""
     G = hand.gap_jacobian(q)
@@ -106,7 +136,7 @@ def constraint_rank(A: np.ndarray) -> int:
     return int(np.count_nonzero(s > RANK_RTOL * s[0]))
 
 
-def _check_sticking(hand: Hand, sticking: Sequence[int]) -> tuple[int, ...]:
+def _check_sticking(hand: ContactHand, sticking: Sequence[int]) -> tuple[int, ...]:
     out = tuple(int(i) for i in sticking)
     bad = [i for i in out if not 0 <= i < hand.n_contacts]
     if bad or len(set(out)) != len(out):
@@ -115,7 +145,7 @@ def _check_sticking(hand: Hand, sticking: Sequence[int]) -> tuple[int, ...]:
     return out
 
 
-def close_configuration(hand: Hand, q: Any, fixed: Sequence[int], *,
+def close_configuration(hand: ContactHand, q: Any, fixed: Sequence[int], *,
                         sticking: Sequence[int] = (), tol: float = 1e-12,
                         max_iter: int = 50) -> np.ndarray:
     """Solve the mode's constraints (module docstring) for the coordinates not in ``fixed``.
@@ -173,7 +203,7 @@ def close_configuration(hand: Hand, q: Any, fixed: Sequence[int], *,
     )
 
 
-def default_fixed(hand: Hand, q: Any = None) -> list[int]:
+def default_fixed(hand: ContactHand, q: Any = None) -> list[int]:
     """Coordinates held when closing a start configuration: the workpiece ``x``, then the
     joints' coordinates in order, each only while the coordinates left free still fix as many
     constraints as all coordinates do (the rank of the gap rows, :func:`constraint_rank`; at
