@@ -62,3 +62,29 @@ def mu_section(mu: Any, n_c: int) -> tuple[tuple[tuple[float, float], ...] | Non
 def _body_values(obj: dict[str, Any], where: str) -> Any:
     """A ``mu.validate`` entry of a file with ``mu.bodies``: body name -> coefficient."""
     return {str(k): number(x, f"{where}.{k}", minimum=0.0) for k, x in obj.items()}
+
+
+def body_intervals(hand: Any, contacts: list[Any], default: tuple[float, float]
+                   ) -> tuple[tuple[float, float], ...] | None:
+    """Per contact object of ``contacts`` its body's interval from the hand file content
+    ``hand``'s ``mu.bodies`` (``default`` for a body not listed); None without ``mu.bodies``.
+    A plan made with ``mu.bodies`` is guaranteed over these intervals, segment by segment."""
+    mu = hand.get("mu") if isinstance(hand, dict) else None
+    bodies = mu.get("bodies") if isinstance(mu, dict) else None
+    if not isinstance(bodies, dict):
+        return None
+    fingers = hand.get("fingers") or []
+    out = []
+    for c in contacts:
+        kind = c.get("kind")
+        if kind == "palm":
+            name = "palm"
+        elif kind == "surface":
+            name = str(c.get("surface"))
+        else:
+            k = int(c.get("finger", 0))
+            name = str(fingers[k].get("name", f"finger{k + 1}")) if k < len(fingers) else ""
+        pair = bodies.get(name)
+        out.append((float(pair[0]), float(pair[1])) if isinstance(pair, list) and len(pair) == 2
+                   else default)
+    return tuple(out)
