@@ -22,6 +22,7 @@ from planner.files.hand_file import hand_file_from_dict, load_hand_file
 from planner.model.closure import close_configuration, constraint_rank, tangent_jacobian
 from planner.plan.hand_planner import plan_hand
 from planner.plan.partition import joint_inputs
+from planner.plan.plan_file import plan_dict, plan_from_dict
 from planner.plan.trajectory import integrate_segment, mode_velocity
 from planner.plan.wording import mode_change_words
 from scenarios.registry import DATA_DIR
@@ -153,6 +154,9 @@ def test_per_body_friction_of_a_single_segment():
     plan = plan_hand(hand_file_from_dict(data))
     assert plan.segments[0].mu_intervals == ((0.0, 0.4), (0.0, 0.4), (0.7, 1.0))
     assert plan.validate_mu == ((0.2, 0.3, 0.8),)  # 0.5 lies outside the table's interval
+    # the plan file keeps them: a loaded segment is guaranteed over the bodies' intervals
+    loaded = plan_from_dict(plan_dict(plan))
+    assert loaded.segments[0].mu_intervals == ((0.0, 0.4), (0.0, 0.4), (0.7, 1.0))
 
 
 @pytest.mark.long
