@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -34,9 +34,9 @@ from planner.files.fields import (
     number,
     short,
     string,
-    type_name,
 )
 from planner.files.hand_checks import check_hand_contacts
+from planner.files.hand_friction import mu_bodies, mu_section
 from planner.files.hand_goal import Goal, parse_goal
 from planner.files.hand_limits import hand_limits
 from planner.files.reader import read_json
@@ -44,7 +44,6 @@ from planner.model.geometry import rot90
 from planner.model.hand import CONTACT_KINDS, JOINT_KINDS, ContactSpec, Finger, Hand, Link, rotation
 from planner.model.kinematics import REVOLUTE
 from planner.model.modes import check_mode_claim
-from planner.model.validation import friction_interval
 from planner.model.workpiece import check_convex_ccw
 
 HAND_FORMAT = "qsplan-hand"
@@ -93,15 +92,17 @@ class HandFile:
     section's ``mu_interval`` (``(lo, hi)`` pairs, one or one per contact; None when absent)
     and ``validate_mu`` (friction values for the simulators), ``data`` (the parsed JSON,
     embedded verbatim in plans) and the optional ``goal`` (:class:`planner.files.hand_goal.Goal`,
-    what a whole task should reach)."""
+    what a whole task should reach) and ``mu_bodies`` (``mu.bodies``: body name -> the friction
+    interval of every contact on it; the others take ``mu_interval``)."""
 
     hand: Hand
     q0: np.ndarray
     segment: SegmentSpec | None
     mu_interval: tuple[tuple[float, float], ...] | None
-    validate_mu: tuple[float, ...]
+    validate_mu: tuple[Any, ...]
     data: Mapping[str, Any]
     goal: Goal | None = None
+    mu_bodies: Mapping[str, tuple[float, float]] = field(default_factory=dict)
 
 
 def load_hand_file(path: str | os.PathLike[str]) -> HandFile:
@@ -325,30 +326,6 @@ def _segment(seg: Any, n_joints: int, n_contacts: int) -> SegmentSpec:
     )
 
 
-def _mu_section(mu: Any, n_c: int) -> tuple[tuple[tuple[float, float], ...] | None,
-                                            tuple[float, ...]]:
-    mu = as_object(mu, "mu")
-    check_keys(mu, "mu", optional=("interval", "validate"), free=FREE_KEYS)
-    interval = None
-    if "interval" in mu:
-        raw = mu["interval"]
-        pairs = [raw] if isinstance(raw, list) and len(raw) == 2 and not any(
-            isinstance(x, list) for x in raw) else raw
-        if not isinstance(pairs, list) or len(pairs) not in (1, n_c) or not all(
-                isinstance(p, list) and len(p) == 2 for p in pairs):
-            raise FileFormatError(
-                f"mu.interval: expected [lo, hi] or {n_c} such pairs (one per contact), "
-                f"got {short(raw)}"
-            )
-        out = [(number(p[0], "mu.interval"), number(p[1], "mu.interval")) for p in pairs]
-        friction_interval(out if len(out) > 1 else out[0], n_c, "mu.interval")  # signs, order
-        interval = tuple(out)
-    val = mu.get("validate", [])
-    if not isinstance(val, list):
-        raise FileFormatError(f"mu.validate: expected a list of numbers, got {type_name(val)}")
-    return interval, tuple(number(v, f"mu.validate[{i}]", minimum=0.0) for i, v in enumerate(val))
-
-
 def _hand_file(data: Any) -> HandFile:
     data = as_object(data, "hand")
     check_keys(data, "hand", required=("palm", "fingers", "workpiece", "contacts"),
@@ -416,7 +393,18 @@ def _hand_file(data: Any) -> HandFile:
                 "first->second point), got it on the other side (the edge given in reverse?)")
     segment = (_segment(data["segment"], hand.n_joints, len(contacts)) if "segment" in data
                else None)
-    interval, validate = _mu_section(data["mu"], len(contacts)) if "mu" in data else (None, ())
+    interval, validate = mu_section(data["mu"], len(contacts)) if "mu" in data else (None, ())
+    bodies: dict[str, tuple[float, float]] = {}
+    if "mu" in data and "bodies" in data["mu"]:
+        names = ("palm", *(e[0] for e in env), *(f.name for f in fingers))
+        bodies = mu_bodies(data["mu"]["bodies"], names)
+        for i, v in enumerate(validate):
+            if isinstance(v, dict) and set(v) - set(names):
+                raise FileFormatError(f"mu.validate[{i}]: expected body names among "
+                                      f"{list(names)}, got {sorted(set(v) - set(names))}")
+        if interval is not None and len(interval) > 1:
+            raise FileFormatError("mu: expected mu.bodies with one mu.interval (the default of "
+                                  f"the bodies not listed), got {len(interval)} intervals")
     goal = None
     if "goal" in data:
         goal = parse_goal(data["goal"], hand.length_scale, lambda c, i: _contact(
@@ -430,4 +418,4 @@ def _hand_file(data: Any) -> HandFile:
         q0 = hand.close(q0, fixed=fixed)
     except (DegenerateError, InputError) as exc:
         raise FileFormatError(f"initial configuration: {exc}") from None
-    return HandFile(hand, q0, segment, interval, validate, data, goal)
+    return HandFile(hand, q0, segment, interval, validate, data, goal, bodies)

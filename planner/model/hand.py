@@ -47,7 +47,7 @@ from typing import Any
 
 import numpy as np
 
-from planner.errors import DegenerateError, InputError
+from planner.model import closure
 from planner.model.geometry import rot90
 from planner.model.hand_parts import (
     CONTACT_KINDS,
@@ -254,28 +254,10 @@ class Hand:
         return np.array([f[0], f[1], r[0] * f[1] - r[1] * f[0]])
 
     def default_fixed(self, q: Any = None) -> list[int]:
-        """Coordinates kept when closing the initial configuration (:meth:`close`): the
-        workpiece ``x`` and, if there are more free coordinates than contacts, the first
-        joints' coordinates -- at ``q`` (when given) only joints whose removal leaves the gap
-        Jacobian of the free coordinates with full rank.  Raises :class:`InputError` when there
-        are too many contacts."""
-        n_free = 3 + self.n_joints
-        fixed = [0]
-        G = None if q is None else self.gap_jacobian(self.check_q(q))
-        k = 0
-        while n_free - len(fixed) > self.n_contacts and k < self.n_joints:
-            trial = [*fixed, 3 + k]
-            free = [j for j in range(n_free) if j not in trial]
-            if G is None or np.linalg.matrix_rank(G[:, free]) == min(self.n_contacts, len(free)):
-                fixed = trial
-            k += 1
-        if n_free - len(fixed) != self.n_contacts:
-            raise InputError(
-                f"contacts: expected at most {n_free - 1} contacts for {self.n_joints} joints "
-                f"(and joints that can be held while the contacts close), got "
-                f"{self.n_contacts}"
-            )
-        return fixed
+        """Coordinates held when closing the start configuration
+        (:func:`planner.model.closure.default_fixed`: the workpiece ``x`` and the first joints,
+        each only while the free coordinates keep the rank of the contact constraints)."""
+        return closure.default_fixed(self, q)
 
     def system(
         self,
@@ -296,42 +278,20 @@ class Hand:
 
     # ---- closing a configuration -----------------------------------------------------------
     def close(
-        self, q: Any, fixed: Sequence[int], *, tol: float = 1e-12, max_iter: int = 50,
+        self, q: Any, fixed: Sequence[int], *, sticking: Sequence[int] = (),
+        tol: float = 1e-12, max_iter: int = 50,
     ) -> np.ndarray:
-        """Solve ``gaps(q) = 0`` for the coordinates not in ``fixed`` (Gauss-Newton).
+        """Solve the contact constraints of a mode for the coordinates not in ``fixed``
+        (eqs. 13-16; :func:`planner.model.closure.close_configuration`): every contact's gap
+        zero and, for the contacts in ``sticking`` (mode ``R``), no tangential slip.
 
         Used to build the initial configuration from an approximate one and, along a trajectory,
         to project integrated states back onto the contact manifold.  Raises
-        :class:`DegenerateError` when the gap Jacobian is singular or Newton does not converge.
+        :class:`DegenerateError` naming the contacts that stay open when the constraints are
+        inconsistent, singular (square systems) or Newton does not converge.
         """
-        q = self.check_q(q).copy()
-        free = [j for j in range(len(q)) if j not in set(fixed)]
-        if len(free) != self.n_contacts:
-            raise InputError(
-                f"close: expected {self.n_contacts} free coordinates (one per contact), "
-                f"got {len(free)} (fixed {list(fixed)})"
-            )
-        scale = self.length_scale
-        for _ in range(max_iter):
-            g = self.gaps(q)
-            if np.max(np.abs(g)) <= tol * scale:
-                return q
-            G = self.gap_jacobian(q)[:, free]
-            if abs(np.linalg.det(G)) < 1e-14 * scale ** 2:
-                raise DegenerateError(
-                    "close: the contact constraints are singular at this configuration "
-                    f"(gap Jacobian det {np.linalg.det(G):.3g})"
-                )
-            q[free] -= np.linalg.solve(G, g)
-            if not np.all(np.isfinite(q)):
-                raise DegenerateError(
-                    "close: Newton diverged (a coordinate left the float range); expected a "
-                    "configuration near one where every contact touches"
-                )
-        raise DegenerateError(
-            f"close: contacts did not close within {max_iter} Newton steps "
-            f"(largest gap {np.max(np.abs(self.gaps(q))):.3g} m)"
-        )
+        return closure.close_configuration(self, q, fixed, sticking=sticking, tol=tol,
+                                           max_iter=max_iter)
 
     def gap_jacobian(self, q: Any) -> np.ndarray:
         """(n_c, 3 + F) derivative of the gaps with respect to ``q`` (analytic, eq. 5).

@@ -26,6 +26,7 @@ import numpy as np
 
 from planner.errors import InputError
 from planner.files.hand_file import HandSetup, hand_from_plan
+from planner.model.modes import check_mode_claim
 from planner.model.validation import FrictionValue
 
 if TYPE_CHECKING:  # the in-memory certificate of a planned segment
@@ -270,13 +271,22 @@ class Plan:
         return float(sum(s.travel() for s in self.segments))
 
 
-def segment_hand(hand: Mapping[str, Any], contacts: Sequence[Any], q: Any) -> dict[str, Any]:
+def segment_hand(hand: Mapping[str, Any], contacts: Sequence[Any], q: Any,
+                 mode: str | None = None) -> dict[str, Any]:
     """The hand file ``hand`` with contact list ``contacts`` and start configuration ``q``
     ``(x, y, phi, joint coordinates)`` (finger ``angle``, or each link's ``position``); its
-    ``goal`` is dropped (a segment has none)."""
+    ``goal`` is dropped (a segment has none).  A ``segment.mode`` that does not fit the new
+    contact list (a family or label of another contact count) becomes ``mode``, the segment's
+    own claim, when given."""
     d = copy.deepcopy(dict(hand))
     d.pop("goal", None)
     d["contacts"] = copy.deepcopy(list(contacts))
+    seg = d.get("segment")
+    if mode is not None and isinstance(seg, dict) and "mode" in seg:
+        try:
+            check_mode_claim(str(seg["mode"]), len(contacts))
+        except InputError:
+            seg["mode"] = mode
     q = [float(x) for x in q]
     d["workpiece"] = {**d["workpiece"], "pose": q[:3]}
     k = 3

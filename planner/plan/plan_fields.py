@@ -229,11 +229,11 @@ def check_margin(margin: float, taus: tuple[float, ...], bands: tuple[tuple[floa
                 f"margin around the command lies inside every band), got {margin:.6g}")
 
 
-def embedded_hand(hand: dict[str, Any], contacts: list[Any], q: Any, where: str
-                  ) -> dict[str, Any]:
+def embedded_hand(hand: dict[str, Any], contacts: list[Any], q: Any, where: str,
+                  mode: str | None = None) -> dict[str, Any]:
     """:func:`planner.plan.model.segment_hand`, its failures on a malformed hand named."""
     try:
-        return segment_hand(hand, contacts, q)
+        return segment_hand(hand, contacts, q, mode)
     except (TypeError, KeyError, IndexError, ValueError, AttributeError) as exc:
         raise FileFormatError(f"{where}: expected a hand file with 'workpiece' and "
                               f"'fingers' to embed the segment in ({type(exc).__name__}: "

@@ -27,6 +27,7 @@ from typing import Any
 from planner.errors import FileFormatError, InputError
 from planner.files.atomic import atomic_write_text
 from planner.files.fields import check_keys, short
+from planner.files.hand_friction import body_intervals
 from planner.files.reader import parse_json, read_json
 from planner.plan import plan_fields as pf
 from planner.plan.model import Plan, Segment, Waypoint
@@ -210,6 +211,10 @@ def _contacts_of(data: dict[str, Any]) -> int:
     return len(contacts) if isinstance(contacts, list) else 0
 
 
+def _hull(ivs: tuple[tuple[float, float], ...]) -> tuple[float, float]:
+    return (min(a for a, _ in ivs), max(b for _, b in ivs)) if ivs else (0.0, 0.0)
+
+
 def _segment(s: dict[str, Any], where: str, data: dict[str, Any],
              ivs: tuple[tuple[float, float], ...]) -> Segment:
     control = pf.controls(s["control"], f"{where}.control")
@@ -224,10 +229,12 @@ def _segment(s: dict[str, Any], where: str, data: dict[str, Any],
     wps = tuple(waypoint(w, f"{where}.waypoints[{k}]", WAYPOINT_KEYS)
                 for k, w in enumerate(wps_raw))
     pf.check_times([w.t for w in wps], f"{where}.waypoints")
+    claim = pf.text(s["claim"], f"{where}.claim")
     seg = Segment(
-        claim=pf.text(s["claim"], f"{where}.claim"), control=control, waypoints=wps,
-        hand=embedded_hand(data["hand"], s["contacts"], wps[0].q, f"{where}.hand"),
-        mu_intervals=segment_intervals(ivs, len(s["contacts"]), f"{where}.contacts"),
+        claim=claim, control=control, waypoints=wps,
+        hand=embedded_hand(data["hand"], s["contacts"], wps[0].q, f"{where}.hand", claim),
+        mu_intervals=body_intervals(data["hand"], s["contacts"], _hull(ivs))
+        or segment_intervals(ivs, len(s["contacts"]), f"{where}.contacts"),
         event=pf.event(s["event"], f"{where}.event"), released=tuple(s["released"]),
         policy=data["policy"], exact=pf.flag(s["exact"], f"{where}.exact"),
         notes=pf.text(s["notes"], f"{where}.notes"), extra=pf.obj(s["extra"], f"{where}.extra"))

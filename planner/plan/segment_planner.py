@@ -51,7 +51,7 @@ from planner.plan.polytope import empty_region
 from planner.plan.spacing import Spacing, adaptive, uniform
 from planner.plan.task_contacts import contact_dict
 from planner.plan.trajectory import Drive, Speed, Trajectory, integrate_segment
-from planner.plan.wording import joint_words
+from planner.plan.wording import contact_label, joint_words
 
 
 class NoRegionError(DegenerateError):
@@ -187,7 +187,8 @@ def plan_segment(hand: Hand, q0: Any, *, data: Mapping[str, Any], drive: Drive, 
         claim=traj.mode,
         control=tuple("velocity" if j in best.V else "effort" for j in range(hand.n_joints)),
         waypoints=tuple(wps),
-        hand=segment_hand(data, [contact_dict(hand, c) for c in hand.contacts], states.q[0]),
+        hand=segment_hand(data, [contact_dict(hand, c) for c in hand.contacts], states.q[0],
+                          traj.mode),
         mu_intervals=tuple((float(a), float(b)) for a, b in zip(lo, hi)),
         event=traj.event, released=tuple(released), policy=policy,
         exact=all(r.exact for r in regions), notes=notes, extra=extra,
@@ -241,6 +242,46 @@ def _choice_words(hand: Hand, best: _Partition, results: list[_Partition]) -> st
                       for r in results)
     return (f"velocity-controlled: {', '.join(joint_words(hand, j) for j in best.V)}; "
             f"effort-controlled: {eff}; partitions tried: {tried}")
+
+
+def remedies(hand: Hand, q: np.ndarray, V: tuple[int, ...], rates: np.ndarray, mode: str,
+             lo: np.ndarray, hi: np.ndarray, model: str, steps: int = 10) -> tuple[str, ...]:
+    """What would give a guaranteed set at ``q`` where the friction box ``[lo, hi]`` (one pair
+    per contact) has none, in plain words: the friction interval with the same upper ends and
+    the lowest lower ends that works (a sticking contact that needs more friction), and per
+    contact (model ``independent``) the lowest lower end that works with the others unchanged,
+    naming the contact
+    (bisection, ``steps`` halvings; the guaranteed set only grows as the box shrinks).  Empty
+    when even the upper ends alone give no set."""
+    def works(a: np.ndarray, b: np.ndarray) -> bool:
+        return not guaranteed_at(hand, q, V, rates, mode, np.stack([a, b], 1), model).empty
+
+    if np.all(lo == hi) or not works(hi, hi):
+        return ()
+    out = []
+    a, b = 0.0, 1.0  # fraction of the way from lo to hi of the raised lower ends
+    for _ in range(steps):
+        mid = 0.5 * (a + b)
+        a, b = (a, mid) if works(lo + mid * (hi - lo), hi) else (mid, b)
+    new_lo = lo + b * (hi - lo)
+    out.append("friction at least " + ", ".join(
+        f"{x:.3g}" for x in (new_lo[:1] if len(set(new_lo.tolist())) == 1 else new_lo))
+        + " (raised lower ends of the friction interval) would give a guaranteed set")
+    for i in np.flatnonzero(lo < hi) if model == "independent" else ():
+        top = lo.copy()
+        top[i] = hi[i]
+        if not works(top, hi):
+            continue
+        a, b = 0.0, 1.0
+        for _ in range(steps):
+            mid = 0.5 * (a + b)
+            trial = lo.copy()
+            trial[i] = lo[i] + mid * (hi[i] - lo[i])
+            a, b = (a, mid) if works(trial, hi) else (mid, b)
+        need = lo[i] + b * (hi[i] - lo[i])
+        out.append(f"{contact_label(hand, int(i))} needs friction of at least {need:.3g} "
+                   f"(its interval starts at {lo[i]:.3g})")
+    return tuple(out)
 
 
 def _shortfall(hand: Hand, states: Trajectory, part: _Partition, k: int, lo: np.ndarray,

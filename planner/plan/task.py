@@ -40,7 +40,7 @@ import heapq
 import itertools
 import math
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -48,12 +48,18 @@ import numpy as np
 from planner.errors import DegenerateError, InputError
 from planner.files.hand_goal import Goal
 from planner.model.hand import ContactSpec, Hand
-from planner.model.modes import Mode, enumerate_modes
-from planner.model.validation import FrictionValue
+from planner.model.modes import BREAK, ROLL, Mode, enumerate_modes
+from planner.model.validation import FrictionValue, friction_interval
 from planner.plan.model import Plan, Segment, Shortfall
 from planner.plan.partition import joint_inputs
-from planner.plan.segment_planner import NoRegionError, plan_segment
-from planner.plan.task_contacts import after_event, contact_dict, releases, with_contacts
+from planner.plan.segment_planner import NoRegionError, plan_segment, remedies
+from planner.plan.task_contacts import (
+    after_event,
+    contact_body,
+    contact_dict,
+    releases,
+    with_contacts,
+)
 from planner.plan.trajectory import Trajectory, integrate_segment
 from planner.plan.wording import contact_words, drive_words, motion_words
 from planner.predict.stages import kinematic_stage
@@ -62,7 +68,10 @@ from planner.predict.stages import kinematic_stage
 @dataclass(frozen=True)
 class TaskOptions:
     """Search settings: ``speed`` of the driven joint (rad/s or m/s, both signs are tried),
-    ``mu`` the friction interval ``(lo, hi)`` shared by every contact, ``model``
+    ``mu`` the friction interval ``(lo, hi)`` of every contact whose body has none in
+    ``friction`` (body name -- ``palm``, an environment surface's or a finger's name -- to its
+    interval, :func:`planner.plan.task_contacts.contact_body`; with any, the model is
+    ``independent``), ``model``
     (``common``/``independent``), ``max_time`` (s) and ``steps`` per segment (RK4 steps over
     ``max_time``), ``waypoints`` per planned segment (None: the spacing rule,
     :mod:`planner.plan.spacing`), ``max_expansions``."""
@@ -74,6 +83,7 @@ class TaskOptions:
     steps: int = 120
     waypoints: int | None = None
     max_expansions: int = 40
+    friction: Mapping[str, tuple[float, float]] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -86,6 +96,7 @@ class Rejection:
     what: str
     why: str
     shortfall: Shortfall | None = None
+    child: Any = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -126,37 +137,76 @@ def admissible_labels(hand: Hand, q: np.ndarray, drive: int, speed: float
     return out
 
 
+def _candidates(hand: Hand, q: np.ndarray, speed: float, level: int
+                ) -> list[tuple[tuple[int, ...], int, float, str]]:
+    """``(released contact indices, driven joint, its rate, label of the kept contacts)`` of
+    the segments that can start at ``(hand, q)``, one joint driven at ``+-speed`` and the
+    others effort-controlled.
+
+    Level 1 (the paper's search, Sec. 5.2): every way to keep ``3 + n_theta - 1`` contacts
+    closed, the others released, in an admissible mode without ``B`` (all sliding, as the
+    ``4S`` segments of Figure 9, or rolling where the kinematics allow).  Level 2: every
+    kinematically admissible mode of the whole contact set (eqs. 13-16, 23-25) --
+    rolling/sticking, sliding and breaking contacts in any mix with ``2 n_R + n_S = 3 + n_theta
+    - 1`` (condition 29 with one velocity-controlled joint) -- that level 1 does not list; its
+    ``B`` contacts are the ones released (eq. 25 makes them open)."""
+    out: list[tuple[tuple[int, ...], int, float, str]] = []
+    drives = list(itertools.product(range(hand.n_joints), (speed, -speed)))
+    n_keep = 2 + hand.n_joints
+    if level == 1:
+        G = hand.gap_jacobian(q)
+        scale = hand.length_scale
+        for rel in releases(hand.n_contacts, n_keep):
+            kept = tuple(c for i, c in enumerate(hand.contacts) if i not in rel)
+            for drive, rate in drives:
+                try:
+                    labels = admissible_labels(with_contacts(hand, kept), q, drive, rate)
+                except DegenerateError:
+                    continue
+                for label, qrate in labels:
+                    if rel and not np.all(G[list(rel)] @ qrate > 1e-9 * abs(rate) * scale):
+                        continue  # a released contact would not open (B inadmissible)
+                    out.append((rel, drive, rate, label))
+        return out
+    for drive, rate in drives:
+        try:
+            system = hand.system(q, 0.0, joint_inputs(hand, (drive,), (rate,)))
+            cand = enumerate_modes(system.n_contacts, system.dof)
+            ks = kinematic_stage(system, cand)
+        except DegenerateError:
+            continue
+        for i in np.flatnonzero(ks.ok):
+            codes = tuple(int(c) for c in cand.codes[i])
+            if ROLL not in codes and sum(c != BREAK for c in codes) == n_keep:
+                continue  # listed by level 1
+            keep = [j for j, c in enumerate(codes) if c != BREAK]
+            label = Mode(tuple(codes[j] for j in keep),
+                         tuple(int(ks.xi[i][j]) for j in keep)).label
+            out.append((tuple(j for j, c in enumerate(codes) if c == BREAK), drive, rate,
+                        label))
+    return out
+
+
 def _children(hand: Hand, q: np.ndarray, opts: TaskOptions,
-              stop: Callable[[Hand], Callable[[np.ndarray], bool] | None]
+              stop: Callable[[Hand], Callable[[np.ndarray], bool] | None], level: int = 1
               ) -> tuple[list[_Child], int]:
-    """Every segment that can start at ``(hand, q)``; returns ``(children, integrated)``."""
+    """Every segment that can start at ``(hand, q)`` (:func:`_candidates` at ``level``),
+    integrated to its first event; returns ``(children, integrated)``."""
     out: list[_Child] = []
     n = 0
     scale = hand.length_scale
-    G = hand.gap_jacobian(q)
-    for rel in releases(hand.n_contacts, 2 + hand.n_joints):
+    for rel, drive, speed, label in _candidates(hand, q, opts.speed, level):
         kept = tuple(c for i, c in enumerate(hand.contacts) if i not in rel)
         hk = with_contacts(hand, kept)
-        released = tuple(hand.contacts[i] for i in rel)
-        for drive, sign in itertools.product(range(hand.n_joints), (1.0, -1.0)):
-            speed = sign * opts.speed
-            try:
-                labels = admissible_labels(hk, q, drive, speed)
-            except DegenerateError:
-                continue
-            for label, rate in labels:
-                if rel and not np.all(G[list(rel)] @ rate > 1e-9 * abs(speed) * scale):
-                    continue  # a released contact would not open (B inadmissible)
-                n += 1
-                try:
-                    tr = integrate_segment(hk, q, drive=drive, speed=speed, mode=label,
-                                           max_time=opts.max_time, steps=opts.steps,
-                                           stop=stop(hk))
-                except (DegenerateError, InputError):
-                    continue
-                if tr.travel() + scale * float(np.ptp(tr.q[:, 2])) <= 1e-6 * scale:
-                    continue  # ends where it starts (a released contact closes at once)
-                out.append(_Child(hk, released, drive, speed, tr))
+        n += 1
+        try:
+            tr = integrate_segment(hk, q, drive=drive, speed=speed, mode=label,
+                                   max_time=opts.max_time, steps=opts.steps, stop=stop(hk))
+        except (DegenerateError, InputError):
+            continue
+        if tr.travel() + scale * float(np.ptp(tr.q[:, 2])) <= 1e-6 * scale:
+            continue  # ends where it starts (a released contact closes at once)
+        out.append(_Child(hk, tuple(hand.contacts[i] for i in rel), drive, speed, tr))
     return out, n
 
 
@@ -175,6 +225,14 @@ def plan_task(hand: Hand, q0: Any, goal: Goal, opts: TaskOptions, *,
         raise InputError(f"max_expansions: expected >= 1, got {opts.max_expansions}")
     q0 = hand.check_q(q0)
     lo, hi = (float(x) for x in np.ravel(opts.mu)[:2])
+    friction = dict(opts.friction)
+    model = "independent" if friction else opts.model
+
+    def contact_intervals(h: Hand) -> Any:
+        """One ``(lo, hi)`` per contact of ``h``: its body's interval, else ``opts.mu``."""
+        if not friction:
+            return (lo, hi)
+        return [friction.get(contact_body(h, c), (lo, hi)) for c in h.contacts]
 
     def stop(hk: Hand) -> Callable[[np.ndarray], bool] | None:
         if goal.pose is None or goal.missing_contacts(hk.contacts):
@@ -184,74 +242,97 @@ def plan_task(hand: Hand, q0: Any, goal: Goal, opts: TaskOptions, *,
     def result(chain: tuple[Segment, ...], reached: bool, distance: float,
                failure: Rejection | None, notes: tuple[str, ...]) -> Plan:
         diag = None if reached else _diagnosis(distance, notes, len(chain), failure)
-        return Plan(hand=dict(data), segments=chain, mu_model=opts.model,
+        if diag is not None and diag["failed"] is not None and failure is not None:
+            diag["failed"]["remedies"] = list(_remedies(failure, contact_intervals, model))
+        return Plan(hand=dict(data), segments=chain, mu_model=model,
                     mu_intervals=((lo, hi),), validate_mu=tuple(validate_mu), reached=reached,
                     diagnosis=diag, notes="; ".join(notes),
                     extra={"expansions": expansions, "segments_integrated": integrated,
                            "rejections": [{"after_segments": r.depth, "what": r.what,
                                            "why": r.why} for r in rejections]})
 
-    counter = itertools.count()
-    heap: list[tuple[float, int, int, _Child, tuple[Segment, ...]]] = []
-    seen: set[Any] = set()
     rejections: list[Rejection] = []
-    best_steps: tuple[Segment, ...] = ()
-    best_d = goal_distance(goal, hand, q0, hand.contacts)
     expansions = integrated = 0
     if goal.reached(q0, hand.contacts):
         raise InputError("goal: expected a goal the hand does not meet at its start, got one "
                          "it meets already (nothing to plan)")
+    start_d = goal_distance(goal, hand, q0, hand.contacts)
 
-    def expand(h: Hand, q: np.ndarray, steps: tuple[Segment, ...]) -> None:
+    def search(levels: tuple[int, ...]) -> tuple[tuple[Segment, ...], bool, float, str]:
+        """One best-first search whose children are those of ``levels``
+        (:func:`_candidates`): ``(chain, reached, distance, why it stopped)``."""
         nonlocal expansions, integrated
-        expansions += 1
-        kids, n = _children(h, q, opts, stop)
-        integrated += n
-        for c in kids:
+        counter = itertools.count()
+        heap: list[tuple[float, int, int, _Child, tuple[Segment, ...]]] = []
+        seen: set[Any] = set()
+        best_steps: tuple[Segment, ...] = ()
+        best_d = start_d
+        budget = expansions + opts.max_expansions
+
+        def expand(h: Hand, q: np.ndarray, steps: tuple[Segment, ...]) -> None:
+            nonlocal expansions, integrated
+            expansions += 1
+            for level in levels:
+                kids, n = _children(h, q, opts, stop, level)
+                integrated += n
+                for c in kids:
+                    end = c.trajectory.q[-1]
+                    after = c.hand.contacts if c.trajectory.event.kind == "goal" else (
+                        after_event(c.hand, end, c.trajectory.event.kind))
+                    key = (after, tuple(np.round(end / (1e-4 * h.length_scale)).astype(int)))
+                    if key in seen:
+                        continue
+                    seen.add(key)
+                    d = goal_distance(goal, h, end, after)
+                    heapq.heappush(heap, (d, len(steps) + 1, next(counter), c, steps))
+
+        expand(hand, q0, ())
+        while heap and expansions <= budget:
+            d, depth, _, c, steps = heapq.heappop(heap)
+            what = _what(hand, c)
+            try:
+                seg = plan_segment(
+                    c.hand, c.trajectory.q[0], data=data, drive=c.drive, speed=c.speed,
+                    mode=c.trajectory.mode, mu=contact_intervals(c.hand), model=model,
+                    waypoints=opts.waypoints, max_time=opts.max_time, steps=opts.steps,
+                    trajectory=c.trajectory, partial=True,
+                    released=tuple(contact_dict(hand, r) for r in c.released))
+            except NoRegionError as exc:
+                rejections.append(Rejection(depth - 1, what, str(exc), exc.shortfall, c))
+                continue
+            except DegenerateError as exc:
+                rejections.append(Rejection(depth - 1, what, str(exc)))
+                continue
+            if seg.shortfall is not None:
+                rejections.append(Rejection(depth - 1, what, seg.shortfall.reason,
+                                            seg.shortfall, c))
+                continue
             end = c.trajectory.q[-1]
             after = c.hand.contacts if c.trajectory.event.kind == "goal" else after_event(
                 c.hand, end, c.trajectory.event.kind)
-            key = (after, tuple(np.round(end / (1e-4 * h.length_scale)).astype(int)))
-            if key in seen:
-                continue
-            seen.add(key)
-            d = goal_distance(goal, h, end, after)
-            heapq.heappush(heap, (d, len(steps) + 1, next(counter), c, steps))
+            chain = (*steps, seg)
+            if goal.reached(end, after):
+                return chain, True, 0.0, ""
+            if d < best_d:
+                best_d, best_steps = d, chain
+            if depth < goal.max_segments:
+                expand(with_contacts(c.hand, after), end, chain)
+        why = ("the search is exhausted: no further segment can start" if not heap else
+               f"max_expansions {opts.max_expansions} spent")
+        return best_steps, False, best_d, why
 
-    expand(hand, q0, ())
-    while heap and expansions <= opts.max_expansions:
-        d, depth, _, c, steps = heapq.heappop(heap)
-        what = _what(hand, c)
-        try:
-            seg = plan_segment(
-                c.hand, c.trajectory.q[0], data=data, drive=c.drive, speed=c.speed,
-                mode=c.trajectory.mode, mu=(lo, hi), model=opts.model,
-                waypoints=opts.waypoints, max_time=opts.max_time, steps=opts.steps,
-                trajectory=c.trajectory, partial=True,
-                released=tuple(contact_dict(hand, r) for r in c.released))
-        except NoRegionError as exc:
-            rejections.append(Rejection(depth - 1, what, str(exc), exc.shortfall))
-            continue
-        except DegenerateError as exc:
-            rejections.append(Rejection(depth - 1, what, str(exc)))
-            continue
-        if seg.shortfall is not None:
-            rejections.append(Rejection(depth - 1, what, seg.shortfall.reason, seg.shortfall))
-            continue
-        end = c.trajectory.q[-1]
-        after = c.hand.contacts if c.trajectory.event.kind == "goal" else after_event(
-            c.hand, end, c.trajectory.event.kind)
-        chain = (*steps, seg)
-        if goal.reached(end, after):
-            return result(chain, True, 0.0, None, ())
-        if d < best_d:
-            best_d, best_steps = d, chain
-        if depth < goal.max_segments:
-            expand(with_contacts(c.hand, after), end, chain)
-    why = ("the search is exhausted: no further segment can start" if not heap else
-           f"max_expansions {opts.max_expansions} spent")
-    return result(best_steps, False, best_d, _nearest_failure(rejections, len(best_steps)),
-                  (why,))
+    # The paper's search first (Figure 9's chain is found there); modes with sticking contacts
+    # and any release (level 2) only when it does not reach the goal.
+    chain, reached, dist, why = search((1,))
+    if reached:
+        return result(chain, True, 0.0, None, ())
+    chain2, reached, dist2, why2 = search((1, 2))
+    if reached:
+        return result(chain2, True, 0.0, None, ())
+    if dist2 < dist or (dist2 == dist and len(chain2) > len(chain)):
+        chain, dist, why = chain2, dist2, why2
+    return result(chain, False, dist, _nearest_failure(rejections, len(chain)),
+                  (f"sliding modes only: {why}; with sticking modes and any release: {why2}",))
 
 
 def _diagnosis(distance: float, notes: tuple[str, ...], after: int,
@@ -268,6 +349,23 @@ def _diagnosis(distance: float, notes: tuple[str, ...], after: int,
         else [list(sf.widest_mu[0]), list(sf.widest_mu[1])]}
     return {"distance_to_goal": distance, "notes": list(notes), "after_segments": after,
             "failed": failed}
+
+
+def _remedies(fail: Rejection, intervals: Callable[[Hand], Any], model: str
+              ) -> tuple[str, ...]:
+    """What would make the reported failure work (:func:`planner.plan.segment_planner.remedies`
+    at the waypoint where its guarantee fails); () when it is not a guarantee failure."""
+    sf, c = fail.shortfall, fail.child
+    if sf is None or c is None or sf.widest_mu is not None:
+        return ()
+    try:
+        at = c.trajectory.at_times(c.hand, np.array([sf.t]))
+        lo, hi = friction_interval(intervals(c.hand), c.hand.n_contacts)
+        return remedies(c.hand, at.q[0], sf.velocity_joints,
+                        at.thetadot[0, list(sf.velocity_joints)], c.trajectory.mode, lo, hi,
+                        model)
+    except (DegenerateError, InputError):
+        return ()
 
 
 def _nearest_failure(rejections: list[Rejection], depth: int) -> Rejection | None:

@@ -37,9 +37,9 @@ import numpy as np
 
 from planner.errors import DegenerateError, InputError
 from planner.model.hand import Hand
-from planner.model.modes import Mode, enumerate_modes
+from planner.model.modes import BREAK, ROLL, Mode, enumerate_modes
 from planner.plan.model import Event
-from planner.plan.task_contacts import touching
+from planner.plan.task_contacts import touching, with_contacts
 from planner.plan.wording import (
     clearance_words,
     contact_words,
@@ -107,7 +107,7 @@ class Trajectory:
             q = (1 - a) * self.q[k] + a * self.q[k + 1]
             for d, v in zip(self.drives, self.speeds):
                 q[3 + d] = self.q[0, 3 + d] + v * t
-            q = hand.close(q, fixed=[3 + d for d in self.drives])
+            q = close_in_mode(hand, q, [3 + d for d in self.drives], self.mode)
             vel = mode_velocity(hand, q, self.drives, self.speeds, self.mode)
             if vel is None:  # the event state itself may sit on the boundary: keep last rates
                 vel = (qd[-1], td[-1]) if qd else (self.qdot[k], self.thetadot[k])
@@ -116,6 +116,18 @@ class Trajectory:
             td.append(vel[1])
         return Trajectory(ts, np.array(qs), np.array(qd), np.array(td), self.mode, self.drive,
                           self.speed, self.event, self.drives, self.speeds)
+
+
+def close_in_mode(hand: Hand, q: np.ndarray, fixed: Sequence[int], label: str) -> np.ndarray:
+    """Close ``q`` on the constraints of mode ``label`` (eqs. 13-16,
+    :func:`planner.model.closure.close_configuration`): the gaps of its ``R`` and ``S`` contacts
+    zero, no slip at its ``R`` contacts, its ``B`` contacts released; ``fixed`` held."""
+    codes = Mode.parse(label, hand.n_contacts).codes
+    kept = [i for i, c in enumerate(codes) if c != BREAK]
+    closer = hand if len(kept) == hand.n_contacts else with_contacts(
+        hand, tuple(hand.contacts[i] for i in kept))
+    sticking = [k for k, i in enumerate(kept) if codes[i] == ROLL]
+    return closer.close(q, fixed=fixed, sticking=sticking)
 
 
 Drive = int | Sequence[int]
@@ -199,8 +211,11 @@ def integrate_segment(
     if not (np.isfinite(max_time) and max_time > 0):
         raise InputError(f"max_time: expected a positive duration, got {max_time!r}")
     fixed = [3 + d for d in drives]
-    q = hand.close(hand.check_q(q0), fixed=fixed)
+    q = hand.close(hand.check_q(q0), fixed=fixed) if " " not in mode else close_in_mode(
+        hand, hand.check_q(q0), fixed, mode)
     label = _mode_label(hand, q, drives, speeds, mode)
+    breaking = [i for i, c in enumerate(Mode.parse(label, hand.n_contacts).codes)
+                if c == BREAK]
     h = max_time / steps
     slack = 1e-9 * hand.length_scale
     released = {name for name, d in hand.clearances(q).items() if d <= slack}
@@ -209,6 +224,7 @@ def integrate_segment(
     s0 = hand.contact_geometry(q)[2]
     s_lo = np.where(s0 < 0.0, -1e-9, 0.0)
     s_hi = np.where(s0 > 1.0, 1.0 + 1e-9, 1.0)
+    s_lo[breaking], s_hi[breaking] = -np.inf, np.inf  # a breaking contact leaves its feature
 
     def rate(qq: np.ndarray) -> Rate | None:
         vel = mode_velocity(hand, qq, drives, speeds, label)
@@ -231,7 +247,7 @@ def integrate_segment(
         for d, v in zip(drives, speeds):
             nxt[3 + d] = qq[3 + d] + v * dt
         try:
-            return hand.close(nxt, fixed=fixed), ""
+            return close_in_mode(hand, nxt, fixed, label), ""
         except DegenerateError as exc:
             return None, f"closure: {exc}"
 

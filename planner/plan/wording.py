@@ -15,7 +15,6 @@ import numpy as np
 
 from planner.model.hand import ContactSpec, Hand
 from planner.model.kinematics import REVOLUTE
-from planner.model.modes import Mode
 
 
 def finger_words(hand: Hand, k: int) -> str:
@@ -190,13 +189,18 @@ def mode_change_words(hand: Hand, label: str, labels: list[str]) -> str:
     labels = [lab for lab in labels if lab != label]
     if not labels:
         return "no other mode of these contacts is kinematically admissible there"
-    own = Mode.parse(label, hand.n_contacts).tokens
-    best = min(labels, key=lambda lab: sum(a != b for a, b in zip(
-        own, Mode.parse(lab, hand.n_contacts).tokens)))
-    new = Mode.parse(best, hand.n_contacts).tokens
+    own = _tokens(label)
+    best = min(labels, key=lambda lab: sum(a != b for a, b in zip(own, _tokens(lab))))
+    new = _tokens(best)
     changed = [f"{contact_label(hand, i)} {token_change_words(a, b)}"
                for i, (a, b) in enumerate(zip(own, new)) if a != b]
     return f"{' and '.join(changed) or 'the motion'} (next admissible mode: {best})"
+
+
+def _tokens(label: str) -> list[str]:
+    """Per-contact tokens of a mode label without their indices (``S`` without a sign: a
+    contact on the boundary between sliding directions)."""
+    return [t.rstrip("0123456789") for t in label.split()]
 
 
 def _possessive(name: str) -> str:

@@ -252,6 +252,8 @@ def diagnosis_lines(d: Any) -> list[str]:
         lines.append("its guarantee fails" + (f" at t = {fmt(at, '.3g')} s"
                                               if isinstance(at, (int, float)) else "")
                      + f": {failed['why']}")
+    for remedy in failed.get("remedies") or []:
+        lines.append(f"what would make it work: {remedy}")
     widest = failed.get("widest_mu")
     if widest:
         lo, hi = widest
