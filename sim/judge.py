@@ -17,13 +17,18 @@ A system run (:func:`judge_modes`; tolerances derived in docs/simulation.md, "Ju
    (``B``) where the mode has it closed is consistent when the mode's certificate family holds
    a member with zero normal force at all such contacts at once (a force-indeterminate mode,
    :func:`planner.predict.family.admits_unloaded`): the run then shows one of the mode's
-   certificates, not another mode;
-2. **twist** -- the workpieces' mean twist over the first ``early`` seconds of judged steps
-   against the reference mode's ``qdot`` (the most observed consistent mode), error
+   certificates, not another mode; and (c) a contact the mode opens may still read loaded
+   until the predicted motion has lifted it out of the penetration the engine measured there
+   (:func:`clearing_times`: a soft engine's sunk support, none in a rigid engine);
+2. **twist** -- the workpieces' mean twist over the stretch in which the certificate's
+   configuration holds (:func:`twist_stretch`: the predicted motion moves a workpiece by half
+   of :data:`~sim.verdict.FORCE_DRIFT_LIMIT` of its size, at least ``early`` seconds) of
+   judged steps against the reference mode's ``qdot`` (the most observed consistent mode), error
    ``max_b |q_obs,b - q_pred,b|_L / max(|q_pred|_L, drive)`` within
    :data:`~sim.verdict.TWIST_TOLERANCE` (:func:`sim.classify.twist_error`; absolute where the
    predicted twist is slower than the drive: a workpiece predicted to stay);
-3. **forces** -- the mean contact forces of the steps in the reference mode against the
+3. **forces** -- the mean contact forces of the stretch's steps in the reference mode itself
+   (no contact still clearing its depth) against the
    nearest member of its certificate family (the certificate itself when it is
    force-determinate, :func:`planner.predict.family.nearest_certificate`) within
    :data:`~sim.verdict.FORCE_TOLERANCE` of that member's total normal force (never less than
@@ -98,26 +103,38 @@ def judge(rec: Recording, expectation: Expectation, th: Thresholds) -> Judgement
 # ---- consistency of an observed mode with a predicted one ---------------------------------------
 class ModeMatcher:
     """Which predicted modes an observed mode is consistent with (module docstring, 1),
-    cached per observed label."""
+    cached per observed label (and per set of contacts still clearing their depth).
 
-    def __init__(self, expectation: ModeSet) -> None:
+    ``clear_until`` (n_modes, n_c) [s]: run time until which a contact the mode opens may still
+    be loaded (:func:`clearing_times`); ``None``: none may."""
+
+    def __init__(self, expectation: ModeSet, clear_until: np.ndarray | None = None) -> None:
         self.exp = expectation
         mu = (np.asarray(expectation.system.mu, dtype=float) if expectation.system is not None
               else None)
         self.frictionless = (mu == 0.0) if mu is not None else None
-        self._cache: dict[str, tuple[int, ...]] = {}
+        self.clear_until = clear_until
+        self._cache: dict[tuple[str, int, tuple[int, ...]], bool] = {}
 
-    def matches(self, observed: ObservedMode) -> tuple[int, ...]:
-        """Indices of the predicted modes ``observed`` is consistent with (``JAM``: none)."""
+    def matches(self, observed: ObservedMode, t: float = np.inf) -> tuple[int, ...]:
+        """Indices of the predicted modes ``observed`` at run time ``t`` [s] is consistent
+        with (``JAM``: none)."""
         if isinstance(observed, str):
             return ()
-        key = observed.label
-        if key not in self._cache:
-            self._cache[key] = tuple(k for k, m in enumerate(self.exp.modes)
-                                     if self._consistent(observed.tokens, m))
-        return self._cache[key]
+        out = []
+        for k, m in enumerate(self.exp.modes):
+            clearing: tuple[int, ...] = ()
+            if self.clear_until is not None:
+                clearing = tuple(int(i) for i in np.flatnonzero(t < self.clear_until[k]))
+            key = (observed.label, k, clearing)
+            if key not in self._cache:
+                self._cache[key] = self._consistent(observed.tokens, m, clearing)
+            if self._cache[key]:
+                out.append(k)
+        return tuple(out)
 
-    def _consistent(self, obs: tuple[str, ...], mode: FeasibleMode) -> bool:
+    def _consistent(self, obs: tuple[str, ...], mode: FeasibleMode,
+                    clearing: tuple[int, ...] = ()) -> bool:
         pred = mode.mode.tokens
         if len(obs) != len(pred):
             return False
@@ -125,6 +142,8 @@ class ModeMatcher:
         for i, (o, p) in enumerate(zip(obs, pred)):
             if o == p:
                 continue
+            if p == "B" and i in clearing:
+                continue  # opening, but not yet lifted out of its measured depth
             if (self.frictionless is not None and self.frictionless[i] and o != "B"
                     and p != "B"):
                 continue  # rolling and sliding are one closed state at zero friction
@@ -160,8 +179,10 @@ def judge_modes(rec: Recording, exp: ModeSet, th: Thresholds
     if not judged:
         return Verdict(Outcome.INCONCLUSIVE, ("no step could be judged (the run ended before "
                                               "the settling time)",)), observed
-    matcher = ModeMatcher(exp)
-    hits = [bool(matcher.matches(o)) if exp.modes else o == JAM for o in judged]
+    times = rec.times[mask]
+    matcher = ModeMatcher(exp, clearing_times(rec, exp, th, mask) if exp.modes else None)
+    hits = [bool(matcher.matches(o, t)) if exp.modes else o == JAM
+            for o, t in zip(judged, times)]
     agreement = float(np.mean(hits))
     counts = count_labels(judged)
     outcome = Outcome.AGREED if agreement >= MODE_FRACTION_REQUIRED else Outcome.DISAGREED
@@ -209,6 +230,61 @@ def judge_moves(rec: Recording, exp: ModeSet, th: Thresholds) -> Verdict:
         judged_steps=int(mask.sum()))
 
 
+def clearing_times(rec: Recording, exp: ModeSet, th: Thresholds, mask: np.ndarray
+                   ) -> np.ndarray:
+    """(n_modes, n_c) [s]: run time until which each contact a predicted mode opens may still
+    read loaded (``-inf``: judged open from the first judged step).
+
+    A rigid contact opens the instant the motion starts; a soft one (MuJoCo) is sunk by its
+    penetration and stays loaded until the motion has lifted it out. A contact the mode opens
+    at the predicted normal speed ``v_n > 0`` (the certificate's relative contact velocity,
+    eq. 5, times the speed factor) that the engine shows sunk by ``depth`` at the first judged
+    step ``t_0`` opens at ``t_0 + (depth + sink) / v_n``, where ``sink`` is how much deeper the
+    contacts the mode keeps closed sink during the judged steps (measured: a pivot sinks
+    further as it takes over the load, and the body with it). A box tipping at ``omega`` lifts
+    a support at ``d`` from its pivot at ``v_n = omega d``: it opens after the turn
+    ``(depth + sink) / d``. The classifier's centred window reads it open half a window later.
+    Depths are the engine's own measurements: a rigid engine's (pymunk: below its collision
+    slop) delay no contact by a step worth counting (docs/simulation.md, "Judging a run")."""
+    n_c = rec.present.shape[1]
+    out = np.full((len(exp.modes), n_c), -np.inf)
+    if not mask.any():
+        return out
+    k0 = int(np.flatnonzero(mask)[0])
+    t0 = float(rec.times[k0])
+    depth = np.where(rec.present, np.maximum(rec.depth, 0.0), 0.0)
+    later = depth[mask] - depth[k0]  # (judged steps, n_c) sinking since t0
+    for k, m in enumerate(exp.modes):
+        if len(m.mode.codes) != n_c:
+            continue
+        vn = np.asarray(m.contact_velocities, dtype=float)[:, 0] * exp.velocity_factor
+        breaks = np.array([c == BREAK for c in m.mode.codes], dtype=bool)
+        opens = breaks & (vn > 0) & (depth[k0] > 0)
+        if not opens.any():
+            continue
+        kept = ~breaks & rec.present[k0]
+        sink = max(0.0, float(later[:, kept].max())) if kept.any() else 0.0
+        out[k, opens] = t0 + (depth[k0, opens] + sink) / vn[opens] + 0.5 * th.window
+    return out
+
+
+def twist_stretch(exp: ModeSet, th: Thresholds) -> float:
+    """Length [s] of the stretch over which twist and forces are compared with the
+    certificates: the time in which the fastest predicted motion (at least the drive speed)
+    moves a workpiece by half of :data:`~sim.verdict.FORCE_DRIFT_LIMIT` of its size -- the
+    certificates hold at the initial configuration, and within it -- and never less than
+    ``th.early``. A soft engine's pose is off the rigid one by up to its penetration depth;
+    over a stretch ``T`` that is a twist error of up to ``depth / T``, and a stick-slip cycle
+    shorter than ``T`` averages out (docs/simulation.md, "Twist and forces")."""
+    w = np.array([1.0, 1.0, th.length_scale])
+    fastest = max([float(np.max(np.linalg.norm(
+        (np.asarray(m.qdot, dtype=float) * exp.velocity_factor).reshape(-1, 3) * w, axis=1)))
+        for m in exp.modes] + [exp.drive])
+    if not fastest > 0:
+        return th.early
+    return max(th.early, 0.5 * FORCE_DRIFT_LIMIT * th.length_scale / fastest)
+
+
 def _early_twist(times: np.ndarray, poses: np.ndarray, early: float) -> tuple[np.ndarray, int]:
     """Mean twist ``(3 n_b,)`` over the first ``early`` seconds of ``poses`` (T, n_b, 3) (from
     the poses at the ends of that stretch; all steps when shorter) and the stretch's last
@@ -230,11 +306,11 @@ def _motion(rec: Recording, exp: ModeSet, th: Thresholds, judged: Sequence[Obser
     idx = [rec.body_names.index(b) for b in exp.bodies]
     times = rec.times[mask]
     poses = rec.poses[mask][:, idx]
-    q_obs, k1 = _early_twist(times, poses, th.early)
+    q_obs, k1 = _early_twist(times, poses, twist_stretch(exp, th))
     factor = exp.velocity_factor
     steps_of = np.zeros(len(exp.modes), dtype=int)
-    for o in judged:
-        for k in matcher.matches(o):
+    for o, t in zip(judged, times):
+        for k in matcher.matches(o, t):
             steps_of[k] += 1
     errors = [float(twist_error(q_obs, m.qdot * factor, th.length_scale, exp.drive))
               for m in exp.modes]
@@ -254,6 +330,7 @@ def _motion(rec: Recording, exp: ModeSet, th: Thresholds, judged: Sequence[Obser
     if outcome is Outcome.AGREED and not e_twist <= TWIST_TOLERANCE:
         outcome = Outcome.DISAGREED
     # forces: the steps in the reference mode within the early stretch
+    # the mode itself: not while a contact it opens is still clearing its depth
     in_ref = np.array([ref_k in matcher.matches(o) for o in judged], dtype=bool)
     in_ref[k1 + 1:] = False
     f_err = None
@@ -290,6 +367,14 @@ def _motion(rec: Recording, exp: ModeSet, th: Thresholds, judged: Sequence[Obser
                                f"differ from the window label on {flicker:.0%} of the steps)")
             else:
                 outcome = Outcome.DISAGREED
+    clear = matcher.clear_until[ref_k] if matcher.clear_until is not None else np.array([])
+    late = [f"{i + 1} until {clear[i]:.3g} s" for i in np.flatnonzero(clear > times[0])]
+    if late:
+        reasons.append(f"contacts {ref.label} opens, judged open once the predicted motion has "
+                       f"lifted them out of their measured depth: {', '.join(late)}")
+    if not in_ref.any() and steps_of[ref_k] > 0:
+        reasons.append("forces not judged: no step of the stretch shows the mode itself (a "
+                       "contact it opens is still clearing its depth)")
     motion = MotionMeasures(tuple(float(x) for x in q_obs), ref.label,
                             tuple(float(x) for x in q_ref), e_twist, cosine,
                             na / nb if nb > 0 else None, f_err, forces)
