@@ -20,10 +20,11 @@ A system run (:func:`judge_modes`; tolerances derived in docs/simulation.md, "Ju
    certificates, not another mode; and (c) a contact the mode opens may still read loaded
    until the predicted motion has lifted it out of the penetration the engine measured there
    (:func:`clearing_times`: a soft engine's sunk support, none in a rigid engine);
-2. **twist** -- the workpieces' mean twist over the stretch in which the certificate's
-   configuration holds (:func:`twist_stretch`: the predicted motion moves a workpiece by half
-   of :data:`~sim.verdict.FORCE_DRIFT_LIMIT` of its size, at least ``early`` seconds) of
-   judged steps against the reference mode's ``qdot`` (the most observed consistent mode), error
+2. **twist** -- the workpieces' mean twist over the stretch of judged steps in which the
+   certificate's configuration holds (:func:`twist_stretch`: every workpiece within
+   :data:`~sim.verdict.FORCE_DRIFT_LIMIT` of its size of its start, measured; at least
+   ``early`` seconds) against the reference mode's ``qdot`` (the most observed consistent
+   mode), error
    ``max_b |q_obs,b - q_pred,b|_L / max(|q_pred|_L, drive)`` within
    :data:`~sim.verdict.TWIST_TOLERANCE` (:func:`sim.classify.twist_error`; absolute where the
    predicted twist is slower than the drive: a workpiece predicted to stay);
@@ -268,35 +269,41 @@ def clearing_times(rec: Recording, exp: ModeSet, th: Thresholds, mask: np.ndarra
     return out
 
 
-def twist_stretch(exp: ModeSet, th: Thresholds) -> float:
-    """Length [s] of the stretch over which twist and forces are compared with the
-    certificates: the time in which the fastest predicted motion (at least the drive speed)
-    moves a workpiece by half of :data:`~sim.verdict.FORCE_DRIFT_LIMIT` of its size -- the
-    certificates hold at the initial configuration, and within it -- and never less than
-    ``th.early``. A soft engine's pose is off the rigid one by up to its penetration depth;
-    over a stretch ``T`` that is a twist error of up to ``depth / T``, and a stick-slip cycle
-    shorter than ``T`` averages out (docs/simulation.md, "Twist and forces")."""
-    w = np.array([1.0, 1.0, th.length_scale])
-    fastest = max([float(np.max(np.linalg.norm(
-        (np.asarray(m.qdot, dtype=float) * exp.velocity_factor).reshape(-1, 3) * w, axis=1)))
-        for m in exp.modes] + [exp.drive])
-    if not fastest > 0:
-        return th.early
-    return max(th.early, 0.5 * FORCE_DRIFT_LIMIT * th.length_scale / fastest)
+def drift_from_start(poses: np.ndarray, start: np.ndarray, length: float) -> np.ndarray:
+    """(T,) largest distance of a workpiece from its pose ``start`` (n_b, 3) -- the
+    certificate's configuration -- over ``length`` [m] (rotation weighted by it), for poses
+    (T, n_b, 3)."""
+    d = np.asarray(poses, dtype=float) - np.asarray(start, dtype=float)[None]
+    d[..., 2] = (d[..., 2] + np.pi) % (2.0 * np.pi) - np.pi
+    return np.max(np.linalg.norm(d * np.array([1.0, 1.0, length]), axis=-1), axis=-1) / length
 
 
-def _early_twist(times: np.ndarray, poses: np.ndarray, early: float) -> tuple[np.ndarray, int]:
-    """Mean twist ``(3 n_b,)`` over the first ``early`` seconds of ``poses`` (T, n_b, 3) (from
-    the poses at the ends of that stretch; all steps when shorter) and the stretch's last
-    index."""
+def twist_stretch(times: np.ndarray, poses: np.ndarray, start: np.ndarray, length: float,
+                  early: float) -> int:
+    """Last index of the stretch of judged steps (``times`` (T,), ``poses`` (T, n_b, 3)) over
+    which twist and forces are compared with the certificates: every step up to which each
+    workpiece has stayed within :data:`~sim.verdict.FORCE_DRIFT_LIMIT` of its size (``length``
+    [m]) of the certificate's configuration ``start`` (the run's first poses; measured, not
+    predicted), and never fewer than the first ``early`` seconds (all steps when the run is
+    shorter). The certificates hold at that configuration; a soft engine's pose is off the
+    rigid one by up to its penetration depth, an error of up to ``depth / T`` in a twist
+    measured over ``T``, and a stick-slip cycle shorter than ``T`` averages out: the stretch is
+    as long as the configuration allows (docs/simulation.md, "Twist and forces")."""
+    first = times <= float(times[0]) + early + 1e-12
+    floor = int(np.flatnonzero(first)[-1])
+    if floor == 0:
+        floor = len(times) - 1
+    over = np.flatnonzero(drift_from_start(poses, start, length) > FORCE_DRIFT_LIMIT)
+    end = int(over[0]) - 1 if over.size else len(times) - 1
+    return max(end, floor)
+
+
+def _stretch_twist(times: np.ndarray, poses: np.ndarray, k1: int) -> np.ndarray:
+    """Mean twist ``(3 n_b,)`` of ``poses`` (T, n_b, 3) from the first step to step ``k1``
+    (angles unwrapped)."""
     pose = poses.copy()
     pose[:, :, 2] = np.unwrap(pose[:, :, 2], axis=0)
-    first = times <= float(times[0]) + early + 1e-12
-    k1 = int(np.flatnonzero(first)[-1])
-    if k1 == 0:
-        k1 = len(times) - 1
-    q = (pose[k1] - pose[0]) / float(times[k1] - times[0])
-    return q.reshape(-1), k1
+    return ((pose[k1] - pose[0]) / float(times[k1] - times[0])).reshape(-1)
 
 
 def _motion(rec: Recording, exp: ModeSet, th: Thresholds, judged: Sequence[ObservedMode],
@@ -306,7 +313,8 @@ def _motion(rec: Recording, exp: ModeSet, th: Thresholds, judged: Sequence[Obser
     idx = [rec.body_names.index(b) for b in exp.bodies]
     times = rec.times[mask]
     poses = rec.poses[mask][:, idx]
-    q_obs, k1 = _early_twist(times, poses, twist_stretch(exp, th))
+    k1 = twist_stretch(times, poses, rec.poses[0][idx], th.length_scale, th.early)
+    q_obs = _stretch_twist(times, poses, k1)
     factor = exp.velocity_factor
     steps_of = np.zeros(len(exp.modes), dtype=int)
     for o, t in zip(judged, times):
@@ -349,9 +357,8 @@ def _motion(rec: Recording, exp: ModeSet, th: Thresholds, judged: Sequence[Obser
         # large near-wedge forces must not loosen the check of a lightly loaded mode
         scale_f = max(exp.load, float(np.sum(np.maximum(cert[:, 0], 0.0)))) or exp.force_scale
         f_err = distance / scale_f
-        drift = float(np.max(np.linalg.norm(((poses[k1] - rec.poses[0][idx])
-                                             * np.array([1.0, 1.0, th.length_scale])),
-                                            axis=1))) / th.length_scale
+        drift = float(drift_from_start(poses[k1:k1 + 1], rec.poses[0][idx],
+                                       th.length_scale)[0])
         family = " (nearest member of its certificate family)" if ref.force_indeterminate else ""
         reasons.append(f"contact forces off the certificate{family} by up to {f_err:.1%} of its "
                        f"force scale {scale_f:.3g} N (allowed {FORCE_TOLERANCE:.0%})")
