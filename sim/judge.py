@@ -19,7 +19,7 @@ A system run (:func:`judge_modes`; tolerances derived in docs/simulation.md, "Ju
    :func:`planner.predict.family.admits_unloaded`): the run then shows one of the mode's
    certificates, not another mode; and (c) a contact the mode opens may still read loaded
    until the predicted motion has lifted it out of the penetration the engine measured there
-   (:func:`clearing_times`: a soft engine's sunk support, none in a rigid engine);
+   (:func:`clearing_times`: a support sunk in the table stays loaded while it rises);
 2. **twist** -- the workpieces' mean twist over the stretch of judged steps in which the
    certificate's configuration holds (:func:`twist_stretch`: every workpiece within
    :data:`~sim.verdict.FORCE_DRIFT_LIMIT` of its size of its start, measured; at least
@@ -245,8 +245,9 @@ def clearing_times(rec: Recording, exp: ModeSet, th: Thresholds, mask: np.ndarra
     further as it takes over the load, and the body with it). A box tipping at ``omega`` lifts
     a support at ``d`` from its pivot at ``v_n = omega d``: it opens after the turn
     ``(depth + sink) / d``. The classifier's centred window reads it open half a window later.
-    Depths are the engine's own measurements: a rigid engine's (pymunk: below its collision
-    slop) delay no contact by a step worth counting (docs/simulation.md, "Judging a run")."""
+    Depths are each engine's own measurements: pymunk holds resting contacts about half its
+    collision slop deep (5e-5 of the scene size), MuJoCo's soft ones sink 1e-5 to 1e-3 of it
+    (docs/simulation.md, "Judging a run")."""
     n_c = rec.present.shape[1]
     out = np.full((len(exp.modes), n_c), -np.inf)
     if not mask.any():

@@ -5,7 +5,7 @@ each verdict turns on that effect alone. No simulator runs here.
 
 * A support the predicted mode opens, sunk in a soft table: it may read loaded until the
   predicted motion has lifted it out of the depth the engine measured there (the clearing
-  time, :func:`sim.judge.clearing_times`), and not longer; a rigid engine's depth excuses
+  time, :func:`sim.judge.clearing_times`), and not longer; a measured depth of zero excuses
   nothing.
 * A box rocking in a stick-slip cycle shorter than the compared stretch: the twist over the
   stretch in which the certificate's configuration holds (:func:`sim.judge.twist_stretch`)
@@ -107,8 +107,8 @@ def test_a_sunk_support_is_judged_open_once_lifted_out_of_its_depth() -> None:
     assert any("lifted them out of their measured depth" in r for r in verdict.reasons)
 
 
-def test_a_rigid_contact_is_not_excused() -> None:
-    """The same loads with a depth of zero (a rigid engine's reading): nothing excuses the loaded
+def test_a_contact_without_depth_is_not_excused() -> None:
+    """The same loads with a measured depth of zero: nothing excuses the loaded
     support, and the run disagrees."""
     rec, exp, th = _sunk_middle_support(5e-6, lifted=True)
     rec.depth[:, 1] = 0.0
