@@ -28,8 +28,8 @@ A system run (:func:`judge_modes`; tolerances derived in docs/simulation.md, "Ju
    ``max_b |q_obs,b - q_pred,b|_L / max(|q_pred|_L, drive)`` within
    :data:`~sim.verdict.TWIST_TOLERANCE` (:func:`sim.classify.twist_error`; absolute where the
    predicted twist is slower than the drive: a workpiece predicted to stay);
-3. **forces** -- the mean contact forces of the stretch's steps in the reference mode itself
-   (no contact still clearing its depth) against the
+3. **forces** -- the mean contact forces of the first ``early`` seconds of judged steps in the
+   reference mode itself (no contact still clearing its depth) against the
    nearest member of its certificate family (the certificate itself when it is
    force-determinate, :func:`planner.predict.family.nearest_certificate`) within
    :data:`~sim.verdict.FORCE_TOLERANCE` of that member's total normal force (never less than
@@ -341,7 +341,10 @@ def _motion(rec: Recording, exp: ModeSet, th: Thresholds, judged: Sequence[Obser
     # forces: the steps in the reference mode within the early stretch
     # the mode itself: not while a contact it opens is still clearing its depth
     in_ref = np.array([ref_k in matcher.matches(o) for o in judged], dtype=bool)
-    in_ref[k1 + 1:] = False
+    # forces: over the first ``early`` seconds, nearest the certificate's configuration (a mean
+    # of forces needs no long stretch; a pose difference resolves a twist only to depth / T)
+    kf = int(np.flatnonzero(times <= float(times[0]) + th.early + 1e-12)[-1]) or len(times) - 1
+    in_ref[kf + 1:] = False
     f_err = None
     forces: tuple[tuple[float, float], ...] = ()
     if in_ref.any() and (exp.system is not None or not ref.force_indeterminate):
@@ -358,7 +361,7 @@ def _motion(rec: Recording, exp: ModeSet, th: Thresholds, judged: Sequence[Obser
         # large near-wedge forces must not loosen the check of a lightly loaded mode
         scale_f = max(exp.load, float(np.sum(np.maximum(cert[:, 0], 0.0)))) or exp.force_scale
         f_err = distance / scale_f
-        drift = float(drift_from_start(poses[k1:k1 + 1], rec.poses[0][idx],
+        drift = float(drift_from_start(poses[kf:kf + 1], rec.poses[0][idx],
                                        th.length_scale)[0])
         family = " (nearest member of its certificate family)" if ref.force_indeterminate else ""
         reasons.append(f"contact forces off the certificate{family} by up to {f_err:.1%} of its "
