@@ -61,9 +61,9 @@ class Thresholds:
     depth creeping under steady forces is no jam -- MuJoCo's Example 4.3 at mu = .80 .72 .83
     moved as ``R1 B2 S-3`` on every step and was read as a jam); ``length_scale`` [m] weights
     rotation in twist errors; ``load`` [N] the force scale (scales force errors); ``early``
-    [s] the stretch at the start of the judged steps over which twist and forces are compared
-    with the certificate; ``drive`` [m/s] the fastest commanded contact speed (the floor of
-    twist errors, :func:`twist_error`)."""
+    [s] the shortest stretch at the start of the judged steps over which twist and forces are
+    compared with the certificate (:func:`sim.judge.twist_stretch`); ``drive`` [m/s] the
+    fastest commanded contact speed (the floor of twist errors, :func:`twist_error`)."""
 
     slip_speed: float
     force_floor: float

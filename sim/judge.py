@@ -17,13 +17,19 @@ A system run (:func:`judge_modes`; tolerances derived in docs/simulation.md, "Ju
    (``B``) where the mode has it closed is consistent when the mode's certificate family holds
    a member with zero normal force at all such contacts at once (a force-indeterminate mode,
    :func:`planner.predict.family.admits_unloaded`): the run then shows one of the mode's
-   certificates, not another mode;
-2. **twist** -- the workpieces' mean twist over the first ``early`` seconds of judged steps
-   against the reference mode's ``qdot`` (the most observed consistent mode), error
+   certificates, not another mode; and (c) a contact the mode opens may still read loaded
+   until the predicted motion has lifted it out of the penetration the engine measured there
+   (:func:`clearing_times`: a support sunk in the table stays loaded while it rises);
+2. **twist** -- the workpieces' mean twist over the stretch of judged steps in which the
+   certificate's configuration holds (:func:`twist_stretch`: every workpiece within
+   :data:`~sim.verdict.FORCE_DRIFT_LIMIT` of its size of its start, measured; at least
+   ``early`` seconds) against the reference mode's ``qdot`` (the most observed consistent
+   mode), error
    ``max_b |q_obs,b - q_pred,b|_L / max(|q_pred|_L, drive)`` within
    :data:`~sim.verdict.TWIST_TOLERANCE` (:func:`sim.classify.twist_error`; absolute where the
    predicted twist is slower than the drive: a workpiece predicted to stay);
-3. **forces** -- the mean contact forces of the steps in the reference mode against the
+3. **forces** -- the mean contact forces of the first ``early`` seconds of judged steps in the
+   reference mode itself (no contact still clearing its depth) against the
    nearest member of its certificate family (the certificate itself when it is
    force-determinate, :func:`planner.predict.family.nearest_certificate`) within
    :data:`~sim.verdict.FORCE_TOLERANCE` of that member's total normal force (never less than
@@ -99,26 +105,38 @@ def judge(rec: Recording, expectation: Expectation, th: Thresholds) -> Judgement
 # ---- consistency of an observed mode with a predicted one ---------------------------------------
 class ModeMatcher:
     """Which predicted modes an observed mode is consistent with (module docstring, 1),
-    cached per observed label."""
+    cached per observed label (and per set of contacts still clearing their depth).
 
-    def __init__(self, expectation: ModeSet) -> None:
+    ``clear_until`` (n_modes, n_c) [s]: run time until which a contact the mode opens may still
+    be loaded (:func:`clearing_times`); ``None``: none may."""
+
+    def __init__(self, expectation: ModeSet, clear_until: np.ndarray | None = None) -> None:
         self.exp = expectation
         mu = (np.asarray(expectation.system.mu, dtype=float) if expectation.system is not None
               else None)
         self.frictionless = (mu == 0.0) if mu is not None else None
-        self._cache: dict[str, tuple[int, ...]] = {}
+        self.clear_until = clear_until
+        self._cache: dict[tuple[str, int, tuple[int, ...]], bool] = {}
 
-    def matches(self, observed: ObservedMode) -> tuple[int, ...]:
-        """Indices of the predicted modes ``observed`` is consistent with (``JAM``: none)."""
+    def matches(self, observed: ObservedMode, t: float = np.inf) -> tuple[int, ...]:
+        """Indices of the predicted modes ``observed`` at run time ``t`` [s] is consistent
+        with (``JAM``: none)."""
         if isinstance(observed, str):
             return ()
-        key = observed.label
-        if key not in self._cache:
-            self._cache[key] = tuple(k for k, m in enumerate(self.exp.modes)
-                                     if self._consistent(observed.tokens, m))
-        return self._cache[key]
+        out = []
+        for k, m in enumerate(self.exp.modes):
+            clearing: tuple[int, ...] = ()
+            if self.clear_until is not None:
+                clearing = tuple(int(i) for i in np.flatnonzero(t < self.clear_until[k]))
+            key = (observed.label, k, clearing)
+            if key not in self._cache:
+                self._cache[key] = self._consistent(observed.tokens, m, clearing)
+            if self._cache[key]:
+                out.append(k)
+        return tuple(out)
 
-    def _consistent(self, obs: tuple[str, ...], mode: FeasibleMode) -> bool:
+    def _consistent(self, obs: tuple[str, ...], mode: FeasibleMode,
+                    clearing: tuple[int, ...] = ()) -> bool:
         pred = mode.mode.tokens
         if len(obs) != len(pred):
             return False
@@ -126,6 +144,8 @@ class ModeMatcher:
         for i, (o, p) in enumerate(zip(obs, pred)):
             if o == p:
                 continue
+            if p == "B" and i in clearing:
+                continue  # opening, but not yet lifted out of its measured depth
             if (self.frictionless is not None and self.frictionless[i] and o != "B"
                     and p != "B"):
                 continue  # rolling and sliding are one closed state at zero friction
@@ -161,8 +181,10 @@ def judge_modes(rec: Recording, exp: ModeSet, th: Thresholds
     if not judged:
         return Verdict(Outcome.INCONCLUSIVE, ("no step could be judged (the run ended before "
                                               "the settling time)",)), observed
-    matcher = ModeMatcher(exp)
-    hits = [bool(matcher.matches(o)) if exp.modes else o == JAM for o in judged]
+    times = rec.times[mask]
+    matcher = ModeMatcher(exp, clearing_times(rec, exp, th, mask) if exp.modes else None)
+    hits = [bool(matcher.matches(o, t)) if exp.modes else o == JAM
+            for o, t in zip(judged, times)]
     agreement = float(np.mean(hits))
     counts = count_labels(judged)
     outcome = Outcome.AGREED if agreement >= MODE_FRACTION_REQUIRED else Outcome.DISAGREED
@@ -210,18 +232,80 @@ def judge_moves(rec: Recording, exp: ModeSet, th: Thresholds) -> Verdict:
         judged_steps=int(mask.sum()))
 
 
-def _early_twist(times: np.ndarray, poses: np.ndarray, early: float) -> tuple[np.ndarray, int]:
-    """Mean twist ``(3 n_b,)`` over the first ``early`` seconds of ``poses`` (T, n_b, 3) (from
-    the poses at the ends of that stretch; all steps when shorter) and the stretch's last
-    index."""
+def clearing_times(rec: Recording, exp: ModeSet, th: Thresholds, mask: np.ndarray
+                   ) -> np.ndarray:
+    """(n_modes, n_c) [s]: run time until which each contact a predicted mode opens may still
+    read loaded (``-inf``: judged open from the first judged step).
+
+    A rigid contact opens the instant the motion starts; a soft one (MuJoCo) is sunk by its
+    penetration and stays loaded until the motion has lifted it out. A contact the mode opens
+    at the predicted normal speed ``v_n > 0`` (the certificate's relative contact velocity,
+    eq. 5, times the speed factor) that the engine shows sunk by ``depth`` at the first judged
+    step ``t_0`` opens at ``t_0 + (depth + sink) / v_n``, where ``sink`` is how much deeper the
+    contacts the mode keeps closed sink during the judged steps (measured: a pivot sinks
+    further as it takes over the load, and the body with it). A box tipping at ``omega`` lifts
+    a support at ``d`` from its pivot at ``v_n = omega d``: it opens after the turn
+    ``(depth + sink) / d``. The classifier's centred window reads it open half a window later.
+    Depths are each engine's own measurements: pymunk holds resting contacts about half its
+    collision slop deep (5e-5 of the scene size), MuJoCo's soft ones sink 1e-5 to 1e-3 of it
+    (docs/simulation.md, "Judging a run")."""
+    n_c = rec.present.shape[1]
+    out = np.full((len(exp.modes), n_c), -np.inf)
+    if not mask.any():
+        return out
+    k0 = int(np.flatnonzero(mask)[0])
+    t0 = float(rec.times[k0])
+    depth = np.where(rec.present, np.maximum(rec.depth, 0.0), 0.0)
+    later = depth[mask] - depth[k0]  # (judged steps, n_c) sinking since t0
+    for k, m in enumerate(exp.modes):
+        if len(m.mode.codes) != n_c:
+            continue
+        vn = np.asarray(m.contact_velocities, dtype=float)[:, 0] * exp.velocity_factor
+        breaks = np.array([c == BREAK for c in m.mode.codes], dtype=bool)
+        opens = breaks & (vn > 0) & (depth[k0] > 0)
+        if not opens.any():
+            continue
+        kept = ~breaks & rec.present[k0]
+        sink = max(0.0, float(later[:, kept].max())) if kept.any() else 0.0
+        out[k, opens] = t0 + (depth[k0, opens] + sink) / vn[opens] + 0.5 * th.window
+    return out
+
+
+def drift_from_start(poses: np.ndarray, start: np.ndarray, length: float) -> np.ndarray:
+    """(T,) largest distance of a workpiece from its pose ``start`` (n_b, 3) -- the
+    certificate's configuration -- over ``length`` [m] (rotation weighted by it), for poses
+    (T, n_b, 3)."""
+    d = np.asarray(poses, dtype=float) - np.asarray(start, dtype=float)[None]
+    d[..., 2] = (d[..., 2] + np.pi) % (2.0 * np.pi) - np.pi
+    return np.max(np.linalg.norm(d * np.array([1.0, 1.0, length]), axis=-1), axis=-1) / length
+
+
+def twist_stretch(times: np.ndarray, poses: np.ndarray, start: np.ndarray, length: float,
+                  early: float) -> int:
+    """Last index of the stretch of judged steps (``times`` (T,), ``poses`` (T, n_b, 3)) over
+    which twist and forces are compared with the certificates: every step up to which each
+    workpiece has stayed within :data:`~sim.verdict.FORCE_DRIFT_LIMIT` of its size (``length``
+    [m]) of the certificate's configuration ``start`` (the run's first poses; measured, not
+    predicted), and never fewer than the first ``early`` seconds (all steps when the run is
+    shorter). The certificates hold at that configuration; a soft engine's pose is off the
+    rigid one by up to its penetration depth, an error of up to ``depth / T`` in a twist
+    measured over ``T``, and a stick-slip cycle shorter than ``T`` averages out: the stretch is
+    as long as the configuration allows (docs/simulation.md, "Twist and forces")."""
+    first = times <= float(times[0]) + early + 1e-12
+    floor = int(np.flatnonzero(first)[-1])
+    if floor == 0:
+        floor = len(times) - 1
+    over = np.flatnonzero(drift_from_start(poses, start, length) > FORCE_DRIFT_LIMIT)
+    end = int(over[0]) - 1 if over.size else len(times) - 1
+    return max(end, floor)
+
+
+def _stretch_twist(times: np.ndarray, poses: np.ndarray, k1: int) -> np.ndarray:
+    """Mean twist ``(3 n_b,)`` of ``poses`` (T, n_b, 3) from the first step to step ``k1``
+    (angles unwrapped)."""
     pose = poses.copy()
     pose[:, :, 2] = np.unwrap(pose[:, :, 2], axis=0)
-    first = times <= float(times[0]) + early + 1e-12
-    k1 = int(np.flatnonzero(first)[-1])
-    if k1 == 0:
-        k1 = len(times) - 1
-    q = (pose[k1] - pose[0]) / float(times[k1] - times[0])
-    return q.reshape(-1), k1
+    return ((pose[k1] - pose[0]) / float(times[k1] - times[0])).reshape(-1)
 
 
 def _motion(rec: Recording, exp: ModeSet, th: Thresholds, judged: Sequence[ObservedMode],
@@ -231,11 +315,12 @@ def _motion(rec: Recording, exp: ModeSet, th: Thresholds, judged: Sequence[Obser
     idx = [rec.body_names.index(b) for b in exp.bodies]
     times = rec.times[mask]
     poses = rec.poses[mask][:, idx]
-    q_obs, k1 = _early_twist(times, poses, th.early)
+    k1 = twist_stretch(times, poses, rec.poses[0][idx], th.length_scale, th.early)
+    q_obs = _stretch_twist(times, poses, k1)
     factor = exp.velocity_factor
     steps_of = np.zeros(len(exp.modes), dtype=int)
-    for o in judged:
-        for k in matcher.matches(o):
+    for o, t in zip(judged, times):
+        for k in matcher.matches(o, t):
             steps_of[k] += 1
     errors = [float(twist_error(q_obs, m.qdot * factor, th.length_scale, exp.drive))
               for m in exp.modes]
@@ -255,8 +340,12 @@ def _motion(rec: Recording, exp: ModeSet, th: Thresholds, judged: Sequence[Obser
     if outcome is Outcome.AGREED and not e_twist <= TWIST_TOLERANCE:
         outcome = Outcome.DISAGREED
     # forces: the steps in the reference mode within the early stretch
+    # the mode itself: not while a contact it opens is still clearing its depth
     in_ref = np.array([ref_k in matcher.matches(o) for o in judged], dtype=bool)
-    in_ref[k1 + 1:] = False
+    # forces: over the first ``early`` seconds, nearest the certificate's configuration (a mean
+    # of forces needs no long stretch; a pose difference resolves a twist only to depth / T)
+    kf = int(np.flatnonzero(times <= float(times[0]) + th.early + 1e-12)[-1]) or len(times) - 1
+    in_ref[kf + 1:] = False
     f_err = None
     forces: tuple[tuple[float, float], ...] = ()
     if in_ref.any() and (exp.system is not None or not ref.force_indeterminate):
@@ -273,9 +362,8 @@ def _motion(rec: Recording, exp: ModeSet, th: Thresholds, judged: Sequence[Obser
         # large near-wedge forces must not loosen the check of a lightly loaded mode
         scale_f = max(exp.load, float(np.sum(np.maximum(cert[:, 0], 0.0)))) or exp.force_scale
         f_err = distance / scale_f
-        drift = float(np.max(np.linalg.norm(((poses[k1] - rec.poses[0][idx])
-                                             * np.array([1.0, 1.0, th.length_scale])),
-                                            axis=1))) / th.length_scale
+        drift = float(drift_from_start(poses[kf:kf + 1], rec.poses[0][idx],
+                                       th.length_scale)[0])
         family = " (nearest member of its certificate family)" if ref.force_indeterminate else ""
         reasons.append(f"contact forces off the certificate{family} by up to {f_err:.1%} of its "
                        f"force scale {scale_f:.3g} N (allowed {FORCE_TOLERANCE:.0%})")
@@ -291,6 +379,14 @@ def _motion(rec: Recording, exp: ModeSet, th: Thresholds, judged: Sequence[Obser
                                f"differ from the window label on {flicker:.0%} of the steps)")
             else:
                 outcome = Outcome.DISAGREED
+    clear = matcher.clear_until[ref_k] if matcher.clear_until is not None else np.array([])
+    late = [f"{i + 1} until {clear[i]:.3g} s" for i in np.flatnonzero(clear > times[0])]
+    if late:
+        reasons.append(f"contacts {ref.label} opens, judged open once the predicted motion has "
+                       f"lifted them out of their measured depth: {', '.join(late)}")
+    if not in_ref.any() and steps_of[ref_k] > 0:
+        reasons.append("forces not judged: no step of the stretch shows the mode itself (a "
+                       "contact it opens is still clearing its depth)")
     motion = MotionMeasures(tuple(float(x) for x in q_obs), ref.label,
                             tuple(float(x) for x in q_ref), e_twist, cosine,
                             na / nb if nb > 0 else None, f_err, forces)

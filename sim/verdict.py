@@ -135,8 +135,9 @@ class MotionMeasures:
     """Observed workpiece motion and contact forces against a predicted mode's certificate.
 
     ``twist_observed`` (3 n_b,) [m/s, m/s, rad/s] mean twist of each workpiece frame's origin
-    over the first judged steps (:mod:`sim.judge`); ``reference``: the predicted mode compared
-    with (the most observed one consistent with the run, else the closest in twist);
+    over the judged stretch (:func:`sim.judge.twist_stretch`); ``reference``: the predicted
+    mode compared with (the most observed one consistent with the run, else the closest in
+    twist);
     ``twist_predicted`` its ``qdot`` at the run's speed; ``twist_error``: error relative to
     ``max(|qdot|, drive speed)`` (:data:`TWIST_TOLERANCE`); ``twist_cosine``: cosine of the
     angle between the two (rotation weighted by ``length_scale``); ``twist_size_ratio``:
