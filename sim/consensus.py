@@ -45,7 +45,7 @@ from typing import Any
 import numpy as np
 
 from planner.model.modes import BREAK, ROLL
-from sim.classify import Thresholds, raw_tokens, window_tokens
+from sim.classify import Thresholds, correction_steps, raw_tokens, window_tokens
 from sim.expectation import Expectation, ModeSet, PlanSchedule
 from sim.run import Recording
 from sim.scene import preload_depth
@@ -123,8 +123,9 @@ def engine_measures(rec: Recording, expectation: Expectation, th: Thresholds, *,
     ``|v_t|`` above the slip threshold: fraction of judged steps, median speed there [m/s]),
     ``lift_off`` (fraction), ``chatter`` (per-step token changes), ``max_depth_m``,
     ``deep_fraction``, ``mode_changes`` (observed window-mode changes on judged steps),
-    ``capped_fraction`` and ``artefacts``: the effects above their thresholds, each
-    ``{"kind", "contact", "value", "threshold", "text"}``.
+    ``capped_fraction``, ``correction_fraction`` (judged steps on which a workpiece moved
+    by position correction, :func:`sim.classify.correction_steps`) and ``artefacts``: the
+    effects above their thresholds, each ``{"kind", "contact", "value", "threshold", "text"}``.
     """
     judged = rec.times >= th.settle - 1e-12
     n_judged = int(judged.sum())
@@ -202,6 +203,16 @@ def engine_measures(rec: Recording, expectation: Expectation, th: Thresholds, *,
                      "text": f"contacts sank deeper than {depth_limit:.2g} m on {deep:.0%} of "
                              f"the judged steps (deepest {deepest[k]:.2g} m, contact "
                              f"{out['deepest']})"})
+    bodies = tuple(getattr(expectation, "bodies", ()) or ())
+    flagged = correction_steps(rec, th, bodies)[judged] if bodies else np.zeros(0, bool)
+    moved = float(np.mean(flagged)) if len(flagged) else 0.0
+    out["correction_fraction"] = moved
+    if moved > OFF_MODE_FRACTION:
+        arts.append({"kind": "position_correction", "contact": None, "value": moved,
+                     "threshold": OFF_MODE_FRACTION,
+                     "text": f"the engine moved the workpiece by position correction, not by "
+                             f"its velocities, on {moved:.0%} of the judged steps (overlap "
+                             f"removed without friction)"})
     return out
 
 

@@ -51,3 +51,22 @@ def test_engines_without_it_show_the_jam_and_its_negative_control_fails(
     assert s["predicted"]["labels"] == ["JAM"]
     code, s = simulate(WEDGE, engine, tmp_path, "--mu", "0.3,0.3,0", "--judge-mu", "0.43,0.43,0")
     assert code == 1 and s["status"] == "disagreed", s["reason"]
+
+
+@pytest.mark.long
+def test_the_consensus_names_position_correction_as_pymunks_artefact(tmp_path: Path) -> None:
+    """pymunk's wedge run measures the artefact; with DART's agreeing run and MuJoCo's
+    (recorded as agreed here: the consensus reads summaries), pymunk is the odd engine and
+    its cause is named. (DART removes overlap outside its velocities too in a jam, but its
+    forces grow and it shows the jam.)"""
+    pytest.importorskip("dartpy")
+    from sim.consensus import consensus
+
+    _, s_pm = simulate(WEDGE, "pymunk", tmp_path)
+    _, s_dart = simulate(WEDGE, "dart", tmp_path)
+    kinds = [a["kind"] for a in s_pm["observed"]["engine_measures"]["artefacts"]]
+    assert "position_correction" in kinds
+    assert s_dart["status"] == "agreed"
+    s_mj = dict(s_dart, engine="mujoco")
+    c = consensus([s_pm, s_dart, s_mj])
+    assert c.odd == ("pymunk",) and "position correction" in " ".join(c.causes["pymunk"])
