@@ -303,9 +303,10 @@ def run_scene(scene: Scene, backend: Backend, settings: RunSettings) -> Recordin
         readings = backend.contacts()
         pose = np.array([states[b].pose for b in body_names], dtype=float)
         twist = np.array([states[b].twist for b in body_names], dtype=float)
-        moved = pose - prev_pose
-        moved[:, 2] = (moved[:, 2] + np.pi) % (2.0 * np.pi) - np.pi
-        corr += moved - twist * settings.dt
+        with np.errstate(invalid="ignore", over="ignore"):  # a non-finite state: fault below
+            moved = pose - prev_pose
+            moved[:, 2] = (moved[:, 2] + np.pi) % (2.0 * np.pi) - np.pi
+            corr += moved - twist * settings.dt
         prev_pose = pose
         rd = [readings[nm] for nm in names]
         present = np.array([r.present for r in rd], dtype=bool)
