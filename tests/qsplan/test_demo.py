@@ -78,7 +78,8 @@ def test_demo_expectations(small_plans, task_plan, monkeypatch, tmp_path, capsys
     monkeypatch.setattr(hp, "plan_hand", planned)
     monkeypatch.setattr(demo, "run_demo_job", _stub(negative_passes, segment_fails))
     out = tmp_path / "report"
-    assert main(["demo", "--out", str(out), "--jobs", "1", "--no-render"]) == code
+    assert main(["demo", "--out", str(out), "--jobs", "1", "--no-render",
+                 "--engines", "pymunk,mujoco"]) == code
     checks = json.loads((out / "checks.json").read_text())
     assert checks["held"] is (code == 0)
     names = [c["check"] for c in checks["checks"]]

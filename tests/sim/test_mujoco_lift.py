@@ -82,8 +82,11 @@ def test_soft_squeeze_agrees_where_the_stiff_one_did_not(case, index) -> None:
     (forces off the certificate under flicker with the stiff impedance); system / 39: a box at
     table friction 0.85 whose pushing finger chattered. Each missed with the default impedance
     and agrees with the soft, damped one -- and with the system scenes' settings (the default
-    of ``simulate_system``)."""
-    assert _run(case, index, STIFF).verdict.outcome != Outcome.AGREED
+    of ``simulate_system``). The box's stiff run agrees too since the judge compares the twist
+    over the stretch the certificate's configuration holds (docs/simulation.md, "Judging a
+    run"): its chatter averages out there."""
+    if case != "system":
+        assert _run(case, index, STIFF).verdict.outcome != Outcome.AGREED
     res = _run(case, index, SOFT)
     assert res.verdict.outcome == Outcome.AGREED, res.verdict.reason
     res = _run(case, index, None)
