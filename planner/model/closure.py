@@ -96,22 +96,31 @@ def contact_name(hand: ContactHand, i: int) -> str:
     return f"contact {i + 1} ({what})"
 
 
+def contact_rate_rows(hand: ContactHand, q: Any, component: int) -> np.ndarray:
+    """``(n_c, 3 + F)``: eq. 5's rows of each contact along its normal (``component`` 0,
+    ``n_i``: the gap rate) or its tangent (1, ``t_i = rot90(n_i)``) per state rate ``d/dt (x,
+    y, phi, theta)``: ``d^T qdot - j_i thetadot`` with ``qdot`` the twist about the world
+    origin, which the pose rates give by ``v0 = (xdot, ydot) - phidot rot90((x, y))``."""
+    q = np.asarray(q, dtype=float)
+    pts, nrm, _ = hand.contact_geometry(q)
+    Jc = hand.jacobian(q)[:, component, :]
+    out = np.zeros((hand.n_contacts, 3 + hand.n_joints))
+    o = q[:2]
+    for i in range(hand.n_contacts):
+        d, p = (nrm[i] if component == 0 else rot90(nrm[i])), pts[i]
+        m = p[0] * d[1] - p[1] * d[0]
+        # twist (v0, w): d.v0 + m w ; v0 = (xd, yd) - w rot90(o)
+        out[i, 0:2] = d
+        out[i, 2] = m - d @ rot90(o)
+        out[i, 3:] = -Jc[i]
+    return out
+
+
 def tangent_jacobian(hand: ContactHand, q: Any) -> np.ndarray:
     """``(n_c, 3 + F)``: the tangential relative velocity ``v_it`` of each contact per state rate
     ``d/dt (x, y, phi, theta)`` (eq. 5's tangential rows ``w_it^T qdot - j_it thetadot``; ``t =
     rot90(n)``, docs/conventions.md).  Units: m/s per (m/s, m/s, rad/s, joint rate)."""
-    q = np.asarray(q, dtype=float)
-    pts, nrm, _ = hand.contact_geometry(q)
-    Jt = hand.jacobian(q)[:, 1, :]
-    out = np.zeros((hand.n_contacts, 3 + hand.n_joints))
-    o = q[:2]
-    for i in range(hand.n_contacts):
-        t, p = rot90(nrm[i]), pts[i]
-        m = p[0] * t[1] - p[1] * t[0]
-        out[i, 0:2] = t
-        out[i, 2] = m - t @ rot90(o)
-        out[i, 3:] = -Jt[i]
-    return out
+    return contact_rate_rows(hand, q, 1)
 
 
 def constraint_rows(hand: ContactHand, q: np.ndarray, sticking: Sequence[int]) -> np.ndarray:

@@ -299,19 +299,7 @@ class Hand:
         ``dg/dt = W^T qdot - J_n thetadot`` with ``qdot`` the twist about the world origin;
         the pose rates map to the twist by ``v0 = (xdot, ydot) - phidot rot90((x, y))``.
         """
-        q = np.asarray(q, dtype=float)
-        pts, nrm, _ = self.contact_geometry(q)
-        Jn = self.jacobian(q)[:, 0, :]
-        out = np.zeros((self.n_contacts, 3 + self.n_joints))
-        o = q[:2]
-        for i in range(self.n_contacts):
-            n, p = nrm[i], pts[i]
-            m = p[0] * n[1] - p[1] * n[0]
-            # twist (v0, w): dg = n.v0 + m w ; v0 = (xd, yd) - w rot90(o)
-            out[i, 0:2] = n
-            out[i, 2] = m - n @ rot90(o)
-            out[i, 3:] = -Jn[i]
-        return out
+        return closure.contact_rate_rows(self, q, 0)
 
     def twist_from_pose_rates(self, q: np.ndarray, qd_pose: np.ndarray) -> np.ndarray:
         """Twist ``(v0x, v0y, omega)`` about the world origin from pose rates ``(xd, yd, phid)``."""
