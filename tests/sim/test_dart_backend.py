@@ -430,7 +430,8 @@ def test_forces_forty_times_the_load_near_a_jam_are_solved_not_capped():
     from scenarios.runs import simulate_system
 
     res = simulate_system(load_system(shipped_file("example_4_1", "system")), "dart",
-                          mu=(0.6513019140794403, 0.9862866366198065, 0.21152389436062352))
+                          mu=(0.6513019140794403, 0.9862866366198065, 0.21152389436062352),
+                          duration=0.6)
     assert res.summary.verdict.outcome.value == "agreed", res.summary.verdict.reason
     rec = res.recording
     late = rec.times > 0.3
