@@ -373,6 +373,16 @@ def read_rows(path: str) -> list[dict[str, Any]]:
     return rows
 
 
+def latest(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """One row per ``(case, index, engine, seed)``: the last one given (a file's re-run of a
+    point replaces an earlier file's row; rows without an index are kept)."""
+    keyed: dict[Any, dict[str, Any]] = {}
+    for i, r in enumerate(rows):
+        keyed[(r["case"], r["index"], r["engine"], r.get("seed"))
+              if "index" in r else ("row", i)] = r
+    return list(keyed.values())
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--points", default="8",
@@ -420,7 +430,7 @@ def main() -> None:
         return
     also = [r for f in args.also.split(",") if f for r in read_rows(f)]
     if args.table_only:
-        rows = also + done
+        rows = latest(also + done)
         print(table(rows))
         print("\nEngine pairs with the same verdict, away from region boundaries:\n")
         print(pairwise_table(rows, where))

@@ -56,3 +56,14 @@ def test_odd_rows_without_recorded_artefacts_are_the_ones_to_run_again():
     m = campaign()
     assert m.odd_unrecorded(ROWS, m.where, 5) == [("stacked", 2, "mujoco", 5)]
     assert m.odd_unrecorded(ROWS, m.where, 4) == []
+
+
+def test_a_rerun_of_a_point_replaces_the_earlier_row_in_the_tables():
+    """Rows of several files (``--also``): the last row of a ``(case, index, engine, seed)``
+    counts, once, so a re-run point is not counted twice."""
+    m = campaign()
+    first = _row("supports", 0, "mujoco", "disagreed")
+    again = _row("supports", 0, "mujoco", "agreed")
+    rows = m.latest([first, _row("supports", 0, "pymunk", "agreed"), again])
+    assert len(rows) == 2 and again in rows and first not in rows
+    assert "| supports | mujoco | away | 1 | 1 (100%)" in m.table(rows)
