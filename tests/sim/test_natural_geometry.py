@@ -339,3 +339,27 @@ def test_box_on_twelve_supports_smooth_finger(engine: str, tmp_path: Path) -> No
     assert load == pytest.approx(10.0, rel=0.01)
     behind = float(f[:12, 0] @ (0.6 - xs)) / load
     assert behind == pytest.approx((10.0 * 0.3 - push * 0.15) / 10.0, abs=0.005)
+
+
+# ---- static questions: does it slide? -------------------------------------------------------
+def test_block_sliding_down_an_incline_moves_even_where_it_comes_to_rest_later(
+        tmp_path: Path) -> None:
+    """A block on a 20 deg incline at mu 0.3 (tan 20 deg = 0.364 > 0.3: no equilibrium,
+    ``MOVES``). In pymunk it slides off the surface the scene models under its front corner
+    within 0.2 s and tips to rest there, so over the judged steps (from the settling time) it
+    stays; measured from its start it moved 18 mm in 1.5 s (it was judged ``disagreed``
+    before the motion was measured from the start)."""
+    code, s = simulate("incline_20deg_mu03.json", "pymunk", tmp_path)
+    assert s["predicted"]["labels"] == ["MOVES"]
+    assert code == 0 and s["status"] == "agreed", s["reason"]
+
+
+@pytest.mark.parametrize("engine", ["pymunk", pytest.param("mujoco", marks=pytest.mark.slow)])
+def test_block_that_stands_on_an_incline_judged_as_sliding_disagrees(engine: str,
+                                                                    tmp_path: Path) -> None:
+    """The negative control: at mu 0.4 (> tan 20 deg) it stands; judged against the
+    prediction at mu 0.3 (``MOVES``) the run must disagree -- from its start it moves by the
+    pre-load only."""
+    code, s = simulate("incline_20deg_mu04.json", engine, tmp_path, "--judge-mu", "0.3")
+    assert s["predicted"]["labels"] == ["MOVES"]
+    assert s["status"] == "disagreed", s["reason"]
