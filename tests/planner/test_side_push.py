@@ -1,0 +1,181 @@
+"""Force-indeterminate segments: a side push whose two hand contacts on one finger face stick
+while both table contacts slide (relaxed utility, end of Sec. 3.2; docs/planning.md, "The
+field's tasks").
+
+The mode ``S S R R`` has ``2 n_R + n_S = 6`` kinematic rows for ``3 + n_theta = 5`` coordinates
+(a gantry finger); condition (29) by row count refused it, and the task search never listed it.
+Its rows have rank 4: one effort-controlled joint (the vertical slide), the push velocity-
+controlled.
+
+By hand (weight ``W``, table friction ``mu_t``, hand friction ``mu_h``, ``m = mu_t mu_h``; the
+finger's vertical effort ``tau`` pushes the cube down by ``tau``): the table's normal forces sum
+to ``W + tau``, so the sliding table resists the push with ``mu_t (W + tau)``, which is the
+finger's total normal force; the hand contacts stick iff the vertical force ``|tau|`` they carry
+is within ``mu_h`` times it: ``-m W / (1 + m) <= tau <= m W / (1 - m)``, whatever the cube's
+size (moments about the leading bottom corner leave the split of the finger's normal force
+free: the forces are indeterminate, the band is not).  For the shipped task (``W = 10 N``,
+``0.25``, ``0.7``): ``[-1.4894, 2.1212] N``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from planner.errors import InputError
+from planner.files.hand_file import hand_file_from_dict, load_hand_file
+from planner.plan.hand_planner import plan_hand
+from planner.plan.partition import control_partitions, joint_inputs, mode_rows
+from planner.plan.plan_file import plan_dict, plan_from_dict
+from planner.plan.segment_planner import plan_segment
+from planner.plan.trajectory import mode_velocity
+from scenarios.registry import DATA_DIR
+
+SIDE_PUSH = DATA_DIR / "side_push.json"
+
+
+def band_by_hand(weight: float, mu_table: float, mu_hand: float) -> tuple[float, float]:
+    """The vertical efforts at which both hand contacts stick (module docstring)."""
+    m = mu_table * mu_hand
+    return -m * weight / (1.0 + m), m * weight / (1.0 - m)
+
+
+def side_push(a: float, weight: float, mu_table: float, mu_hand: float, *,
+              mirrored: bool = False, goal: float = 0.03) -> dict:
+    """A hand file written from docs/file-formats.md: an ``a`` m cube of ``weight`` N on a
+    table, a gantry finger's vertical pusher (width 4 mm, its tip 2 mm below the table line)
+    flat against its left face (``mirrored``: its right face), both face vertices on it; the
+    goal ``goal`` m further in the push's direction with every contact kept."""
+    w, reach = 0.004, 0.03
+    length = a + 0.0165
+    if mirrored:
+        pivot, side, face = [a + w / 2 - reach, length - 0.002], -1, (1, 2)
+    else:
+        pivot, side, face = [-w / 2 - reach, length - 0.002], 1, (0, 3)
+    contacts = [{"kind": "surface", "vertex": 0, "surface": "table"},
+                {"kind": "surface", "vertex": 1, "surface": "table"}] + [
+        {"kind": "side", "vertex": v, "finger": 0, "link": 1, "side": side} for v in face]
+    return {
+        "format": "qsplan-hand", "version": 1, "name": "own side push",
+        "palm": {"edge": [[-0.3, 0.3], [-0.3, -0.01]]},
+        "environment": [{"name": "table", "edge": [[-0.2, 0.0], [0.4, 0.0]]}],
+        "fingers": [{"name": "pusher", "pivot": pivot, "links": [
+            {"type": "prismatic", "length": reach, "width": w, "offset": 0.0, "position": 0.0},
+            {"type": "prismatic", "length": length, "width": w, "offset": -math.pi / 2,
+             "position": 0.0}]}],
+        "workpiece": {"vertices": [[0, 0], [a, 0], [a, a], [0, a]], "com": [a / 2, a / 2],
+                      "mass": weight / 9.81, "pose": [0, 0, 0]},
+        "contacts": contacts,
+        "load": {"force": [0.0, -weight]},
+        "segment": {"drive": 0, "speed": 0.01, "max_time": 10.0, "steps": 50,
+                    "mode": f"S{'+' if mirrored else '-'}1 S{'+' if mirrored else '-'}2 R3 R4"},
+        "mu": {"bodies": {"table": [mu_table, mu_table], "pusher": [mu_hand, mu_hand]}},
+        "goal": {"pose": [-goal if mirrored else goal, 0.0, 0.0],
+                 "tolerance": {"position": 0.001, "angle": 0.02},
+                 "contacts": contacts, "max_segments": 2},
+    }
+
+
+def _check_plan(plan, claim: str, band: tuple[float, float]) -> None:
+    assert plan.reached
+    assert [s.claim for s in plan.segments] == [claim]
+    seg = plan.segments[0]
+    assert seg.control == ("velocity", "effort")  # the push driven, the vertical slide free
+    assert seg.exact
+    for w in seg.waypoints:
+        assert w.predicted == (claim,)
+        np.testing.assert_allclose(w.bands[0], band, rtol=1e-6)
+        assert band[0] < w.torque_commands[0] < band[1]
+
+
+def test_the_shipped_side_push_plans_with_the_default_options():
+    """``qsplan plan side_push``: one ``S-1 S-2 R3 R4`` segment to the goal (50 mm right), the
+    guaranteed band at every waypoint the one derived by hand, exact at the point friction."""
+    plan = plan_hand(SIDE_PUSH)
+    _check_plan(plan, "S-1 S-2 R3 R4", band_by_hand(10.0, 0.25, 0.7))
+    seg = plan.segments[0]
+    assert seg.mu_intervals == ((0.25, 0.25), (0.25, 0.25), (0.7, 0.7), (0.7, 0.7))
+    assert abs(seg.waypoints[-1].q[0] - 0.05) <= 0.001 + 1e-9  # the goal's tolerance
+    # the velocity command is the push itself: the cube and the finger move together
+    assert all(w.velocity_commands == pytest.approx((0.01,)) for w in seg.waypoints)
+    again = plan_from_dict(json.loads(json.dumps(plan_dict(plan))))
+    assert [s.claim for s in again.segments] == ["S-1 S-2 R3 R4"]
+
+
+@pytest.mark.parametrize(("a", "weight", "mu_table", "mu_hand", "mirrored", "claim"), [
+    (0.0435, 10.0, 0.25, 0.7, True, "S+1 S+2 R3 R4"),  # pushed to the left
+    (0.08, 5.0, 0.3, 0.5, False, "S-1 S-2 R3 R4"),     # another cube, weight and friction
+])
+def test_own_side_pushes_match_the_band_derived_by_hand(a, weight, mu_table, mu_hand,
+                                                        mirrored, claim):
+    hf = hand_file_from_dict(side_push(a, weight, mu_table, mu_hand, mirrored=mirrored))
+    plan = plan_hand(hf)
+    _check_plan(plan, claim, band_by_hand(weight, mu_table, mu_hand))
+    assert abs(plan.segments[0].waypoints[-1].q[0] - (-0.03 if mirrored else 0.03)) <= 0.001 + 1e-9
+
+
+def test_a_frictionless_face_has_no_guaranteed_grip():
+    """``mu_h = 0``: by hand the band shrinks to the single effort ``tau = 0`` (``m = 0``), no
+    command keeps a margin, so the grip is not planned; the plan stops short with 0 segments
+    and says which segment's guarantee failed."""
+    assert band_by_hand(10.0, 0.25, 0.0) == (0.0, 0.0)
+    data = side_push(0.0435, 10.0, 0.25, 0.7)
+    data["mu"]["bodies"]["pusher"] = [0.0, 0.0]
+    plan = plan_hand(hand_file_from_dict(data))
+    assert not plan.reached
+    assert not plan.segments
+    assert "S-1 S-2 R3 R4" in json.dumps(plan.diagnosis)
+
+
+def test_the_partition_of_a_force_indeterminate_mode_comes_from_its_rank():
+    """Six rows, rank four: one effort joint, and only the vertical slide can be it (with the
+    push effort-controlled the rows leave the push speed free)."""
+    hf = load_hand_file(SIDE_PUSH)
+    rows = mode_rows(hf.hand, hf.q0, "S-1 S-2 R3 R4")
+    assert rows.shape == (6, 5)
+    assert control_partitions(2, "S-1 S-2 R3 R4", rows) == [((0,), (1,))]
+    with pytest.raises(InputError, match=r"condition \(29\) expected 3 <= 2 n_R \+ n_S <= 3 "
+                                         r"\+ n_theta = 5, got 6"):
+        control_partitions(2, "S-1 S-2 R3 R4")
+    with pytest.raises(InputError, match=r"expected its 6 kinematic rows to have rank between "
+                                         r"3 and 3 \+ n_theta = 5 .*got rank 0"):
+        control_partitions(2, "S-1 S-2 R3 R4", np.zeros((6, 5)))
+    with pytest.raises(InputError, match=r"expected its rows of shape \(6, 5\), got \(4, 5\)"):
+        control_partitions(2, "S-1 S-2 R3 R4", rows[:4])
+    # the paper's determinate modes keep the row count whatever rows are given
+    assert control_partitions(2, "S-1 S-2 S3 S4", rows[:4]) == [((1,), (0,)), ((0,), (1,))]
+
+
+def test_a_velocity_controlled_slide_is_refused_naming_the_partition():
+    hf = load_hand_file(SIDE_PUSH)
+    with pytest.raises(InputError, match=r"control: expected velocity-controlled joints forming "
+                                         r"a partition of S-1 S-2 R3 R4 \(\|tau_I\| = 1\), got "
+                                         r"\(1,\)"):
+        plan_segment(hf.hand, hf.q0, data=hf.data, drive=0, speed=0.01, mode="S-1 S-2 R3 R4",
+                     mu=[(0.25, 0.25)] * 2 + [(0.7, 0.7)] * 2, model="independent",
+                     control=(1,), max_time=1.0, steps=10)
+
+
+def test_the_mode_velocity_of_the_grip_moves_cube_and_finger_together():
+    hf = load_hand_file(SIDE_PUSH)
+    vel = mode_velocity(hf.hand, hf.q0, 0, 0.01, "S-1 S-2 R3 R4")
+    assert vel is not None
+    qdot, thetadot = vel
+    np.testing.assert_allclose(qdot, [0.01, 0.0, 0.0], atol=1e-12)
+    np.testing.assert_allclose(thetadot, [0.01, 0.0], atol=1e-12)
+    # pushed the other way the table contacts would slide the other way: not this label
+    assert mode_velocity(hf.hand, hf.q0, 0, -0.01, "S-1 S-2 R3 R4") is None
+    system = hf.hand.system(hf.q0, 0.0, joint_inputs(hf.hand, (0,), (0.01,)))
+    assert system.dof == 4  # 3 + |tau_I|: six rows are more than the determinate count
+
+
+def test_the_shipped_file_is_the_documented_task():
+    data = json.loads(SIDE_PUSH.read_text())
+    assert data["load"]["force"] == [0.0, -10.0]
+    assert data["workpiece"]["vertices"][1] == [0.0435, 0]
+    assert data["mu"]["bodies"] == {"table": [0.25, 0.25], "finger": [0.7, 0.7]}
+    hf = load_hand_file(SIDE_PUSH)
+    assert np.max(np.abs(hf.hand.gaps(hf.q0))) < 1e-12
