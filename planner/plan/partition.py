@@ -10,8 +10,9 @@ of eq. 5's rows of its maintained contacts (:func:`mode_rows`), ``p = r - 3`` jo
 effort-controlled, chosen so that the workpiece twist and their rates are fixed by the rows
 (``[W_A^T, -J_AI]`` of rank ``r = 3 + p``: ``P_A`` of full column rank) and every rate of the
 others is consistent with them (the velocity-controlled columns lie in that range, as the rank
-of all rows is ``r``).  :func:`control_partitions` lists every such choice.  For one partition, at each waypoint, :func:`guaranteed_at` gives the
-efforts that guarantee the mode and exclude every rival over the friction set:
+of all rows is ``r``).  :func:`control_partitions` lists every such choice.  For one
+partition, at each waypoint, :func:`guaranteed_at` gives the efforts that guarantee the mode and
+exclude every rival over the friction set:
 
 * ``p = 1``: the band of :func:`planner.plan.guarantee.guarantee` (the exact friction
   dependence; Figures 11-13), kept whole (:attr:`Guaranteed.guarantee`) because it may have
