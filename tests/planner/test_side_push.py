@@ -32,6 +32,7 @@ from planner.plan.partition import control_partitions, joint_inputs, mode_rows
 from planner.plan.plan_file import plan_dict, plan_from_dict
 from planner.plan.segment_planner import plan_segment
 from planner.plan.trajectory import mode_velocity
+from planner.predict.feasibility import feasible_modes
 from scenarios.registry import DATA_DIR
 
 SIDE_PUSH = DATA_DIR / "side_push.json"
@@ -137,3 +138,30 @@ def test_the_shipped_file_is_the_documented_task():
     assert data["mu"]["bodies"] == {"table": [0.25, 0.25], "finger": [0.7, 0.7]}
     hf = load_hand_file(SIDE_PUSH)
     assert np.max(np.abs(hf.hand.gaps(hf.q0))) < 1e-12
+
+
+def test_the_band_is_rechecked_by_the_feasibility_test_with_certificates():
+    """Independently of the band code: at the plan's waypoints the feasibility test
+    (:func:`planner.predict.feasibility.feasible_modes`, its own LP with a certificate) finds
+    the claim, and nothing else, at the command and just inside both ends of the band derived by
+    hand, and not just outside them (there no quasistatic mode exists: the finger would slide
+    along the face)."""
+    plan = plan_hand(SIDE_PUSH)
+    seg = plan.segments[0]
+    hand = seg.hand_model[0]
+    mu = plan.validate_mu[0]
+    lo, hi = band_by_hand(10.0, 0.25, 0.7)
+    for w in seg.waypoints[::7]:
+        system = hand.system(w.q, mu, joint_inputs(hand, (0,), w.velocity_commands))
+        for tau, inside in ((w.torque_commands[0], True), (0.98 * lo, True), (0.98 * hi, True),
+                            (1.02 * lo, False), (1.02 * hi, False)):
+            pred = feasible_modes(system.with_joint_inputs([w.velocity_commands[0], tau]))
+            assert pred.labels == (["S-1 S-2 R3 R4"] if inside else []), (w.t, tau)
+            if inside:
+                fm = pred.find("S-1 S-2 R3 R4")
+                assert fm is not None and fm.force_indeterminate
+                f = np.asarray(fm.contact_forces).reshape(4, 2)  # (normal, tangential) [N]
+                assert np.all(f[:, 0] >= -1e-9)
+                # the certificate keeps Coulomb's law: sliding on the table, sticking at the hand
+                np.testing.assert_allclose(np.abs(f[:2, 1]), 0.25 * f[:2, 0], atol=1e-9)
+                assert np.all(np.abs(f[2:, 1]) <= 0.7 * f[2:, 0] + 1e-9)
