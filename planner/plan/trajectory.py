@@ -47,6 +47,7 @@ from planner.plan.wording import (
     mode_change_words,
     runs_off_words,
 )
+from planner.predict.indeterminate import indeterminate_kinematics
 from planner.predict.relaxed_modes import indeterminate_kinematics_of
 from planner.predict.stages import DEFAULT_TOL, kinematic_stage
 
@@ -208,6 +209,8 @@ def _mode_label(hand: Hand, q: np.ndarray, drive: Drive, speed: Speed, family: s
         m = Mode(tuple(int(c) for c in cand.codes[i]), tuple(int(x) for x in ks.xi[i]))
         if m.label == family or m.family == family:
             hits.append(m.label)
+    if not hits and " " not in family:  # a family of force-indeterminate modes (Sec. 3.2)
+        hits = [k.mode.label for k in indeterminate_kinematics(system) if k.mode.family == family]
     if len(hits) != 1:
         raise DegenerateError(
             f"mode {family!r}: expected exactly one kinematically admissible mode at the start "

@@ -25,7 +25,7 @@ import numpy as np
 import pytest
 from side_push_hands import band_by_hand, side_push
 
-from planner.errors import InputError
+from planner.errors import DegenerateError, InputError
 from planner.files.hand_file import hand_file_from_dict, load_hand_file
 from planner.plan.hand_planner import plan_hand
 from planner.plan.partition import control_partitions, joint_inputs, mode_rows
@@ -165,3 +165,18 @@ def test_the_band_is_rechecked_by_the_feasibility_test_with_certificates():
                 # the certificate keeps Coulomb's law: sliding on the table, sticking at the hand
                 np.testing.assert_allclose(np.abs(f[:2, 1]), 0.25 * f[:2, 0], atol=1e-9)
                 assert np.all(np.abs(f[2:, 1]) <= 0.7 * f[2:, 0] + 1e-9)
+
+
+def test_a_single_segment_takes_the_family_and_refuses_the_wrong_direction():
+    """The file's ``segment`` without a goal: the family ``2R2S`` names the one admissible
+    force-indeterminate mode; ``S+1 S+2 R3 R4`` (sliding left while pushed right) is refused
+    naming the admissible one."""
+    data = json.loads(SIDE_PUSH.read_text())
+    data.pop("goal")
+    data["segment"].update({"mode": "2R2S", "max_time": 1.0, "steps": 10})
+    plan = plan_hand(hand_file_from_dict(data))
+    assert [s.claim for s in plan.segments] == ["S-1 S-2 R3 R4"]
+    data["segment"]["mode"] = "S+1 S+2 R3 R4"
+    with pytest.raises(DegenerateError, match=r"mode 'S\+1 S\+2 R3 R4': expected it kinematically "
+                                              r"admissible at the start .* got \['S-1 S-2 R3 R4'\]"):
+        plan_hand(hand_file_from_dict(data))
