@@ -26,7 +26,7 @@ from scenarios.runs import validate_plan
 from sim.settings import ENGINES
 
 ROOT = Path(__file__).resolve().parents[1]
-TASKS = ("block_tilting", "box_pivot_up", "box_pivot_down", "flip_against_wall")
+TASKS = ("block_tilting", "box_pivot_up", "box_pivot_down", "flip_against_wall", "side_push")
 
 
 def _mu_text(mu: Any) -> str:

@@ -344,8 +344,9 @@ def mode_bands(
         g_lo = max(iv.lower for iv in ivs)
         g_hi = min(iv.upper for iv in ivs)
         gi = Interval(g_lo, g_hi) if g_lo <= g_hi else EMPTY
-        # Rolling-only modes: the cones grow with mu, so the ends are exact (nested sets).
-        out.append(ModeBand(kin.mode, gi, p, exact=not has_slide))
+        # Rolling-only modes: the cones grow with mu, so the ends are exact (nested sets); at a
+        # friction point the two linear programs are the exact range.
+        out.append(ModeBand(kin.mode, gi, p, exact=not has_slide or bool(np.all(mu_lo == mu_hi))))
     return tuple(out)
 
 

@@ -3,9 +3,16 @@
 A determinate mode with ``n_R`` rolling and ``n_S`` sliding contacts has ``k = 2 n_R + n_S``
 contact unknowns; condition (29) asks ``3 <= k <= 3 + n_theta`` and condition (32) a square,
 non-singular ``Q_AI``, so exactly ``p = k - 3`` joints are effort-controlled (``tau_I``) and the
-other ``n_theta - p`` velocity-controlled (``zdot_II``, eq. 24).  :func:`control_partitions`
-lists every such choice.  For one partition, at each waypoint, :func:`guaranteed_at` gives the
-efforts that guarantee the mode and exclude every rival over the friction set:
+other ``n_theta - p`` velocity-controlled (``zdot_II``, eq. 24).  A force-indeterminate mode
+(relaxed utility, end of Sec. 3.2: more rows than ``3 + |tau_I|``, e.g. two sticking contacts of
+one rigid finger face) is admitted by the rank of its rows, not their count: with ``r`` the rank
+of eq. 5's rows of its maintained contacts (:func:`mode_rows`), ``p = r - 3`` joints are
+effort-controlled, chosen so that the workpiece twist and their rates are fixed by the rows
+(``[W_A^T, -J_AI]`` of rank ``r = 3 + p``: ``P_A`` of full column rank) and every rate of the
+others is consistent with them (the velocity-controlled columns lie in that range, as the rank
+of all rows is ``r``).  :func:`control_partitions` lists every such choice.  For one
+partition, at each waypoint, :func:`guaranteed_at` gives the efforts that guarantee the mode and
+exclude every rival over the friction set:
 
 * ``p = 1``: the band of :func:`planner.plan.guarantee.guarantee` (the exact friction
   dependence; Figures 11-13), kept whole (:attr:`Guaranteed.guarantee`) because it may have
@@ -29,7 +36,9 @@ from typing import Any
 import numpy as np
 
 from planner.errors import InputError
+from planner.model.closure import constraint_rank, contact_rate_rows
 from planner.model.hand import Hand
+from planner.model.modes import BREAK, ROLL, Mode
 from planner.plan.guarantee import Guarantee, guarantee
 from planner.plan.intervals import EMPTY, Interval
 from planner.plan.polytope import TorqueRegion, band_region, empty_region, torque_region
@@ -40,12 +49,35 @@ def mode_unknowns(label: str) -> int:
     return sum(2 if t.startswith("R") else 1 if t.startswith("S") else 0 for t in label.split())
 
 
-def control_partitions(n_joints: int, label: str) -> list[tuple[tuple[int, ...], tuple[int, ...]]]:
+def mode_rows(hand: Hand, q: np.ndarray, label: str) -> np.ndarray:
+    """``(2 n_R + n_S, 3 + n_theta)``: eq. 5's rows of the maintained contacts of mode ``label``
+    at ``q`` per state rate ``d/dt (x, y, phi, theta)`` -- the normal row of every ``R`` and
+    ``S`` contact, then the tangential row of every ``R`` contact (eqs. 13-14); ``B`` contacts
+    give none (eq. 16)."""
+    codes = Mode.parse(label, hand.n_contacts).codes
+    normal = [i for i, c in enumerate(codes) if c != BREAK]
+    sticking = [i for i, c in enumerate(codes) if c == ROLL]
+    return np.vstack([contact_rate_rows(hand, q, 0)[normal],
+                      contact_rate_rows(hand, q, 1)[sticking]])
+
+
+def control_partitions(n_joints: int, label: str, rows: np.ndarray | None = None
+                       ) -> list[tuple[tuple[int, ...], tuple[int, ...]]]:
     """Every ``(velocity joints, effort joints)`` split with ``|tau_I| = k - 3`` (eqs. 29, 32).
 
-    Raises :class:`InputError` when condition (29) fails (``k < 3`` or ``k > 3 + n_theta``).
+    A mode with more rows than ``3 + n_theta`` is force-indeterminate (relaxed utility, end of
+    Sec. 3.2): given its ``rows`` (:func:`mode_rows`, ``(k, 3 + n_theta)``) the split has
+    ``|tau_I| = r - 3`` effort joints, ``r`` the rank of the rows, and only the splits whose
+    effort columns with the workpiece's have rank ``r`` are listed (module docstring).  A mode
+    of at most ``3 + n_theta`` rows keeps the paper's count.
+
+    Raises :class:`InputError` when condition (29) fails (``k < 3``, or ``k > 3 + n_theta``
+    without its rows) or the rows' rank leaves no split (``r < 3``, or no effort joints that
+    fix the motion).
     """
     k = mode_unknowns(label)
+    if k > 3 + n_joints and rows is not None:
+        return _relaxed_partitions(n_joints, label, np.asarray(rows, dtype=float))
     if not 3 <= k <= 3 + n_joints:
         raise InputError(f"mode {label}: condition (29) expected 3 <= 2 n_R + n_S <= 3 + "
                          f"n_theta = {3 + n_joints}, got {k}")
@@ -53,6 +85,28 @@ def control_partitions(n_joints: int, label: str) -> list[tuple[tuple[int, ...],
     for E in itertools.combinations(range(n_joints), k - 3):
         V = tuple(j for j in range(n_joints) if j not in E)
         out.append((V, tuple(E)))
+    return out
+
+
+def _relaxed_partitions(n_joints: int, label: str, rows: np.ndarray
+                        ) -> list[tuple[tuple[int, ...], tuple[int, ...]]]:
+    """:func:`control_partitions` of a force-indeterminate mode from the rank of its rows."""
+    if rows.shape != (mode_unknowns(label), 3 + n_joints):
+        raise InputError(f"mode {label}: expected its rows of shape ({mode_unknowns(label)}, "
+                         f"{3 + n_joints}), got {rows.shape}")
+    r = constraint_rank(rows)
+    if not 3 <= r <= 3 + n_joints:
+        raise InputError(f"mode {label}: expected its {len(rows)} kinematic rows to have rank "
+                         f"between 3 and 3 + n_theta = {3 + n_joints} (condition 29 on the rank "
+                         f"of a force-indeterminate mode), got rank {r}")
+    out = []
+    for E in itertools.combinations(range(n_joints), r - 3):
+        if constraint_rank(rows[:, [0, 1, 2] + [3 + j for j in E]]) == r:
+            out.append((tuple(j for j in range(n_joints) if j not in E), tuple(E)))
+    if not out:
+        raise InputError(f"mode {label}: expected {r - 3} effort-controlled joint(s) whose "
+                         f"rates the contact rows fix together with the workpiece's twist "
+                         f"(rank {r}), got no such choice of joints")
     return out
 
 

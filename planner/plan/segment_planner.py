@@ -43,7 +43,7 @@ from planner.plan.partition import (
     Guaranteed,
     control_partitions,
     guaranteed_at,
-    mode_unknowns,
+    mode_rows,
     relative_margin,
 )
 from planner.plan.policies import DEFAULT_POLICY
@@ -139,12 +139,14 @@ def plan_segment(hand: Hand, q0: Any, *, data: Mapping[str, Any], drive: Drive, 
                          "'independent'")
     traj = trajectory if trajectory is not None else integrate_segment(
         hand, q0, drive=drive, speed=speed, mode=mode, max_time=max_time, steps=steps)
-    parts = control_partitions(hand.n_joints, traj.mode)
+    parts_all = control_partitions(hand.n_joints, traj.mode,
+                                   mode_rows(hand, traj.q[0], traj.mode))
+    parts = parts_all
     if control is not None:
         parts = [(V, E) for V, E in parts if V == tuple(int(j) for j in control)]
         if not parts:
             raise InputError(f"control: expected velocity-controlled joints forming a partition "
-                             f"of {traj.mode} (|tau_I| = {mode_unknowns(traj.mode) - 3}), got "
+                             f"of {traj.mode} (|tau_I| = {len(parts_all[0][1])}), got "
                              f"{tuple(control)}")
     states_at = _States(hand, traj)
     step = max_time / steps

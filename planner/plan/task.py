@@ -62,6 +62,7 @@ from planner.plan.task_contacts import (
 )
 from planner.plan.trajectory import Trajectory, integrate_segment
 from planner.plan.wording import contact_words, drive_words, motion_words
+from planner.predict.indeterminate import indeterminate_kinematics
 from planner.predict.stages import kinematic_stage
 
 
@@ -148,8 +149,11 @@ def _candidates(hand: Hand, q: np.ndarray, speed: float, level: int
     ``4S`` segments of Figure 9, or rolling where the kinematics allow).  Level 2: every
     kinematically admissible mode of the whole contact set (eqs. 13-16, 23-25) --
     rolling/sticking, sliding and breaking contacts in any mix with ``2 n_R + n_S = 3 + n_theta
-    - 1`` (condition 29 with one velocity-controlled joint) -- that level 1 does not list; its
-    ``B`` contacts are the ones released (eq. 25 makes them open)."""
+    - 1`` (condition 29 with one velocity-controlled joint), and the force-indeterminate ones
+    with more rows whose velocities the rows still fix (relaxed utility, end of Sec. 3.2:
+    :func:`planner.predict.indeterminate.indeterminate_kinematics`; two sticking contacts of one
+    finger face) -- that level 1 does not list; its ``B`` contacts are the ones released (eq. 25
+    makes them open)."""
     out: list[tuple[tuple[int, ...], int, float, str]] = []
     drives = list(itertools.product(range(hand.n_joints), (speed, -speed)))
     n_keep = 2 + hand.n_joints
@@ -175,13 +179,17 @@ def _candidates(hand: Hand, q: np.ndarray, speed: float, level: int
             ks = kinematic_stage(system, cand)
         except DegenerateError:
             continue
-        for i in np.flatnonzero(ks.ok):
-            codes = tuple(int(c) for c in cand.codes[i])
+        modes = [(tuple(int(c) for c in cand.codes[i]), tuple(int(x) for x in ks.xi[i]))
+                 for i in np.flatnonzero(ks.ok)]
+        try:  # force-indeterminate modes (relaxed utility, Sec. 3.2): more rows than dof
+            modes += [(k.mode.codes, k.mode.xi) for k in indeterminate_kinematics(system)]
+        except DegenerateError:
+            pass
+        for codes, xi in modes:
             if ROLL not in codes and sum(c != BREAK for c in codes) == n_keep:
                 continue  # listed by level 1
             keep = [j for j, c in enumerate(codes) if c != BREAK]
-            label = Mode(tuple(codes[j] for j in keep),
-                         tuple(int(ks.xi[i][j]) for j in keep)).label
+            label = Mode(tuple(codes[j] for j in keep), tuple(xi[j] for j in keep)).label
             out.append((tuple(j for j, c in enumerate(codes) if c == BREAK), drive, rate,
                         label))
     return out

@@ -37,7 +37,7 @@ import numpy as np
 
 from planner.errors import DegenerateError, InputError
 from planner.model.hand import Hand
-from planner.model.modes import BREAK, ROLL, Mode, enumerate_modes
+from planner.model.modes import BREAK, ROLL, SLIDE, Mode, enumerate_modes
 from planner.plan.model import Event
 from planner.plan.task_contacts import touching, with_contacts
 from planner.plan.wording import (
@@ -47,6 +47,8 @@ from planner.plan.wording import (
     mode_change_words,
     runs_off_words,
 )
+from planner.predict.indeterminate import indeterminate_kinematics
+from planner.predict.relaxed_modes import indeterminate_kinematics_of
 from planner.predict.stages import DEFAULT_TOL, kinematic_stage
 
 #: ``(d/dt of the hand state, workpiece twist, joint rates)`` at one state of a segment.
@@ -159,6 +161,12 @@ def mode_velocity(
     """``(qdot, thetadot)`` of ``mode`` (a label, or a family such as ``"4S"``) at ``q`` with
     joint(s) ``drive`` at ``speed`` and the others effort-controlled; None if not admissible."""
     system = hand.system(q, 0.0, _drive_joints(hand, drive, speed))
+    relaxed = _relaxed_codes(mode, system.n_contacts, system.dof)
+    if relaxed is not None:
+        for kin in indeterminate_kinematics_of(system, relaxed[None], tol=tol):
+            if kin.mode.label == mode:
+                return kin.qdot.copy(), kin.thetadot.copy()
+        return None
     cand = enumerate_modes(system.n_contacts, system.dof)
     ks = kinematic_stage(system, cand, tol=tol)
     for i in np.flatnonzero(ks.ok):
@@ -168,8 +176,32 @@ def mode_velocity(
     return None
 
 
+def _relaxed_codes(mode: str, n_contacts: int, dof: int) -> np.ndarray | None:
+    """The codes ``(n_c,)`` of a full mode label with more kinematic rows than ``dof = 3 +
+    |tau_I|`` (``2 n_R + n_S > dof``: force-indeterminate, relaxed utility of Sec. 3.2, whose
+    velocities :func:`planner.predict.relaxed_modes.indeterminate_kinematics_of` tests);
+    None for a family name or a label of at most ``dof`` rows (the determinate stage)."""
+    if " " not in mode:  # a family, or one contact (at most 2 rows < 3)
+        return None
+    try:
+        codes = np.array(Mode.parse(mode, n_contacts).codes, dtype=np.int8)
+    except InputError:
+        return None
+    rows = 2 * int(np.sum(codes == ROLL)) + int(np.sum(codes == SLIDE))
+    return codes if rows > dof else None
+
+
 def _mode_label(hand: Hand, q: np.ndarray, drive: Drive, speed: Speed, family: str) -> str:
     system = hand.system(q, 0.0, _drive_joints(hand, drive, speed))
+    relaxed = _relaxed_codes(family, system.n_contacts, system.dof)
+    if relaxed is not None:
+        hits = [kin.mode.label for kin in indeterminate_kinematics_of(system, relaxed[None])]
+        if hits != [family]:
+            raise DegenerateError(
+                f"mode {family!r}: expected it kinematically admissible at the start of the "
+                f"segment (force-indeterminate: its constraint rows of full column rank and "
+                f"consistent, Sec. 3.2), got {hits or 'none'}")
+        return family
     cand = enumerate_modes(system.n_contacts, system.dof)
     ks = kinematic_stage(system, cand)
     hits = []
@@ -177,6 +209,8 @@ def _mode_label(hand: Hand, q: np.ndarray, drive: Drive, speed: Speed, family: s
         m = Mode(tuple(int(c) for c in cand.codes[i]), tuple(int(x) for x in ks.xi[i]))
         if m.label == family or m.family == family:
             hits.append(m.label)
+    if not hits and " " not in family:  # a family of force-indeterminate modes (Sec. 3.2)
+        hits = [k.mode.label for k in indeterminate_kinematics(system) if k.mode.family == family]
     if len(hits) != 1:
         raise DegenerateError(
             f"mode {family!r}: expected exactly one kinematically admissible mode at the start "

@@ -57,7 +57,7 @@ BAD_INPUT = [
     ("modes", ["modes", EX41, "--mu", "a,b"], "--mu: expected comma-separated numbers"),
     ("modes", ["modes", EX41, "--mu", "0.3,0.2"], "expected 3 friction coefficients"),
     ("muspace", ["muspace", EX41, "--vary", "1", "--out", "{tmp}/m"], "--vary: expected"),
-    ("plan", ["plan", "no_such_hand", "--out", "{tmp}/p.json"], "hand: expected a hand file path or one of ['block_tilting', 'box_pivot_down', 'box_pivot_up', 'figure9_task_hand', 'flip_against_wall', 'prismatic_finger_hand', 'table_push_hand', 'three_finger_hand', 'two_finger_hand', 'two_link_finger_hand']"),
+    ("plan", ["plan", "no_such_hand", "--out", "{tmp}/p.json"], "hand: expected a hand file path or one of ['block_tilting', 'box_pivot_down', 'box_pivot_up', 'figure9_task_hand', 'flip_against_wall', 'prismatic_finger_hand', 'side_push', 'table_push_hand', 'three_finger_hand', 'two_finger_hand', 'two_link_finger_hand']"),
     ("validate", ["validate", EX41, "--engine", "bullet"], "--engine: expected one of"),
     ("sweep", ["sweep", "mu", EX41, "--mu-range", "1,0", "--out", "{tmp}/s.json"],
      "--mu-range: expected LO <= HI"),
