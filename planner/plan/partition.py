@@ -85,14 +85,15 @@ def guaranteed_at(hand: Hand, q: np.ndarray, V: tuple[int, ...], rates: np.ndarr
     """The guaranteed efforts of ``claim`` at configuration ``q`` with the joints ``V`` at
     ``rates`` (module docstring).  Raises :class:`DegenerateError` from the stages."""
     system = hand.system(q, 0.0, joint_inputs(hand, V, rates))
+    loads = hand.load_vertices(q)  # the uncertain mass and centre of mass (None: nominal)
     if len(system.effort_joints) == 1:
-        g = guarantee(system, claim, mu, model=model)
+        g = guarantee(system, claim, mu, model=model, loads=loads)
         if g.claim_band is None:
             E = tuple(int(j) for j in system.effort_joints)
             return Guaranteed(empty_region(g.claim, 1, E, {
                 "reason": f"{g.claim} is not kinematically admissible"}), g)
         return Guaranteed(band_region(system, g, g.best()), g)
-    return Guaranteed(torque_region(system, claim, mu, model=model))
+    return Guaranteed(torque_region(system, claim, mu, model=model, loads=loads))
 
 
 def choose_pieces(gs: list[Guaranteed]) -> list[Interval]:

@@ -1,0 +1,192 @@
+"""How much mass and centre-of-mass uncertainty a plan's commands tolerate (eq. 28 over the set).
+
+:func:`command_guaranteed` decides, at one waypoint, whether the *commanded* efforts make the
+claimed mode the only possible one for every friction in the segment's box and every load of a
+:class:`planner.model.load_set.LoadSet` (docs/planning.md, "Uncertainty beyond friction"):
+
+* one effort joint: the command lies in a piece of the guaranteed band
+  (:func:`planner.plan.guarantee.guarantee` with the set's vertex loads);
+* any other number: the claim's Coulomb rows hold at every friction corner x vertex load (exact:
+  a row is multilinear in ``mu`` and affine in the load) and every determinate rival has one row
+  that fails at all those points (the one-row exclusion of :mod:`planner.plan.polytope`, checked
+  exactly); a force-indeterminate rival is infeasible at every corner over the whole load hull
+  (a linear program per corner; the corners only, as in the polytope region).
+
+:func:`tolerated` widens one axis of the set at a time -- the mass to ``m0 +- d`` [kg], or both
+centre-of-mass coordinates to ``c0 +- d`` [m] -- the other kept as planned, and bisects on
+:func:`command_guaranteed` over every waypoint of every segment.  The sets are nested, so the test
+is monotone in ``d`` and the bisection's lower end is a certified tolerance (the value reported);
+the true largest one lies below its upper end, ``resolution`` above.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+from scipy.optimize import linprog
+
+from planner.errors import DegenerateError
+from planner.model.hand import Hand
+from planner.model.load_set import LoadSet, point_set
+from planner.model.validation import friction_interval
+from planner.plan.bounds import admissible_modes, affine_rows, box_points
+from planner.plan.guarantee import guarantee, resolve_claim
+from planner.plan.load_bounds import concat_rows, with_load
+from planner.plan.model import Plan
+from planner.plan.partition import joint_inputs
+from planner.predict.indeterminate import coulomb_rows, indeterminate_kinematics
+from planner.predict.stages import DEFAULT_TOL, force_matrices
+
+
+def command_guaranteed(hand: Hand, q: np.ndarray, V: tuple[int, ...], rates: Any, claim: str,
+                       mu: Any, model: str, tau: Any, *, tol: float = DEFAULT_TOL) -> bool:
+    """True when the efforts ``tau (p,)`` at configuration ``q`` with the joints ``V`` at
+    ``rates`` guarantee ``claim`` for every friction in ``mu`` and every load of
+    ``hand.load_set`` (module docstring).  Stage failures count as not guaranteed."""
+    try:
+        return _guaranteed(hand, q, V, rates, claim, mu, model, np.asarray(tau, float), tol)
+    except DegenerateError:
+        return False
+
+
+def _guaranteed(hand: Hand, q: np.ndarray, V: tuple[int, ...], rates: Any, claim: str, mu: Any,
+                model: str, tau: np.ndarray, tol: float) -> bool:
+    system = hand.system(q, 0.0, joint_inputs(hand, V, rates))
+    loads = hand.load_vertices(q)
+    G = np.asarray(system.g_obj)[None] if loads is None else loads
+    p = len(system.effort_joints)
+    if p == 1:
+        g = guarantee(system, claim, mu, model=model, tol=tol, loads=loads)
+        return any(piece.contains(float(tau[0])) for piece in g.pieces)
+    lo, hi = friction_interval(mu, system.n_contacts)
+    corners, _ = box_points(lo, hi, 2)
+    stage, index = admissible_modes(system, tol=tol)
+    rows = concat_rows([affine_rows(with_load(system, w), corners, stage=stage, index=index)
+                        for w in G])
+    kins = indeterminate_kinematics(system, tol=tol)
+    labels = [m.label for m in rows.modes]
+    label = resolve_claim(claim, labels + [k.mode.label for k in kins],
+                          [m.family for m in rows.modes] + [k.mode.family for k in kins])
+    if label not in labels:
+        return False
+    slack = rows.s0 + (rows.s1 @ tau if p else 0.0)  # (L, m, 3 n_c)
+    sc = tol * rows.scale[..., None]
+    jc = labels.index(label)
+    d = rows.det[:, jc]
+    if not (np.all(d > 0) or np.all(d < 0)):
+        return False  # det changes sign over the box: not decided at the corners
+    if np.any(slack[:, jc, rows.active[jc]] < -sc[:, jc]):
+        return False
+    for j in range(len(labels)):
+        if j == jc:
+            continue
+        live = rows.det[:, j] != 0
+        fails = np.all(slack[live, j][:, rows.active[j]] < -sc[live, j], axis=0)
+        if live.any() and not np.any(fails):
+            return False
+    corner_mu = np.unique(corners, axis=0)
+    return not any(kin.mode.label != label and _indeterminate_possible(system, kin, m, G, tau)
+                   for kin in kins for m in corner_mu)
+
+
+def _indeterminate_possible(system: Any, kin: Any, mu_v: np.ndarray, G: np.ndarray,
+                            tau: np.ndarray) -> bool:
+    """Feasibility LP of a force-indeterminate mode at friction ``mu_v`` and efforts ``tau``
+    over the hull of the loads ``G (K, n_q)`` (eqs. 21-22, 26)."""
+    QT = force_matrices(system, kin.rows[None], kin.sliding[None], kin.contact[None],
+                        kin.xi[None], mu_v[None])[0, 0]
+    Q = QT.T
+    k, n_rows = Q.shape
+    K, n_q = G.shape
+    E = system.effort_joints
+    L = np.zeros((k, K))
+    L[:n_q] = G.T
+    A_eq = np.vstack([np.hstack([Q, L]), np.r_[np.zeros(n_rows), np.ones(K)][None]])
+    b_eq = np.r_[np.zeros(n_q), tau - system.g_man[E], 1.0]
+    B = coulomb_rows(kin.rows, kin.sliding, kin.contact, kin.codes, mu_v)
+    res = linprog(np.zeros(n_rows + K), A_ub=np.hstack([-B, np.zeros((len(B), K))]),
+                  b_ub=np.zeros(len(B)), A_eq=A_eq, b_eq=b_eq,
+                  bounds=[(None, None)] * n_rows + [(0.0, None)] * K, method="highs")
+    return bool(res.status != 2)
+
+
+@dataclass(frozen=True)
+class Tolerance:
+    """The largest symmetric uncertainty of each axis a plan's commands tolerate, the other
+    axis as planned: ``mass_kg`` (``m0 +- mass_kg``) and ``com_m`` (``c0 +- com_m`` in both
+    body-frame coordinates); each the certified lower end of a bisection whose upper end is
+    ``resolution`` above (``math.inf``: tolerated up to the search's cap -- the whole nominal
+    mass, the workpiece's size)."""
+
+    mass_kg: float
+    com_m: float
+    mass_resolution_kg: float
+    com_resolution_m: float
+
+    def to_dict(self) -> dict[str, Any]:
+        def fin(x: float) -> float | None:
+            return x if math.isfinite(x) else None
+        return {"mass_kg": fin(self.mass_kg), "com_m": fin(self.com_m),
+                "mass_resolution_kg": self.mass_resolution_kg,
+                "com_resolution_m": self.com_resolution_m,
+                "method": "bisection on the exact guarantee of the commands at every waypoint"}
+
+    def words(self) -> str:
+        m = "all of it" if not math.isfinite(self.mass_kg) else f"+-{self.mass_kg:.4g} kg"
+        c = ("the workpiece's size" if not math.isfinite(self.com_m)
+             else f"+-{1000 * self.com_m:.3g} mm")
+        return f"tolerates mass {m}, centre of mass {c} (each axis alone, the other as planned)"
+
+
+def plan_load_set(plan: Plan) -> LoadSet | None:
+    """The plan's mass / centre-of-mass set (its hand's ``uncertainty``; None: none given)."""
+    if not plan.segments:
+        return None
+    return plan.segments[0].hand_model[0].load_set
+
+
+def holds(plan: Plan, load_set: LoadSet) -> bool:
+    """True when every waypoint's commands are guaranteed over ``load_set`` (with each segment's
+    friction box and the plan's friction model)."""
+    for seg in plan.segments:
+        hand = replace(seg.hand_model[0], load_set=load_set)
+        V = seg.velocity_joints
+        for w in seg.waypoints:
+            q = np.concatenate([w.pose, w.angles])
+            if not command_guaranteed(hand, q, V, w.velocity_commands, seg.claim,
+                                      list(seg.mu_intervals), plan.mu_model,
+                                      w.torque_commands):
+                return False
+    return True
+
+
+def tolerated(plan: Plan, *, steps: int = 8) -> Tolerance:
+    """Bisect each axis (module docstring); ``steps`` halvings after the bracket is found."""
+    if not plan.segments:
+        return Tolerance(0.0, 0.0, 0.0, 0.0)
+    hand = plan.segments[0].hand_model[0]
+    base = hand.load_set or point_set(hand.mass, hand.com)
+    out, res = [], []
+    for axis, cap in (("mass", hand.mass), ("com", hand.length_scale)):
+        lo, hi = 0.0, cap / 64
+        while holds(plan, base.widened(axis, hi)):
+            lo, hi = hi, 2 * hi
+            if hi > cap:
+                break
+        if hi > cap:
+            out.append(math.inf if holds(plan, base.widened(axis, cap)) else lo)
+            res.append(cap - lo)
+            continue
+        if lo == 0.0 and not holds(plan, base.widened(axis, 0.0)):
+            out.append(0.0)
+            res.append(0.0)
+            continue
+        for _ in range(steps):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if holds(plan, base.widened(axis, mid)) else (lo, mid)
+        out.append(lo)
+        res.append(hi - lo)
+    return Tolerance(out[0], out[1], res[0], res[1])
