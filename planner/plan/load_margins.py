@@ -10,7 +10,9 @@ claimed mode the only possible one for every friction in the segment's box and e
   a row is multilinear in ``mu`` and affine in the load) and every determinate rival has one row
   that fails at all those points (the one-row exclusion of :mod:`planner.plan.polytope`, checked
   exactly); a force-indeterminate rival is infeasible at every corner over the whole load hull
-  (a linear program per corner; the corners only, as in the polytope region).
+  (a linear program per corner; the corners only, as in the polytope region).  A mode whose
+  ``det Q_AI`` changes sign over the corners is checked at the corners and a 3-point grid, as
+  :func:`planner.plan.polytope.torque_region` does (not exact; the plan says so).
 
 :func:`tolerated` widens one axis of the set at a time -- the mass to ``m0 +- d`` [kg], or both
 centre-of-mass coordinates to ``c0 +- d`` [m] -- the other kept as planned, and bisects on
@@ -62,30 +64,34 @@ def _guaranteed(hand: Hand, q: np.ndarray, V: tuple[int, ...], rates: Any, claim
         g = guarantee(system, claim, mu, model=model, tol=tol, loads=loads)
         return any(piece.contains(float(tau[0])) for piece in g.pieces)
     lo, hi = friction_interval(mu, system.n_contacts)
-    corners, _ = box_points(lo, hi, 2)
+    corners, grid = box_points(lo, hi, 3)
     stage, index = admissible_modes(system, tol=tol)
-    rows = concat_rows([affine_rows(with_load(system, w), corners, stage=stage, index=index)
-                        for w in G])
+
+    def rows_at(pts: np.ndarray) -> Any:
+        return concat_rows([affine_rows(with_load(system, w), pts, stage=stage, index=index)
+                            for w in G])
+
+    rows = rows_at(corners)
+    rows_g = None
     kins = indeterminate_kinematics(system, tol=tol)
     labels = [m.label for m in rows.modes]
     label = resolve_claim(claim, labels + [k.mode.label for k in kins],
                           [m.family for m in rows.modes] + [k.mode.family for k in kins])
     if label not in labels:
         return False
-    slack = rows.s0 + (rows.s1 @ tau if p else 0.0)  # (L, m, 3 n_c)
-    sc = tol * rows.scale[..., None]
-    jc = labels.index(label)
-    d = rows.det[:, jc]
-    if not (np.all(d > 0) or np.all(d < 0)):
-        return False  # det changes sign over the box: not decided at the corners
-    if np.any(slack[:, jc, rows.active[jc]] < -sc[:, jc]):
-        return False
-    for j in range(len(labels)):
-        if j == jc:
-            continue
-        live = rows.det[:, j] != 0
-        fails = np.all(slack[live, j][:, rows.active[j]] < -sc[live, j], axis=0)
-        if live.any() and not np.any(fails):
+    for j in [labels.index(label)] + [j for j in range(len(labels)) if labels[j] != label]:
+        r = rows
+        d = rows.det[:, j]
+        if not (np.all(d > 0) or np.all(d < 0)):  # as torque_region: corners and its grid
+            rows_g = rows_g if rows_g is not None else rows_at(np.concatenate([corners, grid]))
+            r = rows_g
+        slack = r.s0[:, j] + (r.s1[:, j] @ tau if p else 0.0)  # (L, 3 n_c)
+        act, live = r.active[j], r.det[:, j] != 0
+        sc = tol * r.scale[live, j, None]
+        if labels[j] == label:
+            if not live.all() or np.any(slack[:, act] < -sc):
+                return False
+        elif live.any() and not np.any(np.all(slack[live][:, act] < -sc, axis=0)):
             return False
     corner_mu = np.unique(corners, axis=0)
     return not any(kin.mode.label != label and _indeterminate_possible(system, kin, m, G, tau)

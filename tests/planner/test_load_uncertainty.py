@@ -41,7 +41,9 @@ from planner.errors import FileFormatError, InputError
 from planner.files.hand_file import hand_file_from_dict, load_hand_file
 from planner.model.load_set import LoadSet
 from planner.plan.guarantee import guarantee
+from planner.plan.hand_planner import plan_hand
 from planner.plan.load_bounds import row_union, with_load
+from planner.plan.load_margins import command_guaranteed, holds, tolerated
 from planner.plan.partition import joint_inputs
 from planner.plan.polytope import torque_region
 from planner.predict.feasibility import feasible_modes
@@ -184,3 +186,29 @@ def test_load_set_checks_its_values():
         LoadSet((0.0, 1.0), ((0, 0), (0, 0)), 0.5, (0.0, 0.0))
     with pytest.raises(InputError, match="axis: expected 'mass' or 'com', got 'x'"):
         load_set().widened("x", 1.0)
+
+
+def test_command_guaranteed_up_to_the_hand_derived_mass(tilt):
+    """A press force ``N`` stays guaranteed while ``N > N*(m0 + d, c_x, mu)``: the largest mass
+    half-width is ``d* = N (mu H - (w - x_f)) / ((w - c_x) g) - m0`` (module docstring)."""
+    hand, q0, _ = tilt
+    N, mu, cx = 9.0, 0.8, 0.0375
+    d_star = N * (mu * H - (W - XF)) / ((W - cx) * G) - 0.5
+    for d, expect in ((d_star * (1 - 1e-6), True), (d_star * (1 + 1e-6), False)):
+        h = replace(hand, load_set=load_set().widened("mass", d))
+        assert command_guaranteed(h, q0, (0,), [0.01], CLAIM, 0.8, "common", [N]) is expect
+
+
+@pytest.mark.long
+def test_tolerated_brackets_hold_and_fail():
+    """The certified end holds at every waypoint; one resolution further fails."""
+    d = _data(TILT)
+    d["uncertainty"] = {"mass": [0.45, 0.55]}
+    plan = plan_hand(hand_file_from_dict(d), waypoints=3, margins=False)
+    tol = tolerated(plan, steps=5)
+    base = plan.segments[0].hand_model[0].load_set
+    assert 0.05 <= tol.mass_kg < 0.5 and 0 < tol.com_m < 0.075
+    assert holds(plan, base.widened("mass", tol.mass_kg))
+    assert not holds(plan, base.widened("mass", tol.mass_kg + tol.mass_resolution_kg))
+    assert holds(plan, base.widened("com", tol.com_m))
+    assert not holds(plan, base.widened("com", tol.com_m + tol.com_resolution_m))
