@@ -275,8 +275,10 @@ def diagnosis_lines(d: Any) -> list[str]:
 def uncertainty_words(unc: Any) -> str:
     """The plan's mass / centre-of-mass set and what its commands tolerate, in plain words."""
     st, tol = unc.get("set"), unc.get("tolerated") or {}
-    where = ("over mass {} kg, centre of mass x {} m, y {} m".format(
-        st["mass"], st["com"][0], st["com"][1]) if st else "at the nominal mass and centre of mass")
+    def iv(pair: Any, scale: float = 1.0) -> str:
+        return f"[{scale * pair[0]:.4g}, {scale * pair[1]:.4g}]"
+    where = (f"over mass {iv(st['mass'])} kg, centre of mass x {iv(st['com'][0], 1000)} mm, "
+             f"y {iv(st['com'][1], 1000)} mm" if st else "at the nominal mass and centre of mass")
     m, c = tol.get("mass_kg"), tol.get("com_m")
     m_txt = "the whole mass" if m is None else f"+-{m:.4g} kg"
     c_txt = "the workpiece's size" if c is None else f"+-{1000 * c:.3g} mm"
