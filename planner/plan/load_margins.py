@@ -15,10 +15,10 @@ claimed mode the only possible one for every friction in the segment's box and e
   :func:`planner.plan.polytope.torque_region` does (not exact; the plan says so).
 
 :func:`tolerated` widens one axis of the set at a time -- the mass to ``m0 +- d`` [kg], or both
-centre-of-mass coordinates to ``c0 +- d`` [m] -- the other kept as planned, and bisects on
-:func:`command_guaranteed` over every waypoint of every segment.  The sets are nested, so the test
-is monotone in ``d`` and the bisection's lower end is a certified tolerance (the value reported);
-the true largest one lies below its upper end, ``resolution`` above.
+centre-of-mass coordinates to ``c0 +- d`` [m] -- the other kept as planned, and searches the
+largest ``d`` every waypoint keeps.  The sets are nested, so each waypoint's test is monotone in
+``d``: the search's lower end is certified (every waypoint holds there; the value reported) and a
+waypoint fails at its upper end, ``resolution`` above.
 """
 
 from __future__ import annotations
@@ -154,45 +154,64 @@ def plan_load_set(plan: Plan) -> LoadSet | None:
     return plan.segments[0].hand_model[0].load_set
 
 
-def holds(plan: Plan, load_set: LoadSet) -> bool:
-    """True when every waypoint's commands are guaranteed over ``load_set`` (with each segment's
-    friction box and the plan's friction model)."""
+def _waypoints(plan: Plan) -> list[tuple[Any, ...]]:
+    """Per waypoint ``(segment, waypoint)``, the smallest relative margin first (the likeliest
+    to bind the tolerance)."""
+    out = []
     for seg in plan.segments:
-        hand = replace(seg.hand_model[0], load_set=load_set)
-        V = seg.velocity_joints
         for w in seg.waypoints:
-            q = np.concatenate([w.pose, w.angles])
-            if not command_guaranteed(hand, q, V, w.velocity_commands, seg.claim,
-                                      list(seg.mu_intervals), plan.mu_model,
-                                      w.torque_commands):
-                return False
-    return True
+            size = float(np.linalg.norm(w.torque_commands)) if len(w.torque_commands) else 1.0
+            out.append((w.margin / max(size, 1e-300), seg, w))
+    out.sort(key=lambda x: x[0])
+    return [(seg, w) for _, seg, w in out]
 
 
-def tolerated(plan: Plan, *, steps: int = 8) -> Tolerance:
-    """Bisect each axis (module docstring); ``steps`` halvings after the bracket is found."""
+def waypoint_holds(plan: Plan, seg: Any, w: Any, load_set: LoadSet) -> bool:
+    """:func:`command_guaranteed` of one waypoint's commands over ``load_set`` (the segment's
+    friction box, the plan's friction model)."""
+    hand = replace(seg.hand_model[0], load_set=load_set)
+    return command_guaranteed(hand, np.concatenate([w.pose, w.angles]), seg.velocity_joints,
+                              w.velocity_commands, seg.claim, list(seg.mu_intervals),
+                              plan.mu_model, w.torque_commands)
+
+
+def holds(plan: Plan, load_set: LoadSet) -> bool:
+    """True when every waypoint's commands are guaranteed over ``load_set``."""
+    return all(waypoint_holds(plan, seg, w, load_set) for seg, w in _waypoints(plan))
+
+
+def tolerated(plan: Plan, *, steps: int = 10) -> Tolerance:
+    """The largest half-width of each axis that every waypoint keeps (module docstring), to
+    ``cap / 2**steps`` (``cap``: the nominal mass; the workpiece's size).
+
+    Waypoints are taken in turn with a bracket ``[lo, hi)``: every waypoint so far holds at
+    ``lo`` and one fails at ``hi``.  A waypoint that holds at ``lo`` leaves it (its own
+    tolerance is at least ``lo``); one that fails there is bisected on ``[0, lo]``, which
+    lowers ``lo`` (the earlier ones still hold: the sets are nested) and sets ``hi``."""
     if not plan.segments:
         return Tolerance(0.0, 0.0, 0.0, 0.0)
     hand = plan.segments[0].hand_model[0]
     base = hand.load_set or point_set(hand.mass, hand.com)
+    wps = _waypoints(plan)
     out, res = [], []
     for axis, cap in (("mass", hand.mass), ("com", hand.length_scale)):
-        lo, hi = 0.0, cap / 64
-        while holds(plan, base.widened(axis, hi)):
-            lo, hi = hi, 2 * hi
-            if hi > cap:
+        step = cap / 2 ** steps
+        lo, hi = cap, math.inf
+
+        def ok(seg: Any, w: Any, d: float, axis: str = axis) -> bool:
+            return waypoint_holds(plan, seg, w, base.widened(axis, d))
+
+        for seg, w in wps:
+            if ok(seg, w, lo):
+                continue
+            a, b = 0.0, lo
+            if not ok(seg, w, a):
+                lo, hi = 0.0, 0.0
                 break
-        if hi > cap:
-            out.append(math.inf if holds(plan, base.widened(axis, cap)) else lo)
-            res.append(cap - lo)
-            continue
-        if lo == 0.0 and not holds(plan, base.widened(axis, 0.0)):
-            out.append(0.0)
-            res.append(0.0)
-            continue
-        for _ in range(steps):
-            mid = 0.5 * (lo + hi)
-            lo, hi = (mid, hi) if holds(plan, base.widened(axis, mid)) else (lo, mid)
-        out.append(lo)
-        res.append(hi - lo)
+            while b - a > step:
+                mid = 0.5 * (a + b)
+                a, b = (mid, b) if ok(seg, w, mid) else (a, mid)
+            lo, hi = a, b
+        out.append(math.inf if lo == cap else lo)
+        res.append(0.0 if not math.isfinite(hi) else hi - lo)
     return Tolerance(out[0], out[1], res[0], res[1])
