@@ -212,3 +212,17 @@ def test_tolerated_brackets_hold_and_fail():
     assert not holds(plan, base.widened("mass", tol.mass_kg + tol.mass_resolution_kg))
     assert holds(plan, base.widened("com", tol.com_m))
     assert not holds(plan, base.widened("com", tol.com_m + tol.com_resolution_m))
+
+
+def test_a_rival_union_can_end_inside_the_load_hull():
+    """Why vertices do not suffice for rivals (docs/planning.md): rows ``tau >= g`` and
+    ``tau >= -g`` over ``g in [-1, 1]`` make the rival possible for ``tau >= max(g, -g)``; the
+    union's end is 0, at ``g = 0`` inside the hull, while both vertex loads give 1.  The row bound
+    (-1) contains the union; the vertex hull (1) would not -- so the band is marked inexact."""
+    g = np.array([-1.0, 1.0])  # the two vertex loads
+    s0 = np.stack([-g, g, np.zeros(2)], axis=1)  # rows: tau - g, tau + g, (unused)
+    s1 = np.stack([np.ones(2), np.ones(2), np.zeros(2)], axis=1)
+    outer = row_union(s0, s1, np.ones(2), np.ones(2), np.array([True, True, False]), 1e-9)
+    inner = min(max(x, -x) for x in g)
+    exact_end = min(max(x, -x) for x in np.linspace(-1, 1, 201))
+    assert outer.lower == -1.0 <= exact_end == 0.0 < inner == 1.0
