@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -92,8 +92,17 @@ def guaranteed_at(hand: Hand, q: np.ndarray, V: tuple[int, ...], rates: np.ndarr
             E = tuple(int(j) for j in system.effort_joints)
             return Guaranteed(empty_region(g.claim, 1, E, {
                 "reason": f"{g.claim} is not kinematically admissible"}), g)
-        return Guaranteed(band_region(system, g, g.best()), g)
-    return Guaranteed(torque_region(system, claim, mu, model=model, loads=loads))
+        return Guaranteed(_over_loads(band_region(system, g, g.best()), loads), g)
+    return Guaranteed(_over_loads(torque_region(system, claim, mu, model=model, loads=loads),
+                                  loads))
+
+
+def _over_loads(region: TorqueRegion, loads: Any) -> TorqueRegion:
+    """An empty region's reason names the mass / centre-of-mass set when there is one."""
+    if loads is None or not region.empty or "reason" not in region.diagnosis:
+        return region
+    reason = f"{region.diagnosis['reason']} (with the workpiece's mass and centre-of-mass set)"
+    return replace(region, diagnosis={**region.diagnosis, "reason": reason})
 
 
 def choose_pieces(gs: list[Guaranteed]) -> list[Interval]:

@@ -44,7 +44,7 @@ from planner.plan.guarantee import guarantee
 from planner.plan.hand_planner import plan_hand
 from planner.plan.load_bounds import row_union, with_load
 from planner.plan.load_margins import command_guaranteed, holds, tolerated
-from planner.plan.partition import joint_inputs
+from planner.plan.partition import guaranteed_at, joint_inputs
 from planner.plan.polytope import torque_region
 from planner.predict.feasibility import feasible_modes
 
@@ -226,3 +226,17 @@ def test_a_rival_union_can_end_inside_the_load_hull():
     inner = min(max(x, -x) for x in g)
     exact_end = min(max(x, -x) for x in np.linspace(-1, 1, 201))
     assert outer.lower == -1.0 <= exact_end == 0.0 < inner == 1.0
+
+
+def test_an_empty_region_names_the_load_set():
+    """The table-push hand (no effort joint) tips over a centre of mass +-15 mm: the reason
+    says the set was part of the question."""
+    hf = load_hand_file(ROOT / "scenarios" / "data" / "table_push_hand.json")
+    mu = [(0.3, 0.5), (0.3, 0.5), (0.0, 0.1)]
+    wide = LoadSet((0.1, 0.1), ((0.005, 0.035), (0.005, 0.035)), 0.1, (0.02, 0.02))
+    plain = guaranteed_at(hf.hand, hf.q0, (0,), np.array([0.05]), "S-1 S-2 S-3", mu,
+                          "independent")
+    assert not plain.empty
+    gd = guaranteed_at(replace(hf.hand, load_set=wide), hf.q0, (0,), np.array([0.05]),
+                       "S-1 S-2 S-3", mu, "independent")
+    assert gd.empty and gd.reason().endswith("(with the workpiece's mass and centre-of-mass set)")
