@@ -21,9 +21,10 @@ QUICK = ["scenarios/data/prismatic_finger_hand.json", "scenarios/data/table_push
 LONG = ["scenarios/data/three_finger_hand.json", "scenarios/data/two_finger_hand.json",
         "scenarios/data/two_link_finger_hand.json", "tests/data/triangle_apex_hand.json",
         "scenarios/data/block_tilting.json", "scenarios/data/box_pivot_down.json",
-         "scenarios/data/box_pivot_up.json", "scenarios/data/figure9_task_hand.json",
-         "scenarios/data/flip_against_wall.json", "tests/data/hexagon_hand.json",
-         "tests/data/hexagon_hand_plain.json"]
+        "scenarios/data/box_pivot_up.json", "scenarios/data/figure9_task_hand.json",
+        pytest.param("scenarios/data/flip_against_wall.json", marks=pytest.mark.slow,
+                     id="flip_against_wall (about 15 min: by hand)"),
+        "tests/data/hexagon_hand.json", "tests/data/hexagon_hand_plain.json"]
 
 
 def nominal_section(data: dict) -> dict:
