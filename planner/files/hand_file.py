@@ -39,6 +39,7 @@ from planner.files.hand_checks import check_hand_contacts
 from planner.files.hand_friction import mu_bodies, mu_section
 from planner.files.hand_goal import Goal, parse_goal
 from planner.files.hand_limits import hand_limits
+from planner.files.hand_uncertainty import uncertainty_section
 from planner.files.reader import read_json
 from planner.model.geometry import rot90
 from planner.model.hand import CONTACT_KINDS, JOINT_KINDS, ContactSpec, Finger, Hand, Link, rotation
@@ -330,7 +331,7 @@ def _hand_file(data: Any) -> HandFile:
     data = as_object(data, "hand")
     check_keys(data, "hand", required=("palm", "fingers", "workpiece", "contacts"),
                optional=("format", "version", "load", "segment", "mu", "environment", "goal",
-                         "limits"),
+                         "limits", "uncertainty"),
                free=FREE_KEYS)
     fmt, ver = data.get("format", HAND_FORMAT), data.get("version", HAND_VERSION)
     if fmt != HAND_FORMAT or ver != HAND_VERSION or isinstance(ver, bool):
@@ -368,17 +369,20 @@ def _hand_file(data: Any) -> HandFile:
         load = as_object(data["load"], "load")
         check_keys(load, "load", required=("force",), free=FREE_KEYS)
         force = _point(load["force"], "load.force")
+    mass = number(wp.get("mass", WORKPIECE_MASS), "workpiece.mass", positive=True)
     hand = Hand(
         palm=palm,
         fingers=tuple(fingers),
         vertices=V,
         com=com,
-        mass=number(wp.get("mass", WORKPIECE_MASS), "workpiece.mass", positive=True),
+        mass=mass,
         contacts=contacts,
         load_force=force,
         name=string(data.get("name", "hand"), "name"),
         meta={k: data[k] for k in ("description", "load") if k in data},
         environment=env,
+        load_set=(uncertainty_section(data["uncertainty"], mass, com)
+                  if "uncertainty" in data else None),
     )
     centroid = V.mean(axis=0) @ rotation(pose[2]).T + pose[:2]
     if rot90(palm[1] - palm[0]) @ (centroid - palm[0]) <= 0:

@@ -60,6 +60,7 @@ from planner.model.hand_parts import (
     rotation,
 )
 from planner.model.kinematics import REVOLUTE
+from planner.model.load_set import LoadSet
 from planner.model.system import System
 from planner.model.validation import as_array
 
@@ -74,6 +75,8 @@ class Hand:
     ``com``: (2,) workpiece centre of mass, body frame.  ``load_force``: (2,) N, the constant
     external force at the centre of mass (:meth:`g_obj_at`).  ``environment``: fixed surfaces
     besides the palm, each ``(name, (2, 2) endpoints)`` with the same normal rule as the palm.
+    ``load_set``: the uncertain mass and centre of mass (:class:`LoadSet`; None: the nominal
+    point), whose vertex wrenches :meth:`load_vertices` gives the planner.
     """
 
     palm: np.ndarray
@@ -86,6 +89,7 @@ class Hand:
     name: str = "hand"
     meta: Mapping[str, Any] = field(default_factory=dict)
     environment: tuple[tuple[str, np.ndarray], ...] = ()
+    load_set: LoadSet | None = None
 
     # ---- geometry --------------------------------------------------------------------------
     @property
@@ -252,6 +256,14 @@ class Hand:
         r = rotation(q[2]) @ self.com + q[:2]
         f = self.load_force
         return np.array([f[0], f[1], r[0] * f[1] - r[1] * f[0]])
+
+    def load_vertices(self, q: Any) -> np.ndarray | None:
+        """``(K, 3)`` the external wrench at every vertex of the mass / centre-of-mass set at
+        pose ``q`` (:meth:`LoadSet.vertices`, load proportional to the mass); None when the set
+        is the nominal point (the wrench is :meth:`g_obj_at`)."""
+        if self.load_set is None or self.load_set.trivial:
+            return None
+        return self.load_set.vertices(self.load_force, np.asarray(q, dtype=float)[:3])
 
     def default_fixed(self, q: Any = None) -> list[int]:
         """Coordinates held when closing the start configuration

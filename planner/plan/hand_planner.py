@@ -15,6 +15,7 @@ from planner.errors import InputError
 from planner.files.hand_file import HandFile, load_hand_file
 from planner.model.hand import Hand
 from planner.model.validation import FrictionValue, friction_interval, validation_frictions
+from planner.plan.load_margins import tolerated
 from planner.plan.model import Plan
 from planner.plan.policies import DEFAULT_POLICY
 from planner.plan.segment_planner import plan_segment
@@ -101,7 +102,8 @@ def _dict_body(hand: Hand, c: Mapping[str, Any]) -> str:
 def plan_hand(source: str | os.PathLike[str] | HandFile, *, mu: Any = None,
               model: str | None = None, policy: str = DEFAULT_POLICY,
               control: tuple[int, ...] | None = None, waypoints: int | None = None,
-              max_expansions: int | None = None, validate_mu: Any = None) -> Plan:
+              max_expansions: int | None = None, validate_mu: Any = None,
+              margins: bool | None = None) -> Plan:
     """Plan the hand file ``source`` (a path, or a loaded :class:`HandFile`).
 
     With a ``goal``: the task search (:func:`planner.plan.task.plan_task`) with the ``segment``
@@ -116,7 +118,9 @@ def plan_hand(source: str | os.PathLike[str] | HandFile, *, mu: Any = None,
     ``rival:MODE``; ``waypoints``: that many evenly spaced per segment (default the file's
     ``segment.waypoints`` when given, else the spacing rule, :mod:`planner.plan.spacing`);
     ``validate_mu``: friction values for the simulators (default the file's ``mu.validate``
-    values inside the interval).
+    values inside the interval); ``margins``: also find the mass and centre-of-mass
+    uncertainty the commands tolerate (:func:`planner.plan.load_margins.tolerated`, written in
+    ``extra["uncertainty"]``; default: when the file has an ``uncertainty`` section).
 
     Raises :class:`planner.errors.DegenerateError` when a single segment has no guaranteed
     plan (with every partition's reason); a task that stops short is a partial plan
@@ -167,8 +171,9 @@ def plan_hand(source: str | os.PathLike[str] | HandFile, *, mu: Any = None,
         plan = plan_task(hf.hand, hf.q0, hf.goal, opts, data=hf.data, validate_mu=validate)
         if bodies:
             plan = replace(plan, validate_mu=body_frictions(plan, hf, bodies, default, listed))
-        return replace(plan, mu_model=used_mu_model(model, plan),
-                       notes=f"source {name}" + (f"; {plan.notes}" if plan.notes else ""))
+        return with_margins(replace(
+            plan, mu_model=used_mu_model(model, plan),
+            notes=f"source {name}" + (f"; {plan.notes}" if plan.notes else "")), hf, margins)
     if seg is None:
         raise InputError(f"{name}: expected a 'goal' or a 'segment' section to plan, got "
                          "neither")
@@ -181,4 +186,18 @@ def plan_hand(source: str | os.PathLike[str] | HandFile, *, mu: Any = None,
                 notes=f"source {name}")
     if bodies:
         plan = replace(plan, validate_mu=body_frictions(plan, hf, bodies, default, listed))
-    return replace(plan, mu_model=used_mu_model(model, plan))
+    return with_margins(replace(plan, mu_model=used_mu_model(model, plan)), hf, margins)
+
+
+def with_margins(plan: Plan, hf: HandFile, margins: bool | None) -> Plan:
+    """``plan`` with ``extra["uncertainty"]``: the file's mass / centre-of-mass set (``set``,
+    None when not given) and what the commands tolerate (``tolerated``,
+    :func:`planner.plan.load_margins.tolerated`) -- when ``margins``, or by default when the
+    file has an ``uncertainty`` section; else ``plan`` unchanged."""
+    if not (margins or (margins is None and hf.hand.load_set is not None)) or not plan.segments:
+        return plan
+    ls = hf.hand.load_set
+    found = tolerated(plan)
+    extra = {**plan.extra, "uncertainty": {"set": None if ls is None else ls.to_dict(),
+                                           "tolerated": found.to_dict()}}
+    return replace(plan, extra=extra)

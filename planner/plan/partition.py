@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -139,14 +139,24 @@ def guaranteed_at(hand: Hand, q: np.ndarray, V: tuple[int, ...], rates: np.ndarr
     """The guaranteed efforts of ``claim`` at configuration ``q`` with the joints ``V`` at
     ``rates`` (module docstring).  Raises :class:`DegenerateError` from the stages."""
     system = hand.system(q, 0.0, joint_inputs(hand, V, rates))
+    loads = hand.load_vertices(q)  # the uncertain mass and centre of mass (None: nominal)
     if len(system.effort_joints) == 1:
-        g = guarantee(system, claim, mu, model=model)
+        g = guarantee(system, claim, mu, model=model, loads=loads)
         if g.claim_band is None:
             E = tuple(int(j) for j in system.effort_joints)
             return Guaranteed(empty_region(g.claim, 1, E, {
                 "reason": f"{g.claim} is not kinematically admissible"}), g)
-        return Guaranteed(band_region(system, g, g.best()), g)
-    return Guaranteed(torque_region(system, claim, mu, model=model))
+        return Guaranteed(_over_loads(band_region(system, g, g.best()), loads), g)
+    return Guaranteed(_over_loads(torque_region(system, claim, mu, model=model, loads=loads),
+                                  loads))
+
+
+def _over_loads(region: TorqueRegion, loads: Any) -> TorqueRegion:
+    """An empty region's reason names the mass / centre-of-mass set when there is one."""
+    if loads is None or not region.empty or "reason" not in region.diagnosis:
+        return region
+    reason = f"{region.diagnosis['reason']} (with the workpiece's mass and centre-of-mass set)"
+    return replace(region, diagnosis={**region.diagnosis, "reason": reason})
 
 
 def choose_pieces(gs: list[Guaranteed]) -> list[Interval]:

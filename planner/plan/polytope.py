@@ -51,6 +51,7 @@ from planner.model.validation import friction_interval
 from planner.plan.bounds import AffineRows, admissible_modes, affine_rows, box_points
 from planner.plan.guarantee import Guarantee, guarantee, resolve_claim
 from planner.plan.intervals import Interval
+from planner.plan.load_bounds import check_loads, concat_rows, indeterminate_cut_over, with_load
 from planner.predict.indeterminate import (
     IndeterminateKinematics,
     coulomb_rows,
@@ -166,7 +167,7 @@ def _indeterminate_cut(system: System, kin: IndeterminateKinematics, mus: np.nda
 
 def torque_region(system: System, claim: str, mu: Any, *, model: str = "common",
                   grid: int = 3, tol: float = DEFAULT_TOL, cap: float | None = None,
-                  method: str = "auto") -> TorqueRegion:
+                  method: str = "auto", loads: Any = None) -> TorqueRegion:
     """The torques of the effort-controlled joints that make ``claim`` the only possible mode
     for every friction in ``mu`` (module docstring; eqs. 21-22, 26, 28).
 
@@ -176,7 +177,10 @@ def torque_region(system: System, claim: str, mu: Any, *, model: str = "common",
     largest distance from zero torque to one of the claim's Coulomb hyperplanes, the problem's
     torque scale -- a region open towards harder squeezing is cut there); ``method``:
     ``"auto"`` (today's band when ``p = 1``) or ``"polytope"`` (the corner H-representation for
-    any ``p``).
+    any ``p``); ``loads``: ``(K, n_q)`` vertex wrenches of the workpiece's uncertain mass and
+    centre of mass (None: ``system.g_obj`` only).  A row is affine in the load and multilinear in
+    ``mu``, so its extremes over box x load hull are at corner x vertex pairs: the rows are taken
+    there (docs/planning.md, "Uncertainty beyond friction").
     """
     if method not in ("auto", "polytope"):
         raise InputError(f"method: expected 'auto' or 'polytope', got {method!r}")
@@ -185,10 +189,19 @@ def torque_region(system: System, claim: str, mu: Any, *, model: str = "common",
     n_c = system.n_contacts
     mu_lo, mu_hi = friction_interval(mu, n_c)
     if p == 1 and method == "auto":
-        return _from_band(system, claim, mu, model, tol, E)
+        return _from_band(system, claim, mu, model, tol, E, loads)
     stage, index = admissible_modes(system, tol=tol)
     corners, g = box_points(mu_lo, mu_hi, grid)
-    rows_c = affine_rows(system, corners, stage=stage, index=index)
+    G = None if loads is None else check_loads(system, loads)
+
+    def rows_at(pts: np.ndarray) -> tuple[AffineRows, np.ndarray]:
+        """Rows at friction points ``pts`` (x every vertex load when ``loads`` is given)."""
+        if G is None:
+            return affine_rows(system, pts, stage=stage, index=index), pts
+        return (concat_rows([affine_rows(with_load(system, w), pts, stage=stage, index=index)
+                             for w in G]), np.tile(pts, (len(G), 1)))
+
+    rows_c, corners_l = rows_at(corners)
     labels = [m.label for m in rows_c.modes]
     kins = indeterminate_kinematics(system, tol=tol)
     label = resolve_claim(claim, labels + [k.mode.label for k in kins],
@@ -198,18 +211,18 @@ def torque_region(system: System, claim: str, mu: Any, *, model: str = "common",
                if label in [k.mode.label for k in kins] else "not kinematically admissible")
         return empty_region(label, p, E, {"reason": f"{label}: {why}"})
     exact = True
-    rows_g = None
+    rows_g: tuple[AffineRows, np.ndarray] | None = None
 
     def rows_for(j: int) -> tuple[AffineRows, np.ndarray]:
         """Rows of mode ``j`` at the corners, or at corners + grid when ``det`` changes sign."""
         nonlocal exact, rows_g
         d = rows_c.det[:, j]
         if np.all(d > 0) or np.all(d < 0):
-            return rows_c, corners
+            return rows_c, corners_l
         exact = False
         if rows_g is None:
-            rows_g = affine_rows(system, np.concatenate([corners, g]), stage=stage, index=index)
-        return rows_g, np.concatenate([corners, g])
+            rows_g = rows_at(np.concatenate([corners, g]))
+        return rows_g
 
     jc = labels.index(label)
     rc, _ = rows_for(jc)
@@ -262,11 +275,13 @@ def torque_region(system: System, claim: str, mu: Any, *, model: str = "common",
         dirs = list(np.eye(p))
         options = []
         if p == 0:
-            cut = _indeterminate_cut(system, kin, pts, np.zeros(0))
+            cut = (_indeterminate_cut(system, kin, pts, np.zeros(0)) if G is None
+                   else indeterminate_cut_over(system, kin, pts, np.zeros(0), G))
             options = [(np.zeros((0, 0)), np.zeros(0))] if cut == np.inf else []
         else:
             for a in dirs + [-d for d in dirs]:
-                cut = _indeterminate_cut(system, kin, pts, a)
+                cut = (_indeterminate_cut(system, kin, pts, a) if G is None
+                       else indeterminate_cut_over(system, kin, pts, a, G))
                 if np.isfinite(cut) or cut == np.inf:
                     options.append((a[None], np.array([min(cut, 1e300)])))
         found = _best_option(A, b, options)
@@ -335,9 +350,9 @@ def torque_scale(system: System, E: tuple[int, ...]) -> float:
 
 
 def _from_band(system: System, claim: str, mu: Any, model: str, tol: float,
-               E: tuple[int, ...]) -> TorqueRegion:
+               E: tuple[int, ...], loads: Any = None) -> TorqueRegion:
     """``p = 1``: the widest piece of today's band (:func:`planner.plan.guarantee.guarantee`)."""
-    g = guarantee(system, claim, mu, model=model, tol=tol)
+    g = guarantee(system, claim, mu, model=model, tol=tol, loads=loads)
     return band_region(system, g, g.best(), tol=tol)
 
 

@@ -68,6 +68,11 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "the guarantee, docs/planning.md)")
     p.add_argument("--max-expansions", type=int, default=40,
                    help="task search: nodes expanded at most (1..1000; hand files with a goal)")
+    p.add_argument("--margins", action="store_true",
+                   help="also find the largest mass (+-kg) and centre-of-mass (+-mm) "
+                        "uncertainty the commands tolerate, each axis alone (a bisection on "
+                        "the exact guarantee, docs/planning.md 'Uncertainty beyond friction'); "
+                        "always done for a hand file with an 'uncertainty' section")
     p.add_argument("--out", default="plan.json", help="plan file to write")
     p.add_argument("--figures", help="folder for the figures (PNG): Figures 10-13 of a segment "
                                      "with one effort joint, the task's pictures for a task; "
@@ -125,7 +130,8 @@ def run(args: argparse.Namespace) -> int:
         try:
             plan = plan_hand(path, mu=mu, model=args.model, policy=args.policy,
                              control=control, waypoints=args.waypoints,
-                             max_expansions=args.max_expansions)
+                             max_expansions=args.max_expansions,
+                             margins=True if args.margins else None)
         except DegenerateError as exc:
             print(f"qsplan plan: cannot guarantee the mode: {exc}", file=sys.stderr)
             return 1  # a valid request whose answer is "no guaranteed plan": a failed check
@@ -175,6 +181,9 @@ def _report(plan: Any, out: Path, seconds: float, figs: list[Path], verbose: boo
     if plan.segments:
         print(f"  mu {plan.mu_model} {mu_text}; policy {plan.policy}; exact bounds: "
               f"{plan.exact}")
+    unc = plan.extra.get("uncertainty") if isinstance(plan.extra, dict) else None
+    if unc:
+        print("  " + uncertainty_words(unc))
     for k, (seg, start) in enumerate(zip(plan.segments, plan.start_times())):
         hand = seg.hand_model.hand
         first, last = seg.waypoints[0], seg.waypoints[-1]
@@ -261,3 +270,17 @@ def diagnosis_lines(d: Any) -> list[str]:
                      + (f"[{fmt(lo[0])}, {fmt(hi[0], '.4g')}]" if len(set(lo)) == 1
                         and len(set(hi)) == 1 else f"{widest}"))
     return lines
+
+
+def uncertainty_words(unc: Any) -> str:
+    """The plan's mass / centre-of-mass set and what its commands tolerate, in plain words."""
+    st, tol = unc.get("set"), unc.get("tolerated") or {}
+    def iv(pair: Any, scale: float = 1.0) -> str:
+        return f"[{scale * pair[0]:.4g}, {scale * pair[1]:.4g}]"
+    where = (f"over mass {iv(st['mass'])} kg, centre of mass x {iv(st['com'][0], 1000)} mm, "
+             f"y {iv(st['com'][1], 1000)} mm" if st else "at the nominal mass and centre of mass")
+    m, c = tol.get("mass_kg"), tol.get("com_m")
+    m_txt = "the whole mass" if m is None else f"+-{m:.4g} kg"
+    c_txt = "the workpiece's size" if c is None else f"+-{1000 * c:.3g} mm"
+    return (f"guaranteed {where}; the commands tolerate mass {m_txt}, centre of mass {c_txt} "
+            "(each axis alone, the other as planned; bisection on the exact guarantee)")
