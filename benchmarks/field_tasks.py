@@ -10,11 +10,13 @@ asserted here; tests/planner/test_any_mode.py holds the planning checks.
 
     PYTHONPATH=. python benchmarks/field_tasks.py --out benchmarks/results/field_tasks.json
     PYTHONPATH=. python benchmarks/field_tasks.py --tasks block_tilting --engines pymunk
+    PYTHONPATH=. python benchmarks/field_tasks.py --tasks flip_against_wall --keep  # one task anew
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import time
 from pathlib import Path
 from typing import Any
@@ -23,10 +25,18 @@ from planner.files.atomic import atomic_write_json
 from planner.plan.hand_planner import plan_hand
 from planner.plan.negative_controls import outside_torques
 from scenarios.runs import validate_plan
+from sim.consensus import artefact_texts
 from sim.settings import ENGINES
 
 ROOT = Path(__file__).resolve().parents[1]
 TASKS = ("block_tilting", "box_pivot_up", "box_pivot_down", "flip_against_wall", "side_push")
+
+
+def _measured(run: Any) -> dict[str, Any]:
+    """The verdict's reasons and the engine artefacts the run measured
+    (:func:`sim.consensus.artefact_texts`): why a run did not agree, in the row."""
+    return {"reasons": list(run.verdict.reasons),
+            "artefacts": list(artefact_texts(run.summary.to_dict()))}
 
 
 def _mu_text(mu: Any) -> str:
@@ -59,7 +69,7 @@ def task_rows(name: str, engines: tuple[str, ...], negative: bool = True,
             run = validate_plan(plan, engine, mu, name=name)
             rows.append({**base, "kind": "validate", "engine": engine, "mu": _mu_text(mu),
                          "status": run.verdict.outcome.value,
-                         "wall_s": round(time.perf_counter() - t, 2)})
+                         "wall_s": round(time.perf_counter() - t, 2), **_measured(run)})
             print(rows[-1], flush=True)
     seg = plan.segments[-1]
     if negative and seg.effort_joints:
@@ -73,7 +83,7 @@ def task_rows(name: str, engines: tuple[str, ...], negative: bool = True,
             rows.append({**base, "kind": "negative: efforts outside the regions",
                          "engine": engine, "mu": _mu_text(mu),
                          "status": run.verdict.outcome.value,
-                         "wall_s": round(time.perf_counter() - t, 2)})
+                         "wall_s": round(time.perf_counter() - t, 2), **_measured(run)})
             print(rows[-1], flush=True)
     return rows
 
@@ -104,10 +114,16 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--tasks", default=",".join(TASKS))
     ap.add_argument("--one-mu", action="store_true",
                     help="validate at the first of the plan's validation frictions only")
+    ap.add_argument("--keep", action="store_true",
+                    help="keep the rows of the other tasks already in --out (re-run some tasks)")
     args = ap.parse_args(argv)
+    names = args.tasks.split(",")
     rows: list[dict] = []
-    for name in args.tasks.split(","):
+    if args.keep and Path(args.out).is_file():
+        rows = [r for r in json.loads(Path(args.out).read_text()) if r.get("task") not in names]
+    for name in names:
         rows += task_rows(name, tuple(args.engines.split(",")), one_mu=args.one_mu)
+    rows.sort(key=lambda r: TASKS.index(r["task"]) if r["task"] in TASKS else len(TASKS))
     atomic_write_json(args.out, rows)
     print(closing_table(rows))
     print(f"{len(rows)} rows -> {args.out}")

@@ -18,7 +18,7 @@ the simulated scene's scale (:mod:`sim.similarity`).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -78,7 +78,9 @@ class SegmentExpectation:
     pair columns of the segment's contacts (its mode labels index them 1..); ``gained``: the
     positions in ``pairs`` of contacts the segment gains at its start (judged once they touch);
     ``travel`` [m] the predicted path length; ``drive`` [m/s] its fastest commanded contact
-    speed and ``slip_speed`` [m/s] the classifier's slip threshold for it."""
+    speed and ``slip_speed`` [m/s] the classifier's slip threshold for it; ``slips`` (n, n_c)
+    [m/s] each contact's predicted tangential relative velocity at each waypoint (eq. 5,
+    :func:`sim.schedule.predicted_slips`; empty: not known)."""
 
     claim: Mode
     start: float
@@ -91,6 +93,7 @@ class SegmentExpectation:
     travel: float
     drive: float = 0.0
     slip_speed: float = 0.0
+    slips: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
 
 
 @dataclass(frozen=True, eq=False)

@@ -7,7 +7,10 @@ docs/simulation.md, "Judging a run"):
 
 * its steps at least the settling time after the segment's start (and after the contacts it
   gains touch) are classified (:mod:`sim.classify`); the claimed mode must be observed on
-  :data:`~sim.verdict.MODE_FRACTION_REQUIRED` of them;
+  :data:`~sim.verdict.MODE_FRACTION_REQUIRED` of them. A contact the claim has sliding whose
+  predicted slip speed at that step (:func:`sim.schedule.predicted_slips`) is below the
+  classifier's slip threshold shows the claim when it reads ``R`` as well: the classifier
+  reads the predicted motion itself as rolling there (:func:`unresolved_slides`);
 * the workpiece's position at the segment's last waypoint must be within
   :data:`~sim.verdict.POSE_TOLERANCE_OF_TRAVEL` of the segment's predicted travel from the
   predicted one, the predicted poses shifted by where the workpiece really was at the
@@ -29,7 +32,7 @@ from dataclasses import replace
 import numpy as np
 
 from planner.errors import InputError
-from planner.model.modes import Mode
+from planner.model.modes import SLIDE, Mode
 from sim.classify import Thresholds, judged_mask, observed_modes
 from sim.expectation import Judgement, PlanSchedule, SegmentExpectation, SegmentVerdict
 from sim.run import Recording
@@ -155,9 +158,45 @@ def _judge_steps(rec: Recording, observed: list[ObservedMode], th: Thresholds,
     interval = np.clip(np.searchsorted(t, rec.times[settled], side="right") - 1, 0, len(t) - 2)
     try:
         return compare_plan(seg.claim, judged, [seg.predicted[j] for j in interval], pred_poses,
-                            rec.poses[k, iw], interval=interval)
+                            rec.poses[k, iw], interval=interval,
+                            unresolved=unresolved_slides(seg, rec.times[settled],
+                                                         th.slip_speed))
     except InputError:
         return None  # no predicted travel yet
+
+
+def unresolved_slides(seg: SegmentExpectation, times: np.ndarray, slip_speed: float
+                      ) -> np.ndarray:
+    """(m, n_c) bool: at each of the ``times`` (m,) [s, the segment's clock], the contacts the
+    segment's claim has sliding whose predicted slip speed ``|v_it|`` (``seg.slips``,
+    interpolated between waypoints) is below ``slip_speed`` [m/s], the classifier's slip
+    threshold: the classifier reads the predicted motion itself as ``R`` there (a window mean
+    of ``|v_t|`` at most the threshold is rolling, :mod:`sim.classify`), so ``R`` and the
+    claimed ``S`` are one reading of such a contact. All False without predicted slips."""
+    times = np.asarray(times, dtype=float)
+    slips = np.asarray(seg.slips, dtype=float)
+    n_c = len(seg.claim.codes)
+    out = np.zeros((len(times), n_c), dtype=bool)
+    if slips.shape != (len(seg.times), n_c) or len(seg.times) < 2:
+        return out
+    for i, code in enumerate(seg.claim.codes):
+        if code == SLIDE:
+            out[:, i] = np.abs(np.interp(times, seg.times, slips[:, i])) < slip_speed
+    return out
+
+
+def shows_claim(observed: ObservedMode, claim: Mode, unresolved: np.ndarray | None = None
+                ) -> bool:
+    """Whether ``observed`` shows ``claim``: every contact reads the claimed token, except
+    that a contact flagged in ``unresolved`` (n_c,) may read ``R`` where the claim slides
+    (:func:`unresolved_slides`)."""
+    if observed == claim:
+        return True
+    if unresolved is None or isinstance(observed, str) or not np.any(unresolved):
+        return False
+    obs, want = observed.tokens, claim.tokens
+    return len(obs) == len(want) and all(
+        o == w or (bool(unresolved[i]) and o == "R") for i, (o, w) in enumerate(zip(obs, want)))
 
 
 def _poses(name: str, value: np.ndarray, n: int) -> np.ndarray:
@@ -178,6 +217,7 @@ def compare_plan(
     simulated_poses: np.ndarray,
     *,
     interval: Sequence[int] | np.ndarray | None = None,
+    unresolved: np.ndarray | None = None,
     mode_fraction: float = MODE_FRACTION_REQUIRED,
     pose_tolerance: float = POSE_TOLERANCE_OF_TRAVEL,
 ) -> Verdict:
@@ -185,6 +225,9 @@ def compare_plan(
 
     ``observed`` (m,) judged steps; ``predicted`` (m,) the predicted mode set of each step's
     waypoint interval; ``interval`` (m,) that interval's index (default: all 0);
+    ``unresolved`` (m, n_c) bool the contacts whose claimed slide is slower than the slip
+    threshold at each step (:func:`unresolved_slides`; default none: the claim's tokens
+    exactly);
     ``predicted_poses``, ``simulated_poses`` (n, 3) ``(x, y, theta)`` [m, m, rad] at the n
     waypoints. ``agreed`` when the claim holds on ``>= mode_fraction`` of the judged steps and
     the final position is within ``pose_tolerance`` of the travel.
@@ -205,7 +248,14 @@ def compare_plan(
     travel = float(np.sum(np.linalg.norm(np.diff(pred[:, :2], axis=0), axis=1)))
     if travel <= 0.0:
         raise InputError("predicted_poses: expected a segment with positive travel, got 0")
-    claim_frac = float(np.mean([o == claim for o in observed]))
+    slow = (np.zeros((m, len(claim.codes)), dtype=bool) if unresolved is None
+            else np.asarray(unresolved, dtype=bool))
+    if slow.shape != (m, len(claim.codes)):
+        raise InputError(f"unresolved: expected shape ({m}, {len(claim.codes)}), got "
+                         f"{slow.shape}")
+    shown = [shows_claim(o, claim, u) for o, u in zip(observed, slow)]
+    claim_frac = float(np.mean(shown))
+    read_r = float(np.mean([o != claim and s for o, s in zip(observed, shown)]))
     pred_frac = float(np.mean([o in p for o, p in zip(observed, predicted)]))
     errs = np.linalg.norm(simu[:, :2] - pred[:, :2], axis=1)
     counts = count_labels(observed)
@@ -230,6 +280,11 @@ def compare_plan(
     if not reasons:
         reasons.append(f"{claim_frac:.1%} of the segment in the claimed mode, final position "
                        f"{err / travel:.2%} of travel from the prediction")
+    if slow.any():
+        who = ", ".join(str(i + 1) for i in np.flatnonzero(slow.any(axis=0)))
+        reasons.append(f"claimed slides slower than the slip threshold (contact {who}) on "
+                       f"{np.mean(slow.any(axis=1)):.1%} of the segment: read as R or S there; "
+                       f"{read_r:.1%} of the segment showed the claim so")
     return Verdict(Outcome.DISAGREED if claim_frac < mode_fraction or err / travel >
                    pose_tolerance else Outcome.AGREED, tuple(reasons), agreement=claim_frac,
                    judged_steps=m, observed_counts=counts, plan=measures)

@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 
 from planner.errors import InputError
+from planner.model.closure import tangent_jacobian
 from planner.model.hand import Hand
 from planner.model.modes import Mode
 from sim.expectation import PlanSchedule, SegmentExpectation
@@ -44,7 +45,8 @@ class SegmentSchedule:
     ``times`` (n,) [s] increasing from 0; ``commands`` (n, n_theta) every joint's command per
     waypoint (rad/s, m/s, N m or N by its control), held until the next waypoint;
     ``controls`` (n_theta,) ``"velocity"`` / ``"effort"``; ``claim``; ``predicted`` (n,) the
-    predicted mode set of each interval; ``poses`` (n, 3) predicted workpiece poses.
+    predicted mode set of each interval; ``poses`` (n, 3) predicted workpiece poses; ``angles``
+    (n, n_theta) predicted joint coordinates [rad or m].
     """
 
     times: np.ndarray
@@ -53,6 +55,7 @@ class SegmentSchedule:
     claim: Mode
     predicted: tuple[frozenset[ObservedMode], ...]
     poses: np.ndarray
+    angles: np.ndarray
 
     @classmethod
     def from_segment(cls, seg: Any, n_contacts: int,
@@ -79,6 +82,8 @@ class SegmentSchedule:
             predicted=tuple(frozenset(Mode.parse(lab, n_contacts) for lab in w.predicted)
                             or frozenset({claim}) for w in seg.waypoints),
             poses=np.array([[float(x) for x in w.pose[:3]] for w in seg.waypoints]),
+            angles=np.array([[float(a) for a in w.angles] for w in seg.waypoints],
+                            dtype=float).reshape(len(seg.waypoints), len(controls)),
         )
 
     def slowed(self, factor: float) -> SegmentSchedule:
@@ -96,7 +101,26 @@ class SegmentSchedule:
         if not 2 <= n <= len(self.times):
             raise InputError(f"waypoints: expected 2 <= n <= {len(self.times)}, got {n}")
         return replace(self, times=self.times[:n], commands=self.commands[:n],
-                       poses=self.poses[:n], predicted=self.predicted[:n])
+                       poses=self.poses[:n], angles=self.angles[:n],
+                       predicted=self.predicted[:n])
+
+
+def predicted_slips(hand: Hand, times: np.ndarray, poses: np.ndarray,
+                    angles: np.ndarray) -> np.ndarray:
+    """(n, n_c) [m/s]: the tangential relative velocity ``v_it`` of each contact of ``hand``
+    at each of ``n`` waypoints of the predicted motion -- workpiece ``poses`` (n, 3) and joint
+    ``angles`` (n, n_theta) at ``times`` (n,) [s] -- by eq. 5's tangential rows
+    (:func:`planner.model.closure.tangent_jacobian`) times the state rates, the central
+    differences of the waypoints (second-order one-sided at the ends). The slip speed the
+    classifier would read if the run followed the plan (docs/simulation.md, "Plan
+    segments")."""
+    t = np.asarray(times, dtype=float)
+    q = np.hstack([np.asarray(poses, dtype=float), np.asarray(angles, dtype=float)])
+    if len(t) < 2:
+        return np.zeros((len(t), hand.n_contacts))
+    q[:, 2] = np.unwrap(q[:, 2])
+    rates = np.gradient(q, t, axis=0, edge_order=2 if len(t) > 2 else 1)
+    return np.stack([tangent_jacobian(hand, qk) @ rk for qk, rk in zip(q, rates)])
 
 
 def held_command(times: np.ndarray, values: np.ndarray, ramp: float = 0.0,
@@ -194,7 +218,8 @@ class PlanLayout:
             segments.append(SegmentExpectation(
                 claim=s.claim, start=t0, times=s.times, predicted=s.predicted, poses=s.poses,
                 planned_start=np.asarray(self.q_starts[k][:3], dtype=float), pairs=members,
-                gained=gained, travel=travel))
+                gained=gained, travel=travel,
+                slips=predicted_slips(self.hands[k], s.times, s.poses, s.angles)))
         return PlanSchedule(tuple(segments), float(sum(s.travel for s in segments)),
                             np.asarray(self.schedules[-1].poses[-1], dtype=float),
                             self.hand.length_scale)

@@ -19,12 +19,18 @@ pairs collide, ``Scene.only_pairs``):
 * ``workpiece``: the polygon plus, per ``tip`` contact, a capsule of radius ``vertex_radius``
   along the contact's declared edge, its surface on the edge line (the tip touches the edge
   the plan declares and no other: near an acute vertex a tip paired with the whole polygon can
-  meet the neighbouring edge; docs/planning.md, the Figure 9 task), and, per ``palm`` /
-  ``side`` contact, a small circle of radius ``vertex_radius`` at the touching vertex, placed
-  so its surface touches the feature where the sharp vertex does (centre = vertex + r n, n the
-  contact's inward normal at the initial configuration). A sharp vertex has no stable contact
-  point in either engine; the circle moves the contact point by ``r`` times the change of the
-  contact normal's direction (0.5 mm x 0.16 rad = 80 um over the default segment).
+  meet the neighbouring edge; docs/planning.md, the Figure 9 task), and, per vertex contact,
+  a small circle of radius ``r = vertex_radius`` (a sharp vertex has no stable contact point in
+  either engine). On a fixed straight surface (``palm``, ``surface`` contacts) the circle is
+  centred on the vertex and the surface's capsules lie ``r`` behind its line
+  (:func:`_fixed_surface`): a circle of radius ``r`` touches a line moved back by ``r`` exactly
+  when its centre lies on the line, at every orientation of the workpiece, so the vertex rides
+  on the surface as the plan's sharp vertex does however far the workpiece turns. On a finger's
+  side (``side`` contacts; the link's capsule is the finger's own shape) the circle is placed
+  so its surface touches the side where the sharp vertex does (centre = vertex + r n, n the
+  contact's inward normal at the initial configuration): it moves the contact point by ``r``
+  times the change of the contact normal's direction (0.5 mm x 0.16 rad = 80 um over the
+  default segment).
 
 Mass and inertia: workpiece mass and COM from the file, rotational inertia of the uniform
 polygon about the COM; finger links of the file's mass with the inertia of a uniform rod.
@@ -90,13 +96,14 @@ def _rot(phi: float) -> np.ndarray:
     return np.array([[c, -s], [s, c]])
 
 
-def _fixed_surface(name: str, ends: np.ndarray, n_sites: int) -> Body:
+def _fixed_surface(name: str, ends: np.ndarray, n_sites: int, back: float = 0.0) -> Body:
     """A static straight surface (the palm, a table): one capsule per contact on it, each
-    along the whole edge with its surface on the edge line (so each contact is its own
-    pair / arbiter); the inward normal is ``rot90`` of first -> second point."""
+    along the whole edge with its surface ``back`` [m] behind the edge line (the radius of the
+    vertex circles that touch it, module docstring; so each contact is its own pair /
+    arbiter); the inward normal is ``rot90`` of first -> second point."""
     a, b = np.asarray(ends, dtype=float)
     d = (b - a) / np.linalg.norm(b - a)
-    down = -np.array([-d[1], d[0]]) * PALM_RADIUS
+    down = -np.array([-d[1], d[0]]) * (PALM_RADIUS + back)
     shape = Capsule(tuple(a + down), tuple(b + down), PALM_RADIUS)
     return Body(name=name, shapes=(shape,) * max(n_sites, 1), kind=BodyKind.STATIC)
 
@@ -165,11 +172,11 @@ def hand_scene(
 
     # fixed surfaces: the palm and every environment surface, one capsule per contact on it
     palm_ids = [i for i, c in enumerate(hand.contacts) if c.kind == "palm"]
-    fixed = [_fixed_surface("palm", hand.palm, len(palm_ids))]
+    fixed = [_fixed_surface("palm", hand.palm, len(palm_ids), vertex_radius)]
     site_on: dict[int, tuple[str, int]] = {i: ("palm", k) for k, i in enumerate(palm_ids)}
     for e, (ename, ends) in enumerate(hand.environment):
         ids = [i for i, c in enumerate(hand.contacts) if c.kind == "surface" and c.surface == e]
-        fixed.append(_fixed_surface(f"env:{ename}", ends, len(ids)))
+        fixed.append(_fixed_surface(f"env:{ename}", ends, len(ids), vertex_radius))
         site_on.update({i: (f"env:{ename}", k) for k, i in enumerate(ids)})
 
     # workpiece: polygon, then one circle per vertex contact
@@ -178,7 +185,10 @@ def hand_scene(
     site: dict[int, int] = {}
     for i, c in enumerate(hand.contacts):
         if c.kind in ("palm", "surface", "side"):
-            centre = pts[i] + (vertex_radius - depth[i]) * nrm[i]
+            # on a fixed surface: on the vertex (the surface lies r behind its line); on a
+            # finger's side: touching where the vertex does (module docstring)
+            lift = 0.0 if c.kind in ("palm", "surface") else vertex_radius
+            centre = pts[i] + (lift - depth[i]) * nrm[i]
             local = _rot(-float(refs[i][2])) @ (centre - np.asarray(refs[i][:2], dtype=float))
             site[i] = len(shapes)
             shapes.append(Circle((float(local[0]), float(local[1])), vertex_radius))

@@ -38,12 +38,15 @@ def test_scene_layout(hand_file):
     # each palm contact has its own palm shape and its own vertex circle
     palm_pairs = [p for p in scene.pairs if p.body_a == "palm"]
     assert len({p.shape_a for p in palm_pairs}) == len({p.shape_b for p in palm_pairs}) == 2
-    # a vertex circle touches its feature where the sharp vertex does
+    # a vertex circle on the palm is centred on the vertex (the palm lies its radius behind
+    # the palm line); on a finger's side it touches the side where the sharp vertex does
     pts, nrm, _ = hand.contact_geometry(q0)
+    kinds = [c.kind for c in hand.contacts]
     for i, p in enumerate(scene.pairs[:3]):
         c = wp.shapes[p.shape_b]
         centre = np.asarray(c.center) + q0[:2]
-        assert np.allclose(centre - c.radius * nrm[i], pts[i], atol=1e-5)
+        lift = 0.0 if kinds[i] in ("palm", "surface") else c.radius
+        assert np.allclose(centre - lift * nrm[i], pts[i], atol=1e-5), kinds[i]
 
 
 def test_polygon_inertia_of_a_square():
@@ -131,3 +134,37 @@ def test_a_tip_at_an_acute_vertex_reads_its_edge(acute_tip, engine):
     assert r.present
     assert abs(float(np.asarray(r.normal) @ nrm[i])) > 1 - 1e-6
     assert r.depth < 10 * preload_depth(hand.length_scale)  # the pre-load's order, not 1.3 mm
+
+
+def _gap_circle_capsule(centre, cap):
+    """Signed distance [m] between a circle (world centre (2,), radius) and a static capsule
+    (world frame)."""
+    (c, r), (a, b, rc) = centre, cap
+    a, b, c = np.asarray(a), np.asarray(b), np.asarray(c)
+    s = np.clip((c - a) @ (b - a) / ((b - a) @ (b - a)), 0.0, 1.0)
+    return float(np.linalg.norm(c - (a + s * (b - a))) - r - rc)
+
+
+@pytest.mark.parametrize("turn_deg", [0.0, 20.0, 55.0, 75.0])
+def test_a_vertex_on_a_fixed_surface_rides_on_it_at_any_turn(data_dir, turn_deg):
+    """The flip's block turned about the corner mechanism (vertex 0 on the table at ``x = h
+    sin(theta)``, vertex 3 on the wall at ``y = h cos(theta)``): the vertex circles touch the
+    table's and the wall's capsules at the pre-load depth however far it turns -- the circle
+    is centred on the vertex and the surface lies the circle's radius behind its line. A
+    circle placed to touch where the vertex does at the start (centre = vertex + r n) would
+    stand ``r (1 - cos(turn))`` off the surface: 0.37 mm at 75 degrees."""
+    hand, q0, _ = load_hand(data_dir / "flip_against_wall.json")
+    scene = hand_scene(hand, q0, [0.0, 0.0, 0.7], ["velocity", "effort"],
+                       [lambda t, s: 0.0, lambda t, s: 0.0])
+    theta = float(q0[2]) + np.radians(turn_deg)
+    h = 0.02
+    pose = np.array([h * np.sin(theta), 0.0, theta])
+    rot = np.array([[np.cos(theta), -np.sin(theta)], [np.sin(theta), np.cos(theta)]])
+    wp = scene.body("workpiece")
+    depth = preload_depth(hand.length_scale)
+    for pair in scene.pairs[:2]:  # c1 vertex 0 on the table, c2 vertex 3 on the palm (wall)
+        circle = wp.shapes[pair.shape_b]
+        cap = scene.body(pair.body_a).shapes[pair.shape_a]
+        centre = pose[:2] + rot @ np.asarray(circle.center)
+        gap = _gap_circle_capsule((centre, circle.radius), (cap.a, cap.b, cap.radius))
+        assert gap == pytest.approx(-depth * np.cos(np.radians(turn_deg)), abs=1e-9), pair.name
