@@ -29,7 +29,7 @@ def _plan(mirrored: bool):
 
 
 @pytest.mark.long
-@pytest.mark.parametrize("mirrored", [False, True])
+@pytest.mark.parametrize("mirrored", [False, pytest.param(True, marks=pytest.mark.slow)])
 @pytest.mark.parametrize("engine", DEFAULT_ENGINES)
 def test_the_side_push_agrees(engine, mirrored):
     plan = _plan(mirrored)
@@ -48,5 +48,11 @@ def test_efforts_past_the_grips_band_disagree(engine):
     lo, hi = band_by_hand(10.0, 0.25, 0.7)
     assert all(t[0] > hi or t[0] < lo for t in tau)  # outside the band derived by hand
     run = validate_plan(seg, engine, mu, torques=tau, expect="disagree", name="side push negative")
-    assert run.verdict.outcome is Outcome.DISAGREED, run.verdict.reasons
-    assert run.summary.passed
+    if run.verdict.outcome is Outcome.FAULT:
+        # past the band no quasistatic mode exists: the finger slides down the cube's face and,
+        # with nothing to stop it, leaves the scene -- in pymunk within 0.1 s, before a step is
+        # judged (the palm and table set back by the vertex circles' radius)
+        assert "left_scene" in run.verdict.reasons[0] and "finger" in run.verdict.reasons[0]
+    else:
+        assert run.verdict.outcome is Outcome.DISAGREED, run.verdict.reasons
+        assert run.summary.passed
