@@ -53,28 +53,11 @@ class Trace:
                                     length_scale=m["length_scale"], **kw)
 
 
-def load_trace(name: str) -> Trace:
-    d = np.load(TRACE_DIR / f"sim_trace_{name}.npz")
-    meta = json.loads(str(d["meta"]))
-    T, P = d["vt"].shape
-    z = np.zeros((T, P))
-    rec = Recording(
-        engine=meta["engine"], pair_names=tuple(f"c{i + 1}" for i in range(P)),
-        body_names=("workpiece",), times=np.asarray(d["times"], dtype=float),
-        poses=np.asarray(d["poses"], dtype=float).reshape(T, 1, 3),
-        present=np.asarray(d["present"], dtype=bool), points=np.zeros((T, P, 2)),
-        normals=np.zeros((T, P, 2)), normal_force=np.asarray(d["fn"], dtype=float),
-        tangent_force=np.asarray(d["ft"], dtype=float),
-        slip_velocity=np.asarray(d["vt"], dtype=float),
-        depth=np.asarray(d["depth"], dtype=float), mu_used=z)
-    return Trace(rec, meta)
-
-
-def load_plan_trace(name: str) -> tuple[Recording, dict[str, Any]]:
-    """A recorded plan run (tests/data/plan_trace_*.npz, written by
-    tests/data/record_plan_traces.py) as a :class:`Recording` of its workpiece and contacts,
-    with its ``meta``."""
-    d = np.load(TRACE_DIR / f"plan_trace_{name}.npz")
+def _recording(path: Path) -> tuple[Recording, dict[str, Any]]:
+    """A recorded trace file (``times``, ``poses``, ``present``, ``fn``, ``ft``, ``vt``,
+    ``depth``, ``meta``) as a :class:`Recording` of one workpiece and its contacts, with its
+    ``meta``."""
+    d = np.load(path)
     meta = json.loads(str(d["meta"]))
     T, P = d["vt"].shape
     z = np.zeros((T, P))
@@ -88,3 +71,14 @@ def load_plan_trace(name: str) -> tuple[Recording, dict[str, Any]]:
         slip_velocity=np.asarray(d["vt"], dtype=float),
         depth=np.asarray(d["depth"], dtype=float), mu_used=z)
     return rec, meta
+
+
+def load_trace(name: str) -> Trace:
+    return Trace(*_recording(TRACE_DIR / f"sim_trace_{name}.npz"))
+
+
+def load_plan_trace(name: str) -> tuple[Recording, dict[str, Any]]:
+    """A recorded plan run (tests/data/plan_trace_*.npz, written by
+    tests/data/record_plan_traces.py) as a :class:`Recording` of its workpiece and contacts,
+    with its ``meta``."""
+    return _recording(TRACE_DIR / f"plan_trace_{name}.npz")
