@@ -55,8 +55,9 @@ from planner.plan.bounds import (
 from planner.plan.intervals import EMPTY, Interval
 from planner.plan.offset_bounds import (
     OffsetBox,
-    check_signs_over,
+    candidate_arrays,
     lifted_interval,
+    sign_changes,
     uniform_indeterminate,
     uniform_stages,
 )
@@ -157,10 +158,12 @@ def load_bands(system: System, mu: Any, loads: Any, *, model: str = "common", gr
     systems with ``system``'s joints; their loads are replaced by ``loads``): the bands then
     hold over every contact position in it too -- a determinate mode's guaranteed set by
     intersection at the vertices, its possible set by the same row bound over vertex geometry
-    x vertex load x friction point, a force-indeterminate one's by the lifted program
-    (:func:`planner.plan.offset_bounds.lifted_interval`, exact at each friction point);
-    docs/planning.md, "Contact positions".  Raises :class:`DegenerateError` when the modes may
-    change inside the box or a ``Q_AI`` turns singular there."""
+    x vertex load x friction point; a force-indeterminate mode's, or one whose ``det Q_AI``
+    changes sign inside the box (then guaranteed nowhere), by the lifted program over the whole
+    friction box (:func:`planner.plan.offset_bounds.lifted_interval`: exact for a friction box
+    or a rolling-only mode, else an outer bound and ``exact`` False); docs/planning.md,
+    "Contact positions".  Raises :class:`DegenerateError` when the modes may change inside the
+    box (:func:`planner.plan.offset_bounds.uniform_stages`)."""
     G = check_loads(system, loads)
     mu_lo, mu_hi = friction_interval(mu, system.n_contacts)
     geos = [system] if box is None else list(box.systems)
@@ -182,8 +185,9 @@ def load_bands(system: System, mu: Any, loads: Any, *, model: str = "common", gr
     rows = [mode_rows(s, pts[k], stage=stage_of[k][0], index=stage_of[k][1])
             for k, s in enumerate(systems)]
     n_det = len(stages[0][1])
-    if box is not None and n_det:
-        check_signs_over(np.stack([r.det for r in rows]), labels[:n_det])
+    poles = (sign_changes(np.stack([r.det for r in rows])) if box is not None and n_det
+             else np.zeros(n_det, bool))
+    box_exact = bool(model == "independent" or np.all(mu_lo == mu_hi))
     kins = (indeterminate_kinematics(system, tol=tol) if box is None
             else uniform_indeterminate(box, tol=tol))
     out = []
@@ -195,7 +199,13 @@ def load_bands(system: System, mu: Any, loads: Any, *, model: str = "common", gr
         got = [b.possible for b in own if not b.possible.empty]
         inner = Interval(min(p.lower for p in got), max(p.upper for p in got)) if got else EMPTY
         exact = all(b.exact for b in own)
-        if j < n_det:  # determinate: the row bound, exact when it meets the inner hull
+        if box is not None and j < n_det and poles[j]:
+            # det Q_AI crosses zero inside the box: not guaranteed there; the lifted program
+            guaranteed = EMPTY
+            kin_j = candidate_arrays(stages[0][0], int(stages[0][1][j]))
+            possible = lifted_interval(box, kin_j, mu_lo, mu_hi, G)
+            exact = box_exact or not np.any(kin_j.codes == SLIDE)
+        elif j < n_det:  # determinate: the row bound, exact when it meets the inner hull
             s0 = np.concatenate([r.s0[:, j] for r in rows])
             s1 = np.concatenate([r.s1[:, j] for r in rows])
             det = np.concatenate([r.det[:, j] for r in rows])
@@ -213,11 +223,14 @@ def load_bands(system: System, mu: Any, loads: Any, *, model: str = "common", gr
                     and np.all(mu_hi == mu_hi[0]) and not np.all(mu_lo == mu_hi)
                     else np.concatenate(box_points(mu_lo, mu_hi, grid)) if has_slide
                     else np.stack([mu_lo, mu_hi]))
-            ivs = ([indeterminate_interval_over(system, kin, m, G) for m in mpts] if box is None
-                   else [Interval(*lifted_interval(box, kin, m, G)) for m in mpts])
-            ivs = [iv for iv in ivs if not iv.empty]
-            possible = (Interval(min(iv.lower for iv in ivs), max(iv.upper for iv in ivs))
-                        if ivs else EMPTY)
+            if box is None:
+                ivs = [indeterminate_interval_over(system, kin, m, G) for m in mpts]
+                ivs = [iv for iv in ivs if not iv.empty]
+                possible = (Interval(min(iv.lower for iv in ivs), max(iv.upper for iv in ivs))
+                            if ivs else EMPTY)
+            else:  # the whole friction box at once (exact for a box or rolling only)
+                possible = lifted_interval(box, kin, mu_lo, mu_hi, G)
+                exact = box_exact or not has_slide
         out.append(ModeBand(base.mode, guaranteed, possible, exact=exact))
     return tuple(out)
 

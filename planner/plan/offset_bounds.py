@@ -41,9 +41,10 @@ from scipy.optimize import linprog
 
 from planner.errors import DegenerateError
 from planner.model.hand import Hand
-from planner.model.modes import Mode, enumerate_modes
+from planner.model.modes import ROLL, Mode, enumerate_modes
 from planner.model.system import System
-from planner.predict.indeterminate import GEN_TOL, coulomb_rows, indeterminate_kinematics
+from planner.plan.intervals import EMPTY, Interval
+from planner.predict.indeterminate import GEN_TOL, indeterminate_kinematics
 from planner.predict.linalg import lu_det_solve
 from planner.predict.row_subsets import all_subsets
 from planner.predict.setup import equilibrated_kinematics
@@ -86,11 +87,18 @@ def offset_box(hand: Hand, q: np.ndarray, joints: Sequence[Any]) -> OffsetBox | 
                      tuple(hand.system(q, 0.0, joints, offsets=s) for s in corners))
 
 
-def _sign_rows(ks: KinematicStage) -> np.ndarray:
-    """``(M, 2 n_c)`` the signed strict kinematic quantities (``v_n`` of a breaking contact,
-    ``v_t`` of a sliding one; 0 elsewhere) in units of the stage's velocity scale."""
-    v = np.nan_to_num(ks.v) / (ks.velocity_scale if ks.velocity_scale > 0 else 1.0)
-    return np.where(ks.candidates.strict_rows, v, 0.0)
+def _classify(det: np.ndarray, v: np.ndarray, zero: Any) -> np.ndarray:
+    """Per quantity, how ``det * v`` (multi-affine on the box) behaves over the vertices:
+    ``det (V,)``, ``v (V, r)``, ``zero`` the size below which ``v`` counts as 0 (scalar or
+    ``(V, 1)``).  Returns ``(r,)`` codes: 0 -- zero at every vertex (so on the box); +1 / -1 --
+    ``det * v`` has that strict sign at every vertex (so on the box: ``v`` never vanishes where
+    ``det != 0``); 2 -- mixed (``v`` may vanish inside the box)."""
+    sv = np.where(np.abs(v) <= zero, 0, np.sign(v)) * np.sign(det)[:, None]
+    out = np.full(v.shape[1], 2)
+    out[np.all(sv == 0, axis=0)] = 0
+    out[np.all(sv > 0, axis=0)] = 1
+    out[np.all(sv < 0, axis=0)] = -1
+    return out
 
 
 def uniform_stages(systems: Sequence[System], *, tol: float = DEFAULT_TOL,
@@ -99,10 +107,13 @@ def uniform_stages(systems: Sequence[System], *, tol: float = DEFAULT_TOL,
     """Kinematic stage (eqs. 13-16, 23-25) at every vertex geometry ``systems``; returns per
     system ``(stage, index)`` as :func:`planner.plan.bounds.admissible_modes`, with the same
     admissible candidates and sliding directions at every vertex -- then the same on the whole
-    offset box (module docstring).  Every other candidate must be singular at every vertex or
-    have one strict condition that fails at every vertex (then it is admissible nowhere on the
-    box).  Raises :class:`DegenerateError` naming a mode for which neither holds: it may be
-    admissible inside the box only, or its ``P_AI`` turns singular there."""
+    offset box (module docstring).  Every other candidate must be admissible nowhere on the
+    box: ``P_AI`` singular at every vertex; or ``det P_AI`` of one strict sign and one strict
+    condition (``v_n > 0`` breaking, ``v_t != 0`` sliding) failing at every vertex; or ``det
+    P_AI`` changing sign with every strict condition's ``det * v`` of one strict sign or zero
+    at every vertex (then on each side of ``det = 0`` the conditions' signs are those of the
+    vertices on that side, where it is not admissible).  Raises :class:`DegenerateError` naming
+    a mode for which none holds: it may be admissible inside the box only."""
     if not systems:
         raise DegenerateError("contact offsets: expected at least one vertex geometry, got none")
     cand = enumerate_modes(systems[0].n_contacts, systems[0].dof)
@@ -110,71 +121,94 @@ def uniform_stages(systems: Sequence[System], *, tol: float = DEFAULT_TOL,
     det = np.stack([ks.det for ks in stages])           # (V, M) equilibrated, signed
     ok = np.stack([ks.ok for ks in stages])              # (V, M)
     xi = np.stack([ks.xi for ks in stages])              # (V, M, n_c)
-    sig = np.stack([_sign_rows(ks) for ks in stages])    # (V, M, 2 n_c)
+    v = np.nan_to_num(np.stack([ks.v for ks in stages]))  # (V, M, 2 n_c)
+    zero = np.array([tol * (ks.velocity_scale or 1.0) for ks in stages])[:, None]
     singular = np.abs(det) <= singular_tol
     strict = cand.strict_rows
     for c in range(len(cand)):
         if np.all(singular[:, c]):
             continue
-        label = Mode(tuple(int(x) for x in cand.codes[c]),
-                     tuple(int(x) for x in xi[np.argmax(ok[:, c]), c])).label
-        if np.any(singular[:, c]) or not (np.all(det[:, c] > 0) or np.all(det[:, c] < 0)):
-            raise DegenerateError(f"contact offsets: candidate {label} turns singular inside the "
-                                  "box of contact positions (its P_AI changes sign), so its "
-                                  "admissibility there is not decided at the corners")
         if np.all(ok[:, c]) and np.all(xi[:, c] == xi[0, c]):
             continue
-        s = sig[:, c]                                  # (V, 2 n_c)
-        breaking_fails = strict[c, 0::2] & np.all(s[:, 0::2] <= tol, axis=0)
-        sliding_fails = strict[c, 1::2] & np.all(np.abs(s[:, 1::2]) <= tol, axis=0)
-        if not np.any(ok[:, c]) and (np.any(breaking_fails) or np.any(sliding_fails)):
-            continue
-        raise DegenerateError(f"contact offsets: mode {label} is kinematically admissible at "
-                              "some corners of the box of contact positions and not at others "
+        label = Mode(tuple(int(x) for x in cand.codes[c]),
+                     tuple(int(x) for x in xi[int(np.argmax(ok[:, c])), c])).label
+        if not np.any(ok[:, c]):
+            rows = np.flatnonzero(strict[c])
+            vc = v[:, c, rows].copy()
+            vc[:, rows % 2 == 1] = np.abs(vc[:, rows % 2 == 1])  # sliding: |v_t| > 0
+            if np.all(det[:, c] > singular_tol) or np.all(det[:, c] < -singular_tol):
+                if np.any(np.all(vc <= zero, axis=0)):
+                    continue  # one condition fails at every vertex, so on the box
+            elif np.all(_classify(det[:, c], v[:, c, rows], zero) != 2):
+                continue
+        raise DegenerateError(f"contact offsets: mode {label} may be kinematically admissible "
+                              "at some points of the box of contact positions and not at others "
                               "(the competing modes change inside it)")
     index = np.flatnonzero(ok[0])
     return [(ks, index) for ks in stages]
 
 
-def check_signs_over(det: np.ndarray, labels: Sequence[str]) -> None:
-    """``det (V, L, m)`` ``det Q_AI`` at each vertex geometry, friction point and mode: raise
-    :class:`DegenerateError` naming a mode whose determinant is zero at a point or changes sign
-    between the vertices at one friction point (its Cramer ratios have a pole inside the box,
-    module docstring)."""
-    pos = np.all(det > 0, axis=0)
-    neg = np.all(det < 0, axis=0)
-    bad = ~(pos | neg)                                  # (L, m)
-    if np.any(bad):
-        j = int(np.flatnonzero(np.any(bad, axis=0))[0])
-        raise DegenerateError(f"contact offsets: det Q_AI of mode {labels[j]} vanishes inside "
-                              "the box of contact positions (its forces are unbounded there)")
+def sign_changes(det: np.ndarray) -> np.ndarray:
+    """``det (V, L, m)`` ``det Q_AI`` at each vertex geometry, friction point and mode:
+    ``(m,)`` True for a mode whose determinant changes sign or vanishes at some vertices only,
+    at some friction point -- its Cramer ratios have a pole inside the box (module docstring),
+    so its rows are not used there.  Zero at every vertex (``1e-12`` of the mode's largest) is
+    singular on the box at that point (multi-affine), skipped as at a nominal point."""
+    tiny = 1e-12 * np.max(np.abs(det), axis=(0, 1), keepdims=True)
+    zero = np.abs(det) <= tiny
+    pos = np.all(det > tiny, axis=0)
+    neg = np.all(det < -tiny, axis=0)
+    return np.any(~(pos | neg | np.all(zero, axis=0)), axis=0)
 
 
-def check_indeterminate_generation(box: OffsetBox, *, tol: float = DEFAULT_TOL,
-                                   singular_tol: float = DEFAULT_SINGULAR_TOL) -> None:
-    """The force-indeterminate modes (relaxed utility, Sec. 3.2) are the same at every point
-    of the box when, for every ``k``-subset ``S`` of the rows of ``K = [W^T, -J_E]`` (``k = 3 +
-    |tau_I|``; :func:`planner.predict.indeterminate.scan_indeterminate` reads the modes off the
-    velocity ``z_S`` at which more than ``k`` rows vanish), either ``K_S`` is singular at every
-    vertex (then everywhere: ``det K_S`` is multi-affine), or some contact's normal residual is
-    negative at every vertex (then everywhere: a penetrating ``z_S`` gives no mode), or ``det
-    K_S`` keeps its sign and each other row's residual ``v_r`` (eq. 5; ``det K_S * v_r`` is
-    multi-affine) vanishes at every vertex or keeps a strict sign there -- so the rows that
-    vanish, and the modes read off them, do not change on the box.  Raises
-    :class:`DegenerateError` otherwise (a mode may appear inside the box only)."""
+@dataclass(frozen=True)
+class ModeArrays:
+    """A determinate candidate's arrays in the shape :func:`lifted_range` reads (as
+    :class:`planner.predict.indeterminate.IndeterminateKinematics`)."""
+
+    rows: np.ndarray
+    sliding: np.ndarray
+    contact: np.ndarray
+    codes: np.ndarray
+    xi: np.ndarray
+
+    @property
+    def mode(self) -> Mode:
+        return Mode(tuple(int(c) for c in self.codes), tuple(int(x) for x in self.xi))
+
+
+def candidate_arrays(stage: KinematicStage, i: int) -> ModeArrays:
+    """Candidate ``i`` of a kinematic stage as :class:`ModeArrays`."""
+    c = stage.candidates
+    return ModeArrays(c.rows[i], c.sliding[i], c.contact[i], c.codes[i], stage.xi[i])
+
+
+def check_indeterminate_generation(box: OffsetBox, *, singular_tol: float = DEFAULT_SINGULAR_TOL
+                                   ) -> None:
+    """The force-indeterminate modes (relaxed utility, Sec. 3.2) change on the box only where
+    some vertex shows it.  :func:`planner.predict.indeterminate.scan_indeterminate` reads them
+    off the velocity ``z_S`` of a ``k``-subset ``S`` of the rows of ``K = [W^T, -J_E]`` (``k = 3
+    + |tau_I|``) at which more than ``k`` rows vanish.  ``det K_S`` and ``det K_S * v_r`` (each
+    other row's residual, eq. 5) are multi-affine in the offsets, so when, for every ``S`` not
+    singular at every vertex, each ``det K_S * v_r`` is zero at every vertex or of one strict
+    sign there (:func:`_classify`), the rows that vanish with ``S`` are the same wherever
+    ``K_S`` is regular, and the signs of the others are those of the vertices on the same side
+    of ``det K_S = 0``: a mode appears inside the box only if it appears at a vertex.  A subset
+    with ``det K_S`` of one sign and some contact's normal residual negative at every vertex
+    (penetration, no mode) is skipped.  Raises :class:`DegenerateError` otherwise."""
     s0 = box.systems[0]
     n_r, k = 2 * s0.n_contacts, s0.dof
     if n_r <= k:
         return
     eqs = [equilibrated_kinematics(s) for s in box.systems]
+    zero = np.array([GEN_TOL * eq.b_scale for eq in eqs])[:, None]
     for S in all_subsets(n_r, k):
         dets, vs = [], []
         for eq in eqs:
             aug = np.ascontiguousarray(np.concatenate([eq.Kn, eq.bn[:, None]], axis=1).T)
             det, z = lu_det_solve(np.take(aug, S.T, axis=1))
             dets.append(det)
-            v = np.einsum("rk,kc->cr", eq.Kn, np.nan_to_num(z)) - eq.bn[None]
-            vs.append(v / max(GEN_TOL * eq.b_scale, 1e-300))   # in units of the zero threshold
+            vs.append(np.einsum("rk,kc->cr", eq.Kn, np.nan_to_num(z)) - eq.bn[None])
         det = np.stack(dets)                                   # (V, C)
         v = np.stack(vs)                                       # (V, C, 2 n_c)
         for c in range(S.shape[0]):
@@ -183,73 +217,100 @@ def check_indeterminate_generation(box: OffsetBox, *, tol: float = DEFAULT_TOL,
                 continue
             outside = np.setdiff1d(np.arange(n_r), S[c])
             normal = outside[outside % 2 == 0]
-            if np.any(np.all(v[:, c, normal] < -1.0, axis=0)):
+            one_sign = np.all(det[:, c] > singular_tol) or np.all(det[:, c] < -singular_tol)
+            if one_sign and np.any(np.all(v[:, c, normal] < -zero, axis=0)):
                 continue                                       # a contact penetrates everywhere
-            if np.any(sing) or not (np.all(det[:, c] > 0) or np.all(det[:, c] < 0)):
-                raise DegenerateError(f"contact offsets: the velocity rows {S[c].tolist()} turn "
-                                      "singular inside the box of contact positions, so the "
-                                      "force-indeterminate modes there are not decided at its "
-                                      "corners")
-            r = v[:, c, outside]
-            zero = np.abs(r) <= 1.0
-            steady = np.all(zero, axis=0) | (np.all(r > 1.0, axis=0) | np.all(r < -1.0, axis=0))
-            if not np.all(steady):
+            codes = _classify(det[:, c], v[:, c, outside], zero)
+            if np.all(codes != 0):
+                continue                                       # no extra row vanishes anywhere
+            if np.any(codes == 2):
                 raise DegenerateError(
-                    f"contact offsets: the velocity row {int(outside[~steady][0])} of the rows "
+                    f"contact offsets: the velocity row {int(outside[codes == 2][0])} of the rows "
                     f"{S[c].tolist()} vanishes inside the box of contact positions, so a "
                     "force-indeterminate mode may appear there")
 
 
-def lifted_range(box: OffsetBox, kin: Any, mu: Any, loads: np.ndarray, sel: np.ndarray,
-                 objective: np.ndarray, tau: np.ndarray | None = None) -> tuple[int, float]:
-    """One linear program over a force-indeterminate mode's forces at friction ``mu (n_c,)``,
-    *every* contact position of the box and every load in the hull of ``loads (K, n_q)``
-    (eqs. 21-22, 26).  ``Q_A(s) = Q_0 + sum_i s_i Delta_i`` (only contact ``i``'s normal column
-    moves, module docstring) and its force ``c_in >= 0``, so with ``u_i = s_i c_in`` the union
-    over the box of ``{Q_A(s) c_A - sel tau + [sum_k lambda_k g_k; 0] = [0; -g_man_I], B_A c_A
-    >= 0}`` is exactly the polyhedron with ``Q_0 c_A + sum_i Delta_i u_i`` and ``|u_i| <= half_i
-    c_in`` (given ``u``, ``c``: ``s_i = u_i / c_in``, any ``s_i`` when ``c_in = 0``).  Minimises
-    ``objective . tau`` (``tau (p,)`` free; ``sel (k, p)`` places them), or with ``tau`` given
-    tests feasibility.  Returns ``(status, value)`` as :func:`scipy.optimize.linprog`."""
-    mu_v = np.asarray(mu, dtype=float)
-    Qs = np.stack([force_matrices(s, kin.rows[None], kin.sliding[None], kin.contact[None],
-                                  kin.xi[None], mu_v[None])[0, 0].T for s in box.systems])
+def lifted_range(box: OffsetBox, kin: Any, mu_lo: np.ndarray, mu_hi: np.ndarray,
+                 loads: np.ndarray, sign: float) -> tuple[int, float]:
+    """``min sign * tau`` (one effort joint) over a mode's forces for *every* friction in the
+    box ``[mu_lo, mu_hi]`` (one interval per contact), contact position in ``box`` and load in
+    the hull of ``loads (K, n_q)`` (eqs. 18-22, 26): one linear program.
+
+    ``kin``: the mode's ``rows``, ``sliding``, ``contact``, ``codes``, ``xi`` (as
+    :class:`planner.predict.indeterminate.IndeterminateKinematics`; a determinate mode's
+    candidate arrays do too).  ``Q_A(mu, s) = Q_00 + sum_i s_i Delta_i + sum_i mu_i Gamma_i``:
+    contact ``i``'s offset moves only its normal column (module docstring) and its friction
+    enters only a sliding contact's normal column (``w_n + mu xi w_t``, ``w_t`` free of
+    ``s_i``: no product ``s_i mu_i``).  Every product meets the contact's normal force ``c_in
+    >= 0``, so with ``u_i = s_i c_in`` and ``w_i = mu_i c_in`` the union over the boxes is exactly
+    the polyhedron ``Q_00 c_A + sum_i Delta_i u_i + sum_i Gamma_i w_i - e tau + [sum_k lambda_k
+    g_k; 0] = [0; -g_man_I]`` with ``|u_i| <= half_i c_in``, ``mu_lo,i c_in <= w_i <= mu_hi,i
+    c_in`` and the Coulomb rows of a rolling contact as ``w_i -+ c_it >= 0`` (given a point,
+    ``s_i = u_i / c_in`` and ``mu_i = w_i / c_in``; anything when ``c_in = 0``, where ``u_i =
+    w_i = c_it = 0``).  Returns ``(status, value)`` as :func:`scipy.optimize.linprog`."""
+    s0 = box.systems[0]
+    n_c = s0.n_contacts
+    rows, sliding, contact, codes = kin.rows, kin.sliding, kin.contact, kin.codes
+
+    def q_at(system: System, mu: np.ndarray) -> np.ndarray:
+        return force_matrices(system, rows[None], sliding[None], contact[None], kin.xi[None],
+                              mu[None])[0, 0].T
+
+    zero = np.zeros(n_c)
+    Qs = np.stack([q_at(s, zero) for s in box.systems])
     Q0 = Qs.mean(axis=0)                       # the centre s = 0 (Q_A is affine in s)
+    Gam = q_at(s0, np.ones(n_c)) - q_at(s0, zero)
     k, n_rows = Q0.shape
-    normal = [int(j) for j in range(n_rows) if kin.rows[j] % 2 == 0
-              and box.half[kin.contact[j]] > 0]
-    D = []
-    for j in normal:
-        i = int(kin.contact[j])
-        w = box.corners[:, i]
-        D.append(np.einsum("v,vk->k", w, Qs[:, :, j]) / float(w @ w))
-    D_arr = np.array(D).reshape(len(normal), k).T           # (k, m)
-    m = len(normal)
+    normal = [j for j in range(n_rows) if rows[j] % 2 == 0]
+    moved = [j for j in normal if box.half[contact[j]] > 0]
+    fric = [j for j in normal if sliding[j] or codes[contact[j]] == ROLL]
+    cols = []
+    for j in moved:
+        w = box.corners[:, contact[j]]
+        cols.append(np.einsum("v,vk->k", w, Qs[:, :, j]) / float(w @ w))
+    cols += [Gam[:, j] for j in fric]
+    m_u, m_w = len(moved), len(fric)
     K, n_q = loads.shape
-    E = box.systems[0].effort_joints
-    p = sel.shape[1] if tau is None else 0
+    n_x = n_rows + 1 + K + m_u + m_w
+    e = np.zeros(k)
+    e[n_q] = 1.0
     L = np.zeros((k, K))
     L[:n_q] = loads.T
-    rhs = np.r_[np.zeros(n_q), -box.systems[0].g_man[E]]
-    if tau is not None:
-        rhs = rhs + sel @ tau
-    A_eq = np.vstack([np.hstack([Q0, -sel[:, :p], L, D_arr]),
-                      np.r_[np.zeros(n_rows + p), np.ones(K), np.zeros(m)][None]])
-    b_eq = np.r_[rhs, 1.0]
+    A_eq = np.vstack([np.hstack([Q0, -e[:, None], L,
+                                 np.array(cols).reshape(m_u + m_w, k).T]),
+                      np.r_[np.zeros(n_rows + 1), np.ones(K), np.zeros(m_u + m_w)][None]])
+    b_eq = np.r_[np.zeros(n_q), -s0.g_man[s0.effort_joints], 1.0]
     rs = np.max(np.abs(A_eq), axis=1)
     rs[rs == 0] = 1.0
-    B = coulomb_rows(kin.rows, kin.sliding, kin.contact, kin.codes, mu_v)
-    U = np.zeros((2 * m, n_rows + p + K + m))
-    for a, j in enumerate(normal):
-        h = box.half[kin.contact[j]]
-        U[2 * a, n_rows + p + K + a], U[2 * a, j] = 1.0, -h
-        U[2 * a + 1, n_rows + p + K + a], U[2 * a + 1, j] = -1.0, -h
-    A_ub = np.vstack([np.hstack([-B, np.zeros((len(B), p + K + m))]), U])
-    cost = np.r_[np.zeros(n_rows), objective if tau is None else np.zeros(0), np.zeros(K + m)]
-    res = linprog(cost, A_ub=A_ub, b_ub=np.zeros(len(A_ub)), A_eq=A_eq / rs[:, None],
+    ub = []
+
+    def row(pairs: list[tuple[int, float]]) -> None:
+        line = np.zeros(n_x)
+        for idx, val in pairs:
+            line[idx] += val
+        ub.append(line)
+
+    u0, w0 = n_rows + 1 + K, n_rows + 1 + K + m_u
+    for j in normal:
+        row([(j, -1.0)])                                           # c_in >= 0
+    for a, j in enumerate(moved):
+        h = float(box.half[contact[j]])
+        row([(u0 + a, 1.0), (j, -h)])
+        row([(u0 + a, -1.0), (j, -h)])
+    for a, j in enumerate(fric):
+        i = contact[j]
+        row([(w0 + a, 1.0), (j, -float(mu_hi[i]))])
+        row([(w0 + a, -1.0), (j, float(mu_lo[i]))])
+        if codes[i] == ROLL:
+            jt = int(np.flatnonzero(rows == rows[j] + 1)[0])
+            row([(w0 + a, -1.0), (jt, 1.0)])                       # w_i - c_it >= 0
+            row([(w0 + a, -1.0), (jt, -1.0)])                      # w_i + c_it >= 0
+    cost = np.zeros(n_x)
+    cost[n_rows] = sign
+    res = linprog(cost, A_ub=np.array(ub), b_ub=np.zeros(len(ub)), A_eq=A_eq / rs[:, None],
                   b_eq=b_eq / rs,
-                  bounds=[(None, None)] * (n_rows + p) + [(0.0, None)] * K
-                  + [(None, None)] * m, method="highs")
+                  bounds=[(None, None)] * (n_rows + 1) + [(0.0, None)] * K
+                  + [(None, None)] * (m_u + m_w), method="highs")
     return int(res.status), float(res.fun) if res.status == 0 else np.nan
 
 
@@ -257,7 +318,7 @@ def uniform_indeterminate(box: OffsetBox, *, tol: float = DEFAULT_TOL) -> list[A
     """The force-indeterminate modes of every point of the box (:func:`check_indeterminate_
     generation`, then :func:`planner.predict.indeterminate.indeterminate_kinematics` at every
     vertex, which must agree); the first vertex's kinematics."""
-    check_indeterminate_generation(box, tol=tol)
+    check_indeterminate_generation(box)
     per = [indeterminate_kinematics(s, tol=tol) for s in box.systems]
     labels = [[k.mode.label for k in ks] for ks in per]
     if any(lab != labels[0] for lab in labels[1:]):
@@ -267,18 +328,17 @@ def uniform_indeterminate(box: OffsetBox, *, tol: float = DEFAULT_TOL) -> list[A
     return per[0]
 
 
-def lifted_interval(box: OffsetBox, kin: Any, mu: Any, loads: np.ndarray) -> tuple[float, float]:
-    """``(lower, upper)`` of a force-indeterminate mode's torque (one effort joint) over the
-    box of contact positions and the load hull at friction ``mu`` (:func:`lifted_range`, two
-    programs); ``(inf, -inf)`` when it is infeasible there."""
-    k = box.systems[0].dof
-    sel = np.zeros((k, 1))
-    sel[3:, 0] = 1.0
+def lifted_interval(box: OffsetBox, kin: Any, mu_lo: np.ndarray, mu_hi: np.ndarray,
+                    loads: np.ndarray) -> Interval:
+    """A mode's torque range (one effort joint) over the friction box, the box of contact
+    positions and the load hull: two programs of :func:`lifted_range` -- the exact union when
+    friction is a box (``independent``); for one shared coefficient it contains the union (a
+    box holds the diagonal).  EMPTY when the mode is infeasible everywhere."""
     ends = []
     for sign in (1.0, -1.0):
-        status, val = lifted_range(box, kin, mu, loads, sel, np.array([sign]))
+        status, val = lifted_range(box, kin, mu_lo, mu_hi, loads, sign)
         if status == 2:
-            return np.inf, -np.inf
+            return EMPTY
         if status == 3:
             ends.append(-np.inf if sign > 0 else np.inf)
         elif status == 0:
@@ -286,4 +346,4 @@ def lifted_interval(box: OffsetBox, kin: Any, mu: Any, loads: np.ndarray) -> tup
         else:
             raise DegenerateError(f"torque range LP failed for mode {kin.mode.label} over the "
                                   "box of contact positions")
-    return ends[0], ends[1]
+    return Interval(ends[0], ends[1])
