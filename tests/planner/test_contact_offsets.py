@@ -34,11 +34,13 @@ from planner.model.load_set import LoadSet
 from planner.model.system import System
 from planner.plan.guarantee import guarantee
 from planner.plan.hand_planner import plan_hand
+from planner.plan.load_margins import Tolerance, command_guaranteed, holds, tolerated
 from planner.plan.offset_bounds import offset_box, offset_corners
 from planner.plan.partition import guaranteed_at, joint_inputs
 from planner.plan.plan_file import plan_body
 from planner.predict.feasibility import feasible_modes
 from planner.sweeps.random_hands import random_hand
+from qsplan.commands.plan import uncertainty_words
 
 ROOT = Path(__file__).resolve().parents[2]
 TILT = ROOT / "scenarios" / "data" / "block_tilting.json"
@@ -273,6 +275,13 @@ def test_dense_samples_confirm_the_band_and_catch_a_widened_one(case):
     step = 0.01 * max(abs(a), abs(b))
     for widened in (a - step, b + step):
         assert _violations(hf, g.claim, [widened], vertices, corners, joints_of), widened
+    # the band that ignores the contact positions is wider, and the sampling catches it
+    g0 = guarantee(system, seg.mode, ivs[0] if common else ivs,
+                   model="common" if common else "independent", loads=hand.load_vertices(q))
+    p0 = g0.best()
+    outside = [t for t in (0.5 * (p0.lower + a), 0.5 * (b + p0.upper)) if not a <= t <= b
+               and p0.contains(t)]
+    assert outside and _violations(hf, g.claim, outside, vertices, corners, joints_of)
 
 
 # ---- defaults ---------------------------------------------------------------------------------
@@ -299,3 +308,45 @@ def test_several_effort_joints_are_refused_with_offsets_named():
     with pytest.raises(DegenerateError, match="contact offsets: guaranteed with one "
                                               "effort-controlled joint, got 0"):
         guaranteed_at(hand, hf.q0, (0,), np.array([0.05]), "3S", (0.3, 0.5), "independent")
+
+
+# ---- what the commands tolerate -------------------------------------------------------------
+def test_command_guaranteed_up_to_the_hand_derived_offset(tilt):
+    """A press force ``N`` stays guaranteed while ``N >= N*(-d, -d)``: the largest half-width
+    of every contact is ``d* = (N (mu H - w + x_f) - (w - c_x) m g) / (2 N + m g)``."""
+    hand, q0, _ = tilt
+    N, mu, cx, m = 9.0, 0.8, 0.0375, 0.5
+    d_star = (N * (mu * H - W + XF) - (W - cx) * m * G) / (2 * N + m * G)
+    assert 0.001 < d_star < 0.02
+    for d, expect in ((d_star * (1 - 1e-6), True), (d_star * (1 + 1e-6), False)):
+        h = replace(hand, load_set=_set().widened("contacts", d))
+        assert command_guaranteed(h, q0, (0,), [0.01], CLAIM, mu, "common", [N]) is expect
+
+
+def test_tolerance_words_and_dict_carry_the_contact_axis():
+    tol = Tolerance(0.1, 0.004, 0.001, 0.0001, 0.0021, 0.0001)
+    assert tol.words().endswith("contact positions +-2.1 mm (each axis alone, the others as "
+                                "planned)")
+    d = tol.to_dict()
+    assert d["contacts_m"] == 0.0021 and d["contacts_computed"] is True
+    none = Tolerance(0.1, 0.004, 0.001, 0.0001)
+    assert none.to_dict()["contacts_computed"] is False and "contact" not in none.words()
+    unc = {"set": {"mass": [0.5, 0.5], "com": [[0.03, 0.03], [0.03, 0.03]],
+                   "contacts": {"finger": 0.002, "*": 0.001}}, "tolerated": d}
+    text = uncertainty_words(unc)
+    assert "contact positions finger +-2 mm, other bodies +-1 mm" in text
+    assert "centre of mass +-4 mm, contact positions +-2.1 mm (each axis alone" in text
+
+
+@pytest.mark.long
+def test_tolerated_contact_offset_brackets_hold_and_fail():
+    """The plan of the tilting block with every contact +-1 mm: the certified contact
+    tolerance holds at every waypoint, one resolution further fails."""
+    d = _data(TILT)
+    d["uncertainty"] = {"contacts": 0.001}
+    plan = plan_hand(hand_file_from_dict(d), waypoints=3, margins=False)
+    tol = tolerated(plan, steps=5)
+    base = plan.segments[0].hand_model[0].load_set
+    assert tol.contacts_m is not None and 0.001 <= tol.contacts_m < 0.075
+    assert holds(plan, base.widened("contacts", tol.contacts_m))
+    assert not holds(plan, base.widened("contacts", tol.contacts_m + tol.contacts_resolution_m))
