@@ -32,10 +32,18 @@ from planner.model.geometry import rot90
 from planner.model.hand_parts import rotation
 from planner.model.load_set import LoadSet
 from planner.model.system import System
+from planner.model.validation import friction_interval
 from planner.plan.guarantee import guarantee
 from planner.plan.hand_planner import plan_hand
+from planner.plan.load_bounds import load_bands
 from planner.plan.load_margins import Tolerance, command_guaranteed, holds, tolerated
-from planner.plan.offset_bounds import offset_box, offset_corners
+from planner.plan.offset_bounds import (
+    candidate_arrays,
+    lifted_interval,
+    offset_box,
+    offset_corners,
+    uniform_stages,
+)
 from planner.plan.partition import guaranteed_at, joint_inputs
 from planner.plan.plan_file import plan_body
 from planner.predict.feasibility import feasible_modes
@@ -137,8 +145,8 @@ def test_offset_corners_keep_fixed_contacts_at_zero():
 @pytest.mark.parametrize("d, mass, cx, mu", [
     (0.001, (0.5, 0.5), (0.0375, 0.0375), 0.8),
     (0.002, (0.5, 0.5), (0.0375, 0.0375), 0.8),
-    (0.005, (0.5, 0.5), (0.0375, 0.0375), (0.7, 0.8)),
-    (0.002, (0.4, 0.6), (0.0325, 0.0425), (0.7, 0.8)),
+    pytest.param(0.005, (0.5, 0.5), (0.0375, 0.0375), (0.7, 0.8), marks=pytest.mark.long),
+    pytest.param(0.002, (0.4, 0.6), (0.0325, 0.0425), (0.7, 0.8), marks=pytest.mark.long),
 ])
 def test_tilting_band_is_the_hand_derived_corner(tilt, d, mass, cx, mu):
     hand, q0, joints = tilt
@@ -350,3 +358,36 @@ def test_tolerated_contact_offset_brackets_hold_and_fail():
     assert tol.contacts_m is not None and 0.001 <= tol.contacts_m < 0.075
     assert holds(plan, base.widened("contacts", tol.contacts_m))
     assert not holds(plan, base.widened("contacts", tol.contacts_m + tol.contacts_resolution_m))
+
+
+# ---- two computations of a rival's union agree ------------------------------------------------
+@pytest.mark.long
+@pytest.mark.parametrize("name, drive, rate, mu", [
+    ("block_tilting", (0,), [0.01], [(0.7, 0.8)] * 3),
+    ("two_finger_hand", (1,), [0.02], [(0.2, 0.3), (0.25, 0.3), (0.4, 0.5), (0.3, 0.45)]),
+])
+def test_row_bound_at_vertices_equals_the_lifted_program(name, drive, rate, mu):
+    """A determinate mode's possible set over friction box x contact box: the row bound at the
+    vertex geometries (Lemma 2) and the one lifted linear program (exact union) -- two
+    derivations, one answer."""
+    hf = load_hand_file(ROOT / "scenarios" / "data" / f"{name}.json")
+    hand, q0 = hf.hand, hf.q0
+    joints = joint_inputs(hand, drive, rate)
+    box = offset_box(replace(hand, load_set=_set_for(hand, 0.002)), q0, joints)
+    system = hand.system(q0, 0.0, joints)
+    G = system.g_obj[None]
+    bands = load_bands(system, mu, G, model="independent", box=box)
+    stage, index = uniform_stages(box.systems)[0]
+    lo, hi = friction_interval(mu, hand.n_contacts)
+    assert len(index) >= 2
+    for k, i in enumerate(index):
+        lifted = lifted_interval(box, candidate_arrays(stage, int(i)), lo, hi, G)
+        row = bands[k].possible
+        assert row.empty == lifted.empty, bands[k].label
+        for x, y in ((row.lower, lifted.lower), (row.upper, lifted.upper)):
+            assert x == pytest.approx(y, rel=1e-9, abs=1e-12), bands[k].label
+
+
+def _set_for(hand, d: float) -> LoadSet:
+    c = (float(hand.com[0]), float(hand.com[1]))
+    return LoadSet((hand.mass, hand.mass), ((c[0], c[0]), (c[1], c[1])), hand.mass, c, d)
