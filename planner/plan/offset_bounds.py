@@ -106,14 +106,15 @@ def uniform_stages(systems: Sequence[System], *, tol: float = DEFAULT_TOL,
                    ) -> list[tuple[KinematicStage, np.ndarray]]:
     """Kinematic stage (eqs. 13-16, 23-25) at every vertex geometry ``systems``; returns per
     system ``(stage, index)`` as :func:`planner.plan.bounds.admissible_modes`, with the same
-    admissible candidates and sliding directions at every vertex -- then the same on the whole
-    offset box (module docstring).  Every other candidate must be admissible nowhere on the
-    box: ``P_AI`` singular at every vertex; or ``det P_AI`` of one strict sign and one strict
-    condition (``v_n > 0`` breaking, ``v_t != 0`` sliding) failing at every vertex; or ``det
-    P_AI`` changing sign with every strict condition's ``det * v`` of one strict sign or zero
-    at every vertex (then on each side of ``det = 0`` the conditions' signs are those of the
-    vertices on that side, where it is not admissible).  Raises :class:`DegenerateError` naming
-    a mode for which none holds: it may be admissible inside the box only."""
+    admissible candidates and sliding directions at every vertex and ``det P_AI`` of one strict
+    sign there -- then the same on the whole offset box (module docstring).  Every other
+    candidate must be admissible nowhere on the box: ``P_AI`` singular at every vertex; or
+    ``det P_AI`` of one strict sign and one strict condition (``v_n > 0`` breaking,
+    ``v_t != 0`` sliding) failing at every vertex; or ``det P_AI`` changing sign with every
+    strict condition's ``det * v`` of one strict sign or zero at every vertex (then on each
+    side of ``det = 0`` the conditions' signs are those of the vertices on that side, where it
+    is not admissible).  Raises :class:`DegenerateError` naming a mode for which none holds:
+    it may be admissible inside the box only."""
     if not systems:
         raise DegenerateError("contact offsets: expected at least one vertex geometry, got none")
     cand = enumerate_modes(systems[0].n_contacts, systems[0].dof)
@@ -128,7 +129,8 @@ def uniform_stages(systems: Sequence[System], *, tol: float = DEFAULT_TOL,
     for c in range(len(cand)):
         if np.all(singular[:, c]):
             continue
-        if np.all(ok[:, c]) and np.all(xi[:, c] == xi[0, c]):
+        one_sign = bool(np.all(det[:, c] > singular_tol) or np.all(det[:, c] < -singular_tol))
+        if one_sign and np.all(ok[:, c]) and np.all(xi[:, c] == xi[0, c]):
             continue
         label = Mode(tuple(int(x) for x in cand.codes[c]),
                      tuple(int(x) for x in xi[int(np.argmax(ok[:, c])), c])).label
@@ -136,7 +138,7 @@ def uniform_stages(systems: Sequence[System], *, tol: float = DEFAULT_TOL,
             rows = np.flatnonzero(strict[c])
             vc = v[:, c, rows].copy()
             vc[:, rows % 2 == 1] = np.abs(vc[:, rows % 2 == 1])  # sliding: |v_t| > 0
-            if np.all(det[:, c] > singular_tol) or np.all(det[:, c] < -singular_tol):
+            if one_sign:
                 if np.any(np.all(vc <= zero, axis=0)):
                     continue  # one condition fails at every vertex, so on the box
             elif np.all(_classify(det[:, c], v[:, c, rows], zero) != 2):
