@@ -1,5 +1,5 @@
-"""Contacts whose position along their feature is uncertain: the vertex geometries and the
-kinematic stage over the box of offsets (eqs. 5, 13-16, 23-25, 26).
+"""Contacts whose position along their feature is uncertain: the vertex geometries, the
+kinematic stage over the box of offsets and the lifted force program (eqs. 5, 13-28).
 
 Contact ``i`` moved by ``s_i`` along its contact frame's tangent ``t_i = rot90(n_i)`` (a straight
 feature: the palm, a surface, a link side, a workpiece edge) keeps its normal; its point is
@@ -19,12 +19,16 @@ positions"):
 * a determinant with the same strict sign at every vertex keeps it on the whole box;
 * a kinematic slack (``v_n`` of a breaking contact, ``v_t`` of a sliding one, eqs. 16, 25) times
   that determinant is multi-affine, so a mode admissible at every vertex with the same sliding
-  directions is admissible on the whole box, and one whose same strict condition fails at every
-  vertex is admissible nowhere on it (:func:`uniform_stages`; anything else is refused);
+  directions (and ``det P_AI`` of one sign) is admissible on the whole box, and one whose same
+  strict condition fails at every vertex is admissible nowhere on it (:func:`uniform_stages`;
+  anything else is refused);
 * a Coulomb row's value (eq. 28) at fixed ``tau``, ``mu`` and load is a Cramer ratio with that
   determinant, so it holds on the box iff it holds at every vertex, and a rival's torque bound
   ``-s0/s1`` (a ratio of two multi-affine functions) is monotone in each ``s_i`` and attains its
-  extremes at vertices (:func:`planner.plan.load_bounds.load_bands` with ``geometries``).
+  extremes at vertices (:func:`planner.plan.load_bounds.load_bands` with ``box``);
+* every product of an offset or a friction coefficient with a force meets the contact's normal
+  force ``c_in >= 0``, so a mode's torque set over the friction box, the offset box and the load
+  hull is one linear program in lifted unknowns (:func:`lifted_range`).
 
 Units: offsets in m (world frame, along ``t_i``).
 """
