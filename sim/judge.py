@@ -19,7 +19,8 @@ A system run (:func:`judge_modes`; tolerances derived in docs/simulation.md, "Ju
    :func:`planner.predict.family.admits_unloaded`): the run then shows one of the mode's
    certificates, not another mode; and (c) a contact the mode opens may still read loaded
    until the predicted motion has lifted it out of the penetration the engine measured there
-   (:func:`clearing_times`: a support sunk in the table stays loaded while it rises);
+   (:func:`sim.judge_soft.clearing_times`: a support sunk in the table stays loaded while it
+   rises, at the predicted speed of the point where the engine touches it);
 2. **twist** -- the workpieces' mean twist over the stretch of judged steps in which the
    certificate's configuration holds (:func:`twist_stretch`: every workpiece within
    :data:`~sim.verdict.FORCE_DRIFT_LIMIT` of its size of its start, measured; at least
@@ -62,6 +63,7 @@ from sim.classify import (
     twist_error,
 )
 from sim.expectation import Expectation, Judgement, ModeSet, PlanSchedule, Switches
+from sim.judge_soft import clearing_times
 from sim.run import FaultKind, Recording
 from sim.verdict import (
     FORCE_DRIFT_LIMIT,
@@ -108,7 +110,7 @@ class ModeMatcher:
     cached per observed label (and per set of contacts still clearing their depth).
 
     ``clear_until`` (n_modes, n_c) [s]: run time until which a contact the mode opens may still
-    be loaded (:func:`clearing_times`); ``None``: none may."""
+    be loaded (:func:`sim.judge_soft.clearing_times`); ``None``: none may."""
 
     def __init__(self, expectation: ModeSet, clear_until: np.ndarray | None = None) -> None:
         self.exp = expectation
@@ -237,45 +239,6 @@ def judge_moves(rec: Recording, exp: ModeSet, th: Thresholds) -> Verdict:
         f"no static equilibrium predicted, but the workpieces stayed: {how}, below "
         f"{TWIST_TOLERANCE:.0%} of the reference speed {exp.drive:.3g} m/s",),
         judged_steps=judged)
-
-
-def clearing_times(rec: Recording, exp: ModeSet, th: Thresholds, mask: np.ndarray
-                   ) -> np.ndarray:
-    """(n_modes, n_c) [s]: run time until which each contact a predicted mode opens may still
-    read loaded (``-inf``: judged open from the first judged step).
-
-    A rigid contact opens the instant the motion starts; a soft one (MuJoCo) is sunk by its
-    penetration and stays loaded until the motion has lifted it out. A contact the mode opens
-    at the predicted normal speed ``v_n > 0`` (the certificate's relative contact velocity,
-    eq. 5, times the speed factor) that the engine shows sunk by ``depth`` at the first judged
-    step ``t_0`` opens at ``t_0 + (depth + sink) / v_n``, where ``sink`` is how much deeper the
-    contacts the mode keeps closed sink during the judged steps (measured: a pivot sinks
-    further as it takes over the load, and the body with it). A box tipping at ``omega`` lifts
-    a support at ``d`` from its pivot at ``v_n = omega d``: it opens after the turn
-    ``(depth + sink) / d``. The classifier's centred window reads it open half a window later.
-    Depths are each engine's own measurements: pymunk holds resting contacts about half its
-    collision slop deep (5e-5 of the scene size), MuJoCo's soft ones sink 1e-5 to 1e-3 of it
-    (docs/simulation.md, "Judging a run")."""
-    n_c = rec.present.shape[1]
-    out = np.full((len(exp.modes), n_c), -np.inf)
-    if not mask.any():
-        return out
-    k0 = int(np.flatnonzero(mask)[0])
-    t0 = float(rec.times[k0])
-    depth = np.where(rec.present, np.maximum(rec.depth, 0.0), 0.0)
-    later = depth[mask] - depth[k0]  # (judged steps, n_c) sinking since t0
-    for k, m in enumerate(exp.modes):
-        if len(m.mode.codes) != n_c:
-            continue
-        vn = np.asarray(m.contact_velocities, dtype=float)[:, 0] * exp.velocity_factor
-        breaks = np.array([c == BREAK for c in m.mode.codes], dtype=bool)
-        opens = breaks & (vn > 0) & (depth[k0] > 0)
-        if not opens.any():
-            continue
-        kept = ~breaks & rec.present[k0]
-        sink = max(0.0, float(later[:, kept].max())) if kept.any() else 0.0
-        out[k, opens] = t0 + (depth[k0, opens] + sink) / vn[opens] + 0.5 * th.window
-    return out
 
 
 def drift_from_start(poses: np.ndarray, start: np.ndarray, length: float) -> np.ndarray:
