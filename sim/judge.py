@@ -63,7 +63,7 @@ from sim.classify import (
     twist_error,
 )
 from sim.expectation import Expectation, Judgement, ModeSet, PlanSchedule, Switches
-from sim.judge_soft import clearing_times
+from sim.judge_soft import clearing_times, stretch_readings
 from sim.run import FaultKind, Recording
 from sim.verdict import (
     FORCE_DRIFT_LIMIT,
@@ -110,35 +110,47 @@ class ModeMatcher:
     cached per observed label (and per set of contacts still clearing their depth).
 
     ``clear_until`` (n_modes, n_c) [s]: run time until which a contact the mode opens may still
-    be loaded (:func:`sim.judge_soft.clearing_times`); ``None``: none may."""
+    be loaded (:func:`sim.judge_soft.clearing_times`); ``None``: none may. ``moves_as``
+    (n_modes, n_c) bool: the contact's relative motion over the stretch reads as the mode's
+    token (:func:`sim.judge_soft.stretch_readings`), used for the steps up to ``moves_until``
+    [s] (the end of that stretch); ``None``: not used."""
 
-    def __init__(self, expectation: ModeSet, clear_until: np.ndarray | None = None) -> None:
+    def __init__(self, expectation: ModeSet, clear_until: np.ndarray | None = None,
+                 moves_as: np.ndarray | None = None, moves_until: float = -np.inf) -> None:
         self.exp = expectation
         mu = (np.asarray(expectation.system.mu, dtype=float) if expectation.system is not None
               else None)
         self.frictionless = (mu == 0.0) if mu is not None else None
         self.clear_until = clear_until
-        self._cache: dict[tuple[str, int, tuple[int, ...]], bool] = {}
+        self.moves_as = moves_as
+        self.moves_until = moves_until
+        self._cache: dict[tuple[str, int, tuple[int, ...], bool], bool] = {}
 
-    def matches(self, observed: ObservedMode, t: float = np.inf) -> tuple[int, ...]:
+    def matches(self, observed: ObservedMode, t: float = np.inf, clear: bool = True
+                ) -> tuple[int, ...]:
         """Indices of the predicted modes ``observed`` at run time ``t`` [s] is consistent
-        with (``JAM``: none)."""
+        with (``JAM``: none); ``clear=False``: no contact excused as still clearing its
+        depth (the mode itself)."""
         if isinstance(observed, str):
             return ()
         out = []
+        moving = self.moves_as is not None and t <= self.moves_until
         for k, m in enumerate(self.exp.modes):
             clearing: tuple[int, ...] = ()
-            if self.clear_until is not None:
+            if self.clear_until is not None and clear:
                 clearing = tuple(int(i) for i in np.flatnonzero(t < self.clear_until[k]))
-            key = (observed.label, k, clearing)
+            key = (observed.label, k, clearing, moving)
             if key not in self._cache:
-                self._cache[key] = self._consistent(observed.tokens, m, clearing)
+                self._cache[key] = self._consistent(observed.tokens, m, clearing,
+                                                    k if moving else -1)
             if self._cache[key]:
                 out.append(k)
         return tuple(out)
 
     def _consistent(self, obs: tuple[str, ...], mode: FeasibleMode,
-                    clearing: tuple[int, ...] = ()) -> bool:
+                    clearing: tuple[int, ...] = (), moving: int = -1) -> bool:
+        """``moving``: the index of ``mode`` when a closed contact may be read by its bodies'
+        relative motion over the stretch (``moves_as``), else -1."""
         pred = mode.mode.tokens
         if len(obs) != len(pred):
             return False
@@ -148,6 +160,9 @@ class ModeMatcher:
                 continue
             if p == "B" and i in clearing:
                 continue  # opening, but not yet lifted out of its measured depth
+            if o != "B" and moving >= 0 and self.moves_as is not None and \
+                    self.moves_as[moving, i]:
+                continue  # a closed contact whose bodies move over the stretch as predicted
             if (self.frictionless is not None and self.frictionless[i] and o != "B"
                     and p != "B"):
                 continue  # rolling and sliding are one closed state at zero friction
@@ -184,7 +199,12 @@ def judge_modes(rec: Recording, exp: ModeSet, th: Thresholds
         return Verdict(Outcome.INCONCLUSIVE, ("no step could be judged (the run ended before "
                                               "the settling time)",)), observed
     times = rec.times[mask]
-    matcher = ModeMatcher(exp, clearing_times(rec, exp, th, mask) if exp.modes else None)
+    moves_as, until = None, -np.inf
+    if exp.modes and exp.system is not None and len(judged) > 1:
+        q_obs, until = _judged_twist(rec, exp, th, mask)
+        moves_as = stretch_readings(exp, q_obs, th.slip_speed)
+    matcher = ModeMatcher(exp, clearing_times(rec, exp, th, mask) if exp.modes else None,
+                          moves_as, until)
     hits = [bool(matcher.matches(o, t)) if exp.modes else o == JAM
             for o, t in zip(judged, times)]
     agreement = float(np.mean(hits))
@@ -278,6 +298,16 @@ def _stretch_twist(times: np.ndarray, poses: np.ndarray, k1: int) -> np.ndarray:
     return ((pose[k1] - pose[0]) / float(times[k1] - times[0])).reshape(-1)
 
 
+def _judged_twist(rec: Recording, exp: ModeSet, th: Thresholds, mask: np.ndarray
+                  ) -> tuple[np.ndarray, float]:
+    """The workpieces' mean twist ``(3 n_b,)`` over the stretch of judged steps
+    (:func:`twist_stretch`) and the run time [s] the stretch ends."""
+    idx = [rec.body_names.index(b) for b in exp.bodies]
+    times, poses = rec.times[mask], rec.poses[mask][:, idx]
+    k1 = twist_stretch(times, poses, rec.poses[0][idx], th.length_scale, th.early)
+    return _stretch_twist(times, poses, k1), float(times[k1])
+
+
 def _motion(rec: Recording, exp: ModeSet, th: Thresholds, judged: Sequence[ObservedMode],
             mask: np.ndarray, matcher: ModeMatcher, base: Verdict) -> Verdict:
     """Twist and forces of the judged steps against the reference mode (module docstring,
@@ -285,8 +315,7 @@ def _motion(rec: Recording, exp: ModeSet, th: Thresholds, judged: Sequence[Obser
     idx = [rec.body_names.index(b) for b in exp.bodies]
     times = rec.times[mask]
     poses = rec.poses[mask][:, idx]
-    k1 = twist_stretch(times, poses, rec.poses[0][idx], th.length_scale, th.early)
-    q_obs = _stretch_twist(times, poses, k1)
+    q_obs, _ = _judged_twist(rec, exp, th, mask)
     factor = exp.velocity_factor
     steps_of = np.zeros(len(exp.modes), dtype=int)
     for o, t in zip(judged, times):
@@ -311,7 +340,8 @@ def _motion(rec: Recording, exp: ModeSet, th: Thresholds, judged: Sequence[Obser
         outcome = Outcome.DISAGREED
     # forces: the steps in the reference mode within the early stretch
     # the mode itself: not while a contact it opens is still clearing its depth
-    in_ref = np.array([ref_k in matcher.matches(o) for o in judged], dtype=bool)
+    in_ref = np.array([ref_k in matcher.matches(o, t, clear=False)
+                       for o, t in zip(judged, times)], dtype=bool)
     # forces: over the first ``early`` seconds, nearest the certificate's configuration (a mean
     # of forces needs no long stretch; a pose difference resolves a twist only to depth / T)
     kf = int(np.flatnonzero(times <= float(times[0]) + th.early + 1e-12)[-1]) or len(times) - 1

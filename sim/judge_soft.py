@@ -37,18 +37,21 @@ def opening_speeds(rec: Recording, exp: ModeSet, k: int) -> np.ndarray:
     n_c = rec.present.shape[1]
     out = np.zeros((len(exp.modes), n_c))
     s = exp.system
-    env = tuple(s.environment) if s is not None else ()
-    geometry = (s is not None and s.points is not None and s.normals is not None
-                and len(s.points) == n_c)
+    for m_k, m in enumerate(exp.modes):
+        if len(m.mode.codes) == n_c:
+            out[m_k] = np.asarray(m.contact_velocities, dtype=float)[:, 0] * exp.velocity_factor
+    if s is None or s.points is None or s.normals is None or len(s.points) != n_c:
+        return out
+    env = tuple(s.environment)
+    bodies = tuple(s.contact_bodies) or ((0, -1),) * n_c
+    points = np.asarray(s.points, dtype=np.float64)
+    normals = np.asarray(s.normals, dtype=np.float64)
     for m_k, m in enumerate(exp.modes):
         if len(m.mode.codes) != n_c:
             continue
-        out[m_k] = np.asarray(m.contact_velocities, dtype=float)[:, 0] * exp.velocity_factor
-        if not geometry:
-            continue
         q = np.asarray(m.qdot, dtype=float).reshape(-1, 3) * exp.velocity_factor
         for i in range(n_c):
-            a, b = s.contact_bodies[i]
+            a, b = bodies[i]
             p = np.asarray(rec.points[k, i], dtype=float)
             fixed_other = b < 0 and len(env) == n_c and env[i]
             if not (b >= 0 or fixed_other) or not np.all(np.isfinite(p)):
@@ -56,8 +59,8 @@ def opening_speeds(rec: Recording, exp: ModeSet, k: int) -> np.ndarray:
             x, y, theta = rec.poses[k, rec.body_names.index(exp.bodies[a])]
             c, sn = np.cos(theta), np.sin(theta)
             rot = np.array([[c, -sn], [sn, c]])
-            r = rot @ np.asarray(s.points[i], dtype=float) + np.array([x, y])
-            n = rot @ np.asarray(s.normals[i], dtype=float)
+            r = rot @ points[i] + np.array([x, y])
+            n = rot @ normals[i]
             w = q[a, 2] - (q[b, 2] if b >= 0 else 0.0)
             d = p - r
             out[m_k, i] += w * (n[1] * d[0] - n[0] * d[1])  # n . (w z x d)
@@ -100,4 +103,30 @@ def clearing_times(rec: Recording, exp: ModeSet, th: Thresholds, mask: np.ndarra
         kept = ~breaks & rec.present[k0]
         sink = max(0.0, float(later[:, kept].max())) if kept.any() else 0.0
         out[k, opens] = t0 + (depth[k0, opens] + sink) / vn[opens] + 0.5 * th.window
+    return out
+
+
+def stretch_readings(exp: ModeSet, q_obs: np.ndarray, slip_speed: float) -> np.ndarray:
+    """(n_modes, n_c) bool: whether each contact's **relative motion over the stretch** reads as
+    the mode's token there -- ``R`` when ``|v_t| <= slip_speed`` [m/s], ``S+`` / ``S-`` beyond
+    it (the classifier's threshold, :class:`sim.classify.Thresholds`); never for ``B``.
+
+    ``v_t`` is eq. 5's tangential row with the workpieces' twist measured over the stretch
+    ``q_obs`` (3 n_b,) (:func:`sim.judge.twist_stretch`) in place of the prediction's: ``v =
+    W^T q_obs - J thetadot``, i.e. the certificate's contact velocity (times the speed factor)
+    plus ``W^T (q_obs - q_pred)`` -- the manipulator moves as commanded. It is the relative
+    motion of the contact's two bodies over the stretch, which a soft contact's elastic give
+    cannot fake: a contact's tangential spring-back is bounded by its deformation ``x``, so it
+    adds at most ``2 x / T`` to a mean slip over ``T``, while the classifier's per-step window
+    (0.1 s) resolves only ``2 x / 0.1 s`` (docs/simulation.md, "Judging a run")."""
+    if exp.system is None:
+        raise ValueError("stretch_readings: expected an expectation with its system, got none")
+    out = np.zeros((len(exp.modes), exp.system.n_contacts), dtype=bool)
+    W = np.asarray(exp.system.W, dtype=float)
+    for k, m in enumerate(exp.modes):
+        q_pred = np.asarray(m.qdot, dtype=float) * exp.velocity_factor
+        v_t = (np.asarray(m.contact_velocities, dtype=float)[:, 1] * exp.velocity_factor
+               + (W.T @ (np.asarray(q_obs, dtype=float) - q_pred))[1::2])
+        read = np.where(v_t > slip_speed, "S+", np.where(v_t < -slip_speed, "S-", "R"))
+        out[k] = [tok != "B" and tok == r for tok, r in zip(m.mode.tokens, read)]
     return out

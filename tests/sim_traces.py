@@ -120,10 +120,10 @@ class CampaignTrace:
         from planner.files.system_file import system_from_dict
         from planner.sweeps.user_files import mirror_system
 
-        base = system_from_dict(self.meta["file"])
+        data = self.meta["file"]
         if self.meta.get("control_system") == "mirror image":
-            base = mirror_system(base)
-        control = base.with_mu(np.asarray(self.meta["control_mu"]))
+            data = mirror_system(data)
+        control = system_from_dict(data).with_mu(np.asarray(self.meta["control_mu"]))
         exp = self.expectation()
         modes = tuple(feasible_modes(control).all_modes)
         assert not set(m.label for m in modes) & set(exp.labels)

@@ -70,6 +70,17 @@ CAMPAIGN_TRACES = {
     # seed 6 supports 9: a box on 7 supports tipping about the other corner (mirrored)
     "mujoco_seed6_supports9_tips": ("validation_campaign_seed6.jsonl", 36, "mujoco"),
     "pymunk_seed6_supports9_tips": ("validation_campaign_seed6.jsonl", 37, "pymunk"),
+    # seed 5 stacked 2: two blocks slide on the table, pushed by a finger that sticks; MuJoCo's
+    # finger contact chatters (missing on 11 % of the steps) and its slip reading flickers
+    "mujoco_seed5_stacked2_finger_sticks": (
+        "validation_campaign_seed5_soft_contacts.jsonl", 10, "mujoco"),
+    "pymunk_seed5_stacked2_finger_sticks": (
+        "validation_campaign_seed5_soft_contacts.jsonl", 11, "pymunk"),
+    # seed 5 stacked 9: the top block slides on the middle one; its sticking finger chatters
+    "mujoco_seed5_stacked9_top_slides": (
+        "validation_campaign_seed5_soft_contacts.jsonl", 38, "mujoco"),
+    "pymunk_seed5_stacked9_top_slides": (
+        "validation_campaign_seed5_soft_contacts.jsonl", 39, "pymunk"),
 }
 RESULTS = HERE.parents[1] / "benchmarks" / "results"
 

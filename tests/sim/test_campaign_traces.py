@@ -10,6 +10,13 @@ point; the clearing time uses the predicted twist at that recorded point
 (:func:`sim.judge_soft.opening_speeds`, docs/simulation.md "Judging a run"). Each run agrees
 in both engines, its negative control (the campaign's: another friction, sliding) disagrees,
 and a support kept loaded past its clearing time still disagrees.
+
+Blocks stacked on their corners (seed 5, stacked 2 and 9): the blocks move as predicted while
+MuJoCo's sticking finger contact chatters and its window slip reading flickers across the slip
+threshold. Over the stretch in which the certificate's configuration holds, a closed contact
+is read by its two bodies' relative motion there (:func:`sim.judge_soft.stretch_readings`);
+each run agrees in both engines, its control does not, and a sticking contact whose bodies
+really slip over the stretch is not excused.
 """
 
 from __future__ import annotations
@@ -29,20 +36,27 @@ from sim.verdict import Outcome
 
 TIPPING = ("mujoco_seed6_supports6_tips", "pymunk_seed6_supports6_tips",
            "mujoco_seed6_supports9_tips", "pymunk_seed6_supports9_tips")
+STACKED = ("mujoco_seed5_stacked2_finger_sticks", "pymunk_seed5_stacked2_finger_sticks",
+           "mujoco_seed5_stacked9_top_slides", "pymunk_seed5_stacked9_top_slides")
 
 
-@pytest.mark.parametrize("name", TIPPING)
-def test_a_tipping_box_on_many_supports_agrees(name: str) -> None:
+@pytest.mark.parametrize("name", TIPPING + STACKED)
+def test_a_recorded_campaign_run_agrees(name: str) -> None:
     trace = load_campaign_trace(name)
     verdict = judge(trace.rec, trace.expectation(), trace.thresholds()).verdict
     assert verdict.outcome is Outcome.AGREED, verdict.reasons
 
 
-@pytest.mark.parametrize("name", TIPPING)
-def test_the_negative_control_of_a_tipping_box_disagrees(name: str) -> None:
+@pytest.mark.parametrize("name", TIPPING + STACKED)
+def test_the_negative_control_does_not_agree(name: str) -> None:
+    """The campaign's control (another friction, or the mirror image: no mode in common) is
+    never agreed -- disagreed, or inconclusive where the engine moved a block by position
+    correction (stacked 9 in MuJoCo, 17 % of the steps)."""
     trace = load_campaign_trace(name)
     verdict = judge(trace.rec, trace.control(), trace.thresholds()).verdict
-    assert verdict.outcome is Outcome.DISAGREED, verdict.reasons
+    assert verdict.outcome is not Outcome.AGREED, verdict.reasons
+    if name in TIPPING:
+        assert verdict.outcome is Outcome.DISAGREED, verdict.reasons
 
 
 def _last_support(name: str) -> tuple[object, int, int]:
@@ -85,7 +99,22 @@ def test_a_support_loaded_past_its_clearing_time_still_disagrees() -> None:
     assert rec.times[k0] < clear < rec.times[-1] - 0.5
     last = int(np.flatnonzero(rec.present[:, i])[-1])
     fields = {f: getattr(rec, f).copy() for f in ("present", "normal_force", "depth", "points")}
-    for f, a in fields.items():
+    for a in fields.values():
         a[last:, i] = a[last, i]
     verdict = judge(replace(rec, **fields), exp, th).verdict
     assert verdict.outcome is Outcome.DISAGREED, verdict.reasons
+
+
+def test_a_sticking_finger_whose_bodies_slip_over_the_stretch_is_not_excused() -> None:
+    """The MuJoCo stacked-blocks run with both blocks moved up by 7 % of the drive speed (above
+    the slip threshold of 5 %, below the twist tolerance of 10 %): the finger predicted to stick
+    now slips along its face over the stretch, its flickering readings are not read as
+    sticking, and the run does not agree (before: agreed)."""
+    trace = load_campaign_trace("mujoco_seed5_stacked2_finger_sticks")
+    exp, th = trace.expectation(), trace.thresholds()
+    assert judge(trace.rec, exp, th).verdict.outcome is Outcome.AGREED
+    poses = trace.rec.poses.copy()
+    poses[:, :, 1] += 0.07 * exp.drive * trace.rec.times[:, None]
+    verdict = judge(replace(trace.rec, poses=poses), exp, th).verdict
+    assert verdict.outcome is not Outcome.AGREED, verdict.reasons
+    assert verdict.motion.twist_error < 0.1
