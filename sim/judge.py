@@ -20,7 +20,10 @@ A system run (:func:`judge_modes`; tolerances derived in docs/simulation.md, "Ju
    certificates, not another mode; and (c) a contact the mode opens may still read loaded
    until the predicted motion has lifted it out of the penetration the engine measured there
    (:func:`sim.judge_soft.clearing_times`: a support sunk in the table stays loaded while it
-   rises, at the predicted speed of the point where the engine touches it);
+   rises, at the predicted speed of the point where the engine touches it); and (d) over the
+   stretch of item 2, a closed contact shows the predicted token when its two bodies'
+   relative motion there reads as it (:func:`sim.judge_soft.stretch_readings`: a soft
+   contact's elastic give flickers its window slip reading, not the bodies' motion);
 2. **twist** -- the workpieces' mean twist over the stretch of judged steps in which the
    certificate's configuration holds (:func:`twist_stretch`: every workpiece within
    :data:`~sim.verdict.FORCE_DRIFT_LIMIT` of its size of its start, measured; at least
