@@ -19,7 +19,11 @@ A system run (:func:`judge_modes`; tolerances derived in docs/simulation.md, "Ju
    :func:`planner.predict.family.admits_unloaded`): the run then shows one of the mode's
    certificates, not another mode; and (c) a contact the mode opens may still read loaded
    until the predicted motion has lifted it out of the penetration the engine measured there
-   (:func:`clearing_times`: a support sunk in the table stays loaded while it rises);
+   (:func:`sim.judge_soft.clearing_times`: a support sunk in the table stays loaded while it
+   rises, at the predicted speed of the point where the engine touches it); and (d) over the
+   stretch of item 2, a closed contact shows the predicted token when its two bodies'
+   relative motion there reads as it (:func:`sim.judge_soft.stretch_readings`: a soft
+   contact's elastic give flickers its window slip reading, not the bodies' motion);
 2. **twist** -- the workpieces' mean twist over the stretch of judged steps in which the
    certificate's configuration holds (:func:`twist_stretch`: every workpiece within
    :data:`~sim.verdict.FORCE_DRIFT_LIMIT` of its size of its start, measured; at least
@@ -62,6 +66,7 @@ from sim.classify import (
     twist_error,
 )
 from sim.expectation import Expectation, Judgement, ModeSet, PlanSchedule, Switches
+from sim.judge_soft import clearing_times, stretch_readings
 from sim.run import FaultKind, Recording
 from sim.verdict import (
     FORCE_DRIFT_LIMIT,
@@ -108,35 +113,47 @@ class ModeMatcher:
     cached per observed label (and per set of contacts still clearing their depth).
 
     ``clear_until`` (n_modes, n_c) [s]: run time until which a contact the mode opens may still
-    be loaded (:func:`clearing_times`); ``None``: none may."""
+    be loaded (:func:`sim.judge_soft.clearing_times`); ``None``: none may. ``moves_as``
+    (n_modes, n_c) bool: the contact's relative motion over the stretch reads as the mode's
+    token (:func:`sim.judge_soft.stretch_readings`), used for the steps up to ``moves_until``
+    [s] (the end of that stretch); ``None``: not used."""
 
-    def __init__(self, expectation: ModeSet, clear_until: np.ndarray | None = None) -> None:
+    def __init__(self, expectation: ModeSet, clear_until: np.ndarray | None = None,
+                 moves_as: np.ndarray | None = None, moves_until: float = -np.inf) -> None:
         self.exp = expectation
         mu = (np.asarray(expectation.system.mu, dtype=float) if expectation.system is not None
               else None)
         self.frictionless = (mu == 0.0) if mu is not None else None
         self.clear_until = clear_until
-        self._cache: dict[tuple[str, int, tuple[int, ...]], bool] = {}
+        self.moves_as = moves_as
+        self.moves_until = moves_until
+        self._cache: dict[tuple[str, int, tuple[int, ...], bool], bool] = {}
 
-    def matches(self, observed: ObservedMode, t: float = np.inf) -> tuple[int, ...]:
+    def matches(self, observed: ObservedMode, t: float = np.inf, clear: bool = True
+                ) -> tuple[int, ...]:
         """Indices of the predicted modes ``observed`` at run time ``t`` [s] is consistent
-        with (``JAM``: none)."""
+        with (``JAM``: none); ``clear=False``: no contact excused as still clearing its
+        depth (the mode itself)."""
         if isinstance(observed, str):
             return ()
         out = []
+        moving = self.moves_as is not None and t <= self.moves_until
         for k, m in enumerate(self.exp.modes):
             clearing: tuple[int, ...] = ()
-            if self.clear_until is not None:
+            if self.clear_until is not None and clear:
                 clearing = tuple(int(i) for i in np.flatnonzero(t < self.clear_until[k]))
-            key = (observed.label, k, clearing)
+            key = (observed.label, k, clearing, moving)
             if key not in self._cache:
-                self._cache[key] = self._consistent(observed.tokens, m, clearing)
+                self._cache[key] = self._consistent(observed.tokens, m, clearing,
+                                                    k if moving else -1)
             if self._cache[key]:
                 out.append(k)
         return tuple(out)
 
     def _consistent(self, obs: tuple[str, ...], mode: FeasibleMode,
-                    clearing: tuple[int, ...] = ()) -> bool:
+                    clearing: tuple[int, ...] = (), moving: int = -1) -> bool:
+        """``moving``: the index of ``mode`` when a closed contact may be read by its bodies'
+        relative motion over the stretch (``moves_as``), else -1."""
         pred = mode.mode.tokens
         if len(obs) != len(pred):
             return False
@@ -146,6 +163,9 @@ class ModeMatcher:
                 continue
             if p == "B" and i in clearing:
                 continue  # opening, but not yet lifted out of its measured depth
+            if o != "B" and moving >= 0 and self.moves_as is not None and \
+                    self.moves_as[moving, i]:
+                continue  # a closed contact whose bodies move over the stretch as predicted
             if (self.frictionless is not None and self.frictionless[i] and o != "B"
                     and p != "B"):
                 continue  # rolling and sliding are one closed state at zero friction
@@ -182,7 +202,12 @@ def judge_modes(rec: Recording, exp: ModeSet, th: Thresholds
         return Verdict(Outcome.INCONCLUSIVE, ("no step could be judged (the run ended before "
                                               "the settling time)",)), observed
     times = rec.times[mask]
-    matcher = ModeMatcher(exp, clearing_times(rec, exp, th, mask) if exp.modes else None)
+    moves_as, until = None, -np.inf
+    if exp.modes and exp.system is not None and len(judged) > 1:
+        q_obs, until = _judged_twist(rec, exp, th, mask)
+        moves_as = stretch_readings(exp, q_obs, th.slip_speed)
+    matcher = ModeMatcher(exp, clearing_times(rec, exp, th, mask) if exp.modes else None,
+                          moves_as, until)
     hits = [bool(matcher.matches(o, t)) if exp.modes else o == JAM
             for o, t in zip(judged, times)]
     agreement = float(np.mean(hits))
@@ -239,45 +264,6 @@ def judge_moves(rec: Recording, exp: ModeSet, th: Thresholds) -> Verdict:
         judged_steps=judged)
 
 
-def clearing_times(rec: Recording, exp: ModeSet, th: Thresholds, mask: np.ndarray
-                   ) -> np.ndarray:
-    """(n_modes, n_c) [s]: run time until which each contact a predicted mode opens may still
-    read loaded (``-inf``: judged open from the first judged step).
-
-    A rigid contact opens the instant the motion starts; a soft one (MuJoCo) is sunk by its
-    penetration and stays loaded until the motion has lifted it out. A contact the mode opens
-    at the predicted normal speed ``v_n > 0`` (the certificate's relative contact velocity,
-    eq. 5, times the speed factor) that the engine shows sunk by ``depth`` at the first judged
-    step ``t_0`` opens at ``t_0 + (depth + sink) / v_n``, where ``sink`` is how much deeper the
-    contacts the mode keeps closed sink during the judged steps (measured: a pivot sinks
-    further as it takes over the load, and the body with it). A box tipping at ``omega`` lifts
-    a support at ``d`` from its pivot at ``v_n = omega d``: it opens after the turn
-    ``(depth + sink) / d``. The classifier's centred window reads it open half a window later.
-    Depths are each engine's own measurements: pymunk holds resting contacts about half its
-    collision slop deep (5e-5 of the scene size), MuJoCo's soft ones sink 1e-5 to 1e-3 of it
-    (docs/simulation.md, "Judging a run")."""
-    n_c = rec.present.shape[1]
-    out = np.full((len(exp.modes), n_c), -np.inf)
-    if not mask.any():
-        return out
-    k0 = int(np.flatnonzero(mask)[0])
-    t0 = float(rec.times[k0])
-    depth = np.where(rec.present, np.maximum(rec.depth, 0.0), 0.0)
-    later = depth[mask] - depth[k0]  # (judged steps, n_c) sinking since t0
-    for k, m in enumerate(exp.modes):
-        if len(m.mode.codes) != n_c:
-            continue
-        vn = np.asarray(m.contact_velocities, dtype=float)[:, 0] * exp.velocity_factor
-        breaks = np.array([c == BREAK for c in m.mode.codes], dtype=bool)
-        opens = breaks & (vn > 0) & (depth[k0] > 0)
-        if not opens.any():
-            continue
-        kept = ~breaks & rec.present[k0]
-        sink = max(0.0, float(later[:, kept].max())) if kept.any() else 0.0
-        out[k, opens] = t0 + (depth[k0, opens] + sink) / vn[opens] + 0.5 * th.window
-    return out
-
-
 def drift_from_start(poses: np.ndarray, start: np.ndarray, length: float) -> np.ndarray:
     """(T,) largest distance of a workpiece from its pose ``start`` (n_b, 3) -- the
     certificate's configuration -- over ``length`` [m] (rotation weighted by it), for poses
@@ -315,6 +301,16 @@ def _stretch_twist(times: np.ndarray, poses: np.ndarray, k1: int) -> np.ndarray:
     return ((pose[k1] - pose[0]) / float(times[k1] - times[0])).reshape(-1)
 
 
+def _judged_twist(rec: Recording, exp: ModeSet, th: Thresholds, mask: np.ndarray
+                  ) -> tuple[np.ndarray, float]:
+    """The workpieces' mean twist ``(3 n_b,)`` over the stretch of judged steps
+    (:func:`twist_stretch`) and the run time [s] the stretch ends."""
+    idx = [rec.body_names.index(b) for b in exp.bodies]
+    times, poses = rec.times[mask], rec.poses[mask][:, idx]
+    k1 = twist_stretch(times, poses, rec.poses[0][idx], th.length_scale, th.early)
+    return _stretch_twist(times, poses, k1), float(times[k1])
+
+
 def _motion(rec: Recording, exp: ModeSet, th: Thresholds, judged: Sequence[ObservedMode],
             mask: np.ndarray, matcher: ModeMatcher, base: Verdict) -> Verdict:
     """Twist and forces of the judged steps against the reference mode (module docstring,
@@ -322,8 +318,7 @@ def _motion(rec: Recording, exp: ModeSet, th: Thresholds, judged: Sequence[Obser
     idx = [rec.body_names.index(b) for b in exp.bodies]
     times = rec.times[mask]
     poses = rec.poses[mask][:, idx]
-    k1 = twist_stretch(times, poses, rec.poses[0][idx], th.length_scale, th.early)
-    q_obs = _stretch_twist(times, poses, k1)
+    q_obs, _ = _judged_twist(rec, exp, th, mask)
     factor = exp.velocity_factor
     steps_of = np.zeros(len(exp.modes), dtype=int)
     for o, t in zip(judged, times):
@@ -348,7 +343,8 @@ def _motion(rec: Recording, exp: ModeSet, th: Thresholds, judged: Sequence[Obser
         outcome = Outcome.DISAGREED
     # forces: the steps in the reference mode within the early stretch
     # the mode itself: not while a contact it opens is still clearing its depth
-    in_ref = np.array([ref_k in matcher.matches(o) for o in judged], dtype=bool)
+    in_ref = np.array([ref_k in matcher.matches(o, t, clear=False)
+                       for o, t in zip(judged, times)], dtype=bool)
     # forces: over the first ``early`` seconds, nearest the certificate's configuration (a mean
     # of forces needs no long stretch; a pose difference resolves a twist only to depth / T)
     kf = int(np.flatnonzero(times <= float(times[0]) + th.early + 1e-12)[-1]) or len(times) - 1

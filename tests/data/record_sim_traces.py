@@ -1,4 +1,5 @@
-"""Record the short simulator traces that tests/sim/test_sim_flicker.py classifies.
+"""Record the short simulator traces that tests/sim/test_sim_flicker.py classifies, and the
+validation campaign's runs that tests/sim/test_campaign_traces.py judges.
 
 Run from the repository root: ``PYTHONPATH=.:tests python tests/data/record_sim_traces.py
 [NAME ...]`` (the traces named, else all).
@@ -10,6 +11,14 @@ and jams for the classifier's tests, not the pipeline's settings) cut to the
 ``depth`` (T, P) and ``present`` (T, P), the workpiece ``poses`` (T, 3), and ``meta`` (a JSON
 string: engine, data, scale, mu, speed, load, creep, settle, length_scale). The tests rebuild the
 prediction from the planner; nothing predicted is stored.
+
+A **campaign trace** (:data:`CAMPAIGN_TRACES`) is one row of a validation campaign's results
+file (its system file, friction and negative control), simulated again through
+:func:`scenarios.runs.simulate_system` -- the path of ``qsplan simulate FILE --engine E`` --
+and stored whole in ``tests/data/campaign_trace_<name>.npz``: ``times`` (T,), per pair ``vt``,
+``fn``, ``ft``, ``depth``, ``present`` (T, P) and the contact ``points`` (T, P, 2) [m, world
+frame], the workpieces' ``poses`` (T, n_b, 3), and ``meta`` (engine, the system ``file``, ``mu``,
+``control_mu``, ``control_system``, the row it came from).
 """
 
 from __future__ import annotations
@@ -51,7 +60,62 @@ TRACES = {
 }
 
 
+#: name -> (results file under benchmarks/results, row index, engine): campaign rows whose
+#: MuJoCo verdict missed while pymunk and DART agreed, and the same points in pymunk
+CAMPAIGN_TRACES = {
+    # seed 6 supports 6: a 2.1 x 6.0 m box on 9 supports tipping about its corner; MuJoCo's
+    # support next to the pivot touches it 0.085 m from the pivot (the model's: 0.262 m)
+    "mujoco_seed6_supports6_tips": ("validation_campaign_seed6.jsonl", 24, "mujoco"),
+    "pymunk_seed6_supports6_tips": ("validation_campaign_seed6.jsonl", 25, "pymunk"),
+    # seed 6 supports 9: a box on 7 supports tipping about the other corner (mirrored)
+    "mujoco_seed6_supports9_tips": ("validation_campaign_seed6.jsonl", 36, "mujoco"),
+    "pymunk_seed6_supports9_tips": ("validation_campaign_seed6.jsonl", 37, "pymunk"),
+    # seed 5 stacked 2: two blocks slide on the table, pushed by a finger that sticks; MuJoCo's
+    # finger contact chatters (missing on 11 % of the steps) and its slip reading flickers
+    "mujoco_seed5_stacked2_finger_sticks": (
+        "validation_campaign_seed5_soft_contacts.jsonl", 10, "mujoco"),
+    "pymunk_seed5_stacked2_finger_sticks": (
+        "validation_campaign_seed5_soft_contacts.jsonl", 11, "pymunk"),
+    # seed 5 stacked 9: the top block slides on the middle one; its sticking finger chatters
+    "mujoco_seed5_stacked9_top_slides": (
+        "validation_campaign_seed5_soft_contacts.jsonl", 38, "mujoco"),
+    "pymunk_seed5_stacked9_top_slides": (
+        "validation_campaign_seed5_soft_contacts.jsonl", 39, "pymunk"),
+}
+RESULTS = HERE.parents[1] / "benchmarks" / "results"
+
+
+def record_campaign(name: str) -> Path:
+    """Simulate one campaign row again as ``qsplan simulate`` does and store the run whole
+    (module docstring)."""
+    from planner.files.system_file import system_from_dict
+    from scenarios.runs import simulate_system
+
+    results, index, engine = CAMPAIGN_TRACES[name]
+    row = [json.loads(line) for line in (RESULTS / results).read_text().splitlines()][index]
+    assert row["engine"] == engine, (row["engine"], engine)
+    system = system_from_dict(row["file"])
+    res = simulate_system(system, engine, mu=np.asarray(row["mu"]))
+    rec = res.recording
+    assert rec.fault is None, rec.fault
+    idx = [rec.body_names.index(b) for b in res.job.expectation.bodies]
+    meta = {"engine": engine, "file": row["file"], "mu": row["mu"],
+            "control_mu": row["control_mu"], "control_system": row.get("control_system"),
+            "row": f"{results} #{index}: {row['case']} {row['index']} (seed {row['seed']})",
+            "bodies": list(res.job.expectation.bodies)}
+    path = HERE / f"campaign_trace_{name}.npz"
+    np.savez_compressed(
+        path, times=rec.times, vt=rec.slip_velocity.astype(np.float32),
+        fn=rec.normal_force.astype(np.float32), ft=rec.tangent_force.astype(np.float32),
+        depth=rec.depth.astype(np.float32), present=rec.present,
+        points=rec.points.astype(np.float32), poses=rec.poses[:, idx],
+        meta=np.array(json.dumps(meta)))
+    return path
+
+
 def record(name: str) -> Path:
+    if name in CAMPAIGN_TRACES:
+        return record_campaign(name)
     engine, data, scale, mu, start, stop = TRACES[name]
     es = RECORDED_WITH[engine]
     speed = float(es["speed"])
@@ -80,6 +144,6 @@ def record(name: str) -> Path:
 if __name__ == "__main__":
     import sys
 
-    for nm in sys.argv[1:] or TRACES:  # the traces named, else all
+    for nm in sys.argv[1:] or [*TRACES, *CAMPAIGN_TRACES]:  # the traces named, else all
         p = record(nm)
         print(f"{p.name}: {p.stat().st_size / 1024:.0f} KiB")

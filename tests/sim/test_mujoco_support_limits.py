@@ -12,7 +12,7 @@ Both files are validation-campaign points away from region boundaries on which p
 * ``tall_box_on_3_supports_tips.json``: a tall box on 3 supports tipping about its front
   corner; MuJoCo tips it at the predicted rate, but the middle support, half a width from the
   pivot, keeps its load until the turn has lifted it out of its penetration: judged open from
-  its clearing time (:func:`sim.judge.clearing_times`) on, the run agrees.
+  its clearing time (:func:`sim.judge_soft.clearing_times`) on, the run agrees.
 
 Each ran ``disagreed`` with the judge's fixed 0.2 s stretch and without the clearing time.
 """

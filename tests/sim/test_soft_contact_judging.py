@@ -5,7 +5,7 @@ each verdict turns on that effect alone. No simulator runs here.
 
 * A support the predicted mode opens, sunk in a soft table: it may read loaded until the
   predicted motion has lifted it out of the depth the engine measured there (the clearing
-  time, :func:`sim.judge.clearing_times`), and not longer; a measured depth of zero excuses
+  time, :func:`sim.judge_soft.clearing_times`), and not longer; a measured depth of zero excuses
   nothing.
 * A box rocking in a stick-slip cycle shorter than the compared stretch: the twist over the
   stretch in which the certificate's configuration holds (:func:`sim.judge.twist_stretch`)
@@ -24,7 +24,8 @@ from planner.predict.feasibility import feasible_modes
 from planner.predict.stages import FeasibleMode
 from sim.classify import Thresholds, twist_error
 from sim.expectation import ModeSet
-from sim.judge import clearing_times, judge_modes, twist_stretch
+from sim.judge import judge_modes, twist_stretch
+from sim.judge_soft import clearing_times
 from sim.run import Recording
 from sim.scenes.system import commanded_contact_speed, system_size
 from sim.verdict import FORCE_DRIFT_LIMIT, TWIST_TOLERANCE, Outcome
@@ -53,7 +54,8 @@ def _recording(mode: FeasibleMode, factor: float, rotation: np.ndarray | None = 
                ) -> Recording:
     """A run that shows ``mode`` on every step: poses along its twist (``rotation`` (T,)
     replaces the angle), contacts it keeps closed loaded with its certificate forces and
-    sliding at its contact velocities, sunk 10 um; contacts it opens absent."""
+    sliding at its contact velocities, sunk 10 um, touching at the model's contact points
+    (carried with the box); contacts it opens absent."""
     t = np.arange(0.0, DURATION + DT / 2, DT)
     T, P = len(t), len(mode.mode.codes)
     q = np.asarray(mode.qdot, dtype=float) * factor
@@ -64,13 +66,18 @@ def _recording(mode: FeasibleMode, factor: float, rotation: np.ndarray | None = 
     present = np.tile(closed, (T, 1))
     f = np.asarray(mode.contact_forces, dtype=float)
     v = np.asarray(mode.contact_velocities, dtype=float) * factor
+    system = TIPS if P == TIPS.n_contacts else SLIDES
+    c, s = np.cos(poses[:, 0, 2]), np.sin(poses[:, 0, 2])
+    r = np.asarray(system.points, dtype=float)  # (P, 2) at the start
+    points = np.stack([c[:, None] * r[:, 0] - s[:, None] * r[:, 1] + poses[:, 0, :1],
+                       s[:, None] * r[:, 0] + c[:, None] * r[:, 1] + poses[:, 0, 1:2]], axis=2)
     return Recording(
         engine="constructed", pair_names=tuple(f"c{i + 1}" for i in range(P)),
         body_names=("workpiece",), times=t, poses=poses, present=present,
-        points=np.zeros((T, P, 2)), normals=np.zeros((T, P, 2)),
+        points=points, normals=np.zeros((T, P, 2)),
         normal_force=np.where(present, f[:, 0], 0.0), tangent_force=np.where(present, f[:, 1], 0.0),
         slip_velocity=np.where(present, v[:, 1], 0.0), depth=np.where(present, 1e-5, 0.0),
-        mu_used=np.tile(np.asarray(TIPS.mu if P == TIPS.n_contacts else SLIDES.mu), (T, 1)))
+        mu_used=np.tile(np.asarray(system.mu), (T, 1)))
 
 
 def _sunk_middle_support(depth: float, lifted: bool) -> tuple[Recording, ModeSet, Thresholds]:
