@@ -9,7 +9,8 @@ value in one engine:
 * the nominal validation (:func:`scenarios.runs.validate_plan`, what ``qsplan validate`` runs
   without ``--set``);
 * the plan moved to each corner and the centre (:func:`planner.plan.set_points.plan_at`: the
-  planner's prediction at every waypoint there) and its run (:func:`scenarios.set_runs.run_at_point`);
+  planner's prediction at every waypoint there) and its run
+  (:func:`scenarios.set_runs.run_at_point`);
 * what each uncertainty costs (:func:`planner.plan.set_cost.set_cost`) against the planning time.
 
 Ratios are taken in the same run.  Writes benchmarks/results/set_validation.json.

@@ -7,10 +7,10 @@ and the engine artefact its run measured); ``--out`` holds one folder per engine
 ``consensus.json``, and the exit code is the consensus verdicts'.
 
 Default friction: every value of the plan's ``mu.validate`` list (the plan passes only if every
-run agrees).  A plan guaranteed over a mass / centre-of-mass set also runs at the set's corners and
-centre (``--set``, :mod:`qsplan.commands.validate_set`). Exit codes: 0 agreed, 1 disagreed or inconclusive, 2 bad input (missing, malformed
-or tampered plan, bad option), 3 simulator fault. The simulator is imported lazily inside
-:func:`run`.
+run agrees).  A plan guaranteed over a mass / centre-of-mass set also runs at the set's corners
+and centre (``--set``, :mod:`qsplan.commands.validate_set`). Exit codes: 0 agreed, 1 disagreed
+or inconclusive, 2 bad input (missing, malformed or tampered plan, bad option), 3 simulator
+fault. The simulator is imported lazily inside :func:`run`.
 """
 
 from __future__ import annotations

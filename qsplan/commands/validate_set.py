@@ -52,6 +52,7 @@ def chosen_points(args: argparse.Namespace, plan: Any
                          f"{args.outside!r}")
     ls = plan_load_set(plan)
     has = ls is not None and not ls.trivial
+    kinds: tuple[str, ...]
     if args.set_points is None:
         kinds = ("corners", "centre") if has else ()
     else:

@@ -10,6 +10,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from set_hands import FULL_SET, planned
 
 from planner.errors import InputError
 from planner.model.load_set import point_set
@@ -18,7 +19,6 @@ from planner.plan.load_bounds import load_bands
 from planner.plan.partition import joint_inputs
 from planner.plan.plan_file import load_plan
 from planner.plan.set_cost import MULTIPLES, reference_sizes, set_cost, widened_friction
-from set_hands import FULL_SET, planned
 
 
 @pytest.fixture(scope="module")

@@ -9,6 +9,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from set_hands import FULL_SET, planned, short_push
 
 from planner.errors import InputError
 from planner.files.hand_file import hand_from_dict
@@ -25,7 +26,6 @@ from planner.plan.set_points import (
 )
 from scenarios.set_runs import expectation
 from sim.verdict import Expect
-from set_hands import FULL_SET, planned, short_push
 
 SET = LoadSet((0.08, 0.12), ((0.015, 0.025), (0.0135, 0.0235)), 0.1, (0.02, 0.0185))
 

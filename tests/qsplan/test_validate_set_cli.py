@@ -10,10 +10,10 @@ import json
 
 import jsonschema
 import pytest
+from set_hands import planned
 
 from planner.files.schema import load_schema
 from qsplan.cli import main
-from set_hands import planned
 
 #: the mass and the centre of mass's x: 4 corners and the centre (5 short runs).
 MASS_AND_X = {"mass": [0.08, 0.12], "com": [[0.015, 0.025], [0.0185, 0.0185]]}
