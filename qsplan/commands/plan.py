@@ -41,7 +41,8 @@ def register(sub: argparse._SubParsersAction) -> None:
             "mode and exclude every rival for all friction in --mu (eq. 28, Figs. 10-13), space "
             "the waypoints so the held commands keep the guarantee, and write the plan "
             "(versioned JSON, docs/plan-format.md); with --figures, Figures 10-13 (one effort "
-            "joint) or the task's pictures. Exit 0 ok, 1 when no control partition can "
+            "joint) or the task's pictures, and with an uncertainty set the guaranteed efforts "
+            "as each uncertainty grows. Exit 0 ok, 1 when no control partition can "
             "guarantee the mode or the task stops short of its goal (a partial plan is still "
             "written, with its diagnosis), 2 bad input, 3 internal fault."
         ),
@@ -79,7 +80,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", default="plan.json", help="plan file to write")
     p.add_argument("--figures", help="folder for the figures (PNG): Figures 10-13 of a segment "
                                      "with one effort joint, the task's pictures for a task; "
-                                     "written together with the plan")
+                                     "with an uncertainty set, what each uncertainty costs "
+                                     f"({COST_FIGURE}); written together with the plan")
     p.set_defaults(func=run)
 
 
