@@ -4,8 +4,9 @@ uncertainty costs").
 
 Axes: the workpiece's **mass** (``m0 +- d`` [kg]), its **centre of mass** (``c0 +- d`` [m] in
 both body-frame coordinates; :meth:`planner.model.load_set.LoadSet.widened`) and **friction**
-(each contact's interval scaled about its centre to ``w`` times the plan's width, cut at 0;
-its size is the widest contact's width after the cut).
+(each contact's interval scaled about its centre to ``w`` times the plan's width -- a point:
+``w`` times :data:`DEFAULT_FRICTION_WIDTH` -- cut at 0; its size is the widest contact's width
+after the cut).
 Sizes: ``multiples`` of a reference -- the plan's own half-width of the axis (mass, centre of
 mass: the larger distance from the nominal to an end of the set) or its friction box, or, for an
 axis the plan keeps at a point, :data:`DEFAULT_MASS_FRACTION` of the nominal mass and
@@ -42,6 +43,8 @@ DEFAULT_MASS_FRACTION = 0.1
 #: Reference half-width of a centre of mass the plan keeps at a point, as a fraction of the
 #: workpiece's size (``Hand.length_scale``).
 DEFAULT_COM_FRACTION = 0.05
+#: Reference width of a friction coefficient the plan keeps at a point.
+DEFAULT_FRICTION_WIDTH = 0.1
 #: The sizes drawn, as multiples of each axis's reference.
 MULTIPLES = (0.0, 0.5, 1.0, 1.5, 2.0)
 AXES = ("mass", "com", "friction")
@@ -102,26 +105,40 @@ def binding_waypoint(plan: Plan) -> tuple[int, int]:
     return at
 
 
-def widened_friction(intervals: Any, multiple: float) -> list[tuple[float, float]]:
-    """Each ``(lo, hi)`` scaled about its centre to ``multiple`` times its width, cut at 0."""
+def widened_friction(intervals: Any, multiple: float,
+                     point_width: float = 0.1) -> list[tuple[float, float]]:
+    """Each ``(lo, hi)`` scaled about its centre to ``multiple`` times its width (a point:
+    ``multiple * point_width`` wide), cut at 0."""
     out = []
     for lo, hi in intervals:
-        c, h = 0.5 * (lo + hi), 0.5 * (hi - lo) * multiple
+        width = hi - lo if hi > lo else point_width
+        c, h = 0.5 * (lo + hi), 0.5 * width * multiple
         out.append((max(c - h, 0.0), c + h))
     return out
 
 
-def reference_sizes(plan: Plan) -> dict[str, float]:
-    """Per axis the size the multiples scale (module docstring)."""
+def plan_sizes(plan: Plan) -> dict[str, float]:
+    """Per axis the plan's own size: the larger distance from the nominal mass or centre of
+    mass to an end of its set, the widest friction interval of its first segment (0: a
+    point)."""
     hand = plan.segments[0].hand_model[0]
     ls = hand.load_set or point_set(hand.mass, hand.com)
     m0, c0 = ls.nominal_mass, ls.nominal_com
-    dm = max(m0 - ls.mass[0], ls.mass[1] - m0)
-    dc = max(max(c0[k] - ls.com[k][0], ls.com[k][1] - c0[k]) for k in range(2))
-    width = max((hi - lo for lo, hi in plan.segments[0].mu_intervals), default=0.0)
-    return {"mass": dm if dm > 0 else DEFAULT_MASS_FRACTION * m0,
-            "com": dc if dc > 0 else DEFAULT_COM_FRACTION * hand.length_scale,
-            "friction": width if width > 0 else 0.1}
+    return {"mass": max(m0 - ls.mass[0], ls.mass[1] - m0),
+            "com": max(max(c0[k] - ls.com[k][0], ls.com[k][1] - c0[k]) for k in range(2)),
+            "friction": max((hi - lo for lo, hi in plan.segments[0].mu_intervals),
+                            default=0.0)}
+
+
+def reference_sizes(plan: Plan) -> dict[str, float]:
+    """Per axis the size the multiples scale (module docstring): the plan's own
+    (:func:`plan_sizes`), or a default for an axis it keeps at a point."""
+    hand = plan.segments[0].hand_model[0]
+    own = plan_sizes(plan)
+    default = {"mass": DEFAULT_MASS_FRACTION * hand.mass,
+               "com": DEFAULT_COM_FRACTION * hand.length_scale,
+               "friction": DEFAULT_FRICTION_WIDTH}
+    return {k: own[k] if own[k] > 0 else default[k] for k in own}
 
 
 def cost_point(plan: Plan, seg_i: int, wp_i: int, load_set: LoadSet, mu: Any,
@@ -167,7 +184,7 @@ def set_cost(plan: Plan, multiples: tuple[float, ...] = MULTIPLES) -> SetCost:
         for x in multiples:
             size = x * ref[axis]
             if axis == "friction":
-                box = widened_friction(mus, x)
+                box = widened_friction(mus, x, DEFAULT_FRICTION_WIDTH)
                 size = max(hi - lo for lo, hi in box)  # its width once cut at 0
                 pts.append(cost_point(plan, seg_i, wp_i, base, box, size))
             else:

@@ -42,7 +42,7 @@ def _limits(cost: SetCost) -> tuple[float, float]:
 def plot_set_cost(cost: SetCost, out: str | Path, *, unit: str = "",
                   reference: dict[str, float] | None = None) -> Path:
     """Draw ``cost`` into the PNG ``out``; ``unit`` the efforts' unit, ``reference`` per axis
-    the plan's own size (a dotted vertical line)."""
+    the plan's own size (a dotted vertical line; an axis left out has none)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -58,8 +58,9 @@ def plot_set_cost(cost: SetCost, out: str | Path, *, unit: str = "",
         if one:
             assert ylim is not None
             y0, y1 = ylim
+            span = float(np.max(x) - np.min(x))
+            w = 0.35 * (span / (len(x) - 1) if span > 0 and len(x) > 1 else 1.0)
             for k, p in enumerate(pts):
-                w = 0.35 * (x[1] - x[0] if len(x) > 1 else 1.0)
                 for iv, alpha in [(p.band, 0.18)] + [(q, 0.55) for q in p.pieces]:
                     if iv.empty:
                         continue
@@ -93,10 +94,11 @@ def plot_set_cost(cost: SetCost, out: str | Path, *, unit: str = "",
 
 def draw_plan_cost(plan: Any, out: str | Path) -> Path:
     """:func:`planner.plan.set_cost.set_cost` of ``plan`` drawn into ``out``."""
-    from planner.plan.set_cost import reference_sizes, set_cost
+    from planner.plan.set_cost import plan_sizes, set_cost
     from planner.plan.wording import effort_unit
 
     cost = set_cost(plan)
     seg = plan.segments[cost.segment]
     unit = effort_unit(seg.hand_model[0], cost.effort_joints)
-    return plot_set_cost(cost, out, unit=unit, reference=reference_sizes(plan))
+    own = {k: v for k, v in plan_sizes(plan).items() if v > 0}
+    return plot_set_cost(cost, out, unit=unit, reference=own)

@@ -76,6 +76,7 @@ def test_the_friction_axis_at_zero_width_is_the_box_centre(plan, cost):
     lo, hi = plan.segments[0].mu_intervals[0]
     assert widened_friction([(lo, hi)], 0.0) == [(0.5 * (lo + hi), 0.5 * (lo + hi))]
     assert widened_friction([(0.0, 0.2)], 2.0) == [(0.0, 0.30000000000000004)]
+    assert widened_friction([(0.8, 0.8)], 1.0, 0.1) == [(0.75, 0.8500000000000001)]
     assert cost.curves["friction"][0].size == 0.0
     assert cost.curves["friction"][2].size == pytest.approx(hi - lo)
 
