@@ -45,6 +45,7 @@ def _by_hand(plan, cost, load_set, mu):
                                                       if b.label != seg.claim])
 
 
+@pytest.mark.long
 def test_the_numbers_are_load_bands_at_those_sizes(plan, cost):
     ref = reference_sizes(plan)
     assert ref["mass"] == pytest.approx(0.02) and ref["com"] == pytest.approx(0.005)
@@ -64,6 +65,7 @@ def test_the_numbers_are_load_bands_at_those_sizes(plan, cost):
                 [x for p in pieces for x in (p.lower, p.upper)], rel=1e-12)
 
 
+@pytest.mark.long
 def test_the_guaranteed_band_shrinks_as_each_set_grows(cost):
     for axis, pts in cost.curves.items():
         for a, b in zip(pts, pts[1:]):
@@ -100,6 +102,7 @@ def test_bad_multiples_are_refused(plan):
         set_cost(plan, (math.inf,))
 
 
+@pytest.mark.long
 def test_the_figure_is_written(tmp_path, plan):
     from planner.plots.set_cost import COST_FIGURE, draw_plan_cost
     from qsplan.commands.plan import COST_FIGURE as LISTED

@@ -98,6 +98,7 @@ def test_the_hand_at_a_point_has_that_mass_centre_of_mass_and_load():
     assert nominal.mass == ref.mass and np.array_equal(nominal.load_force, ref.load_force)
 
 
+@pytest.mark.long
 def test_the_plan_at_a_point_is_predicted_there_not_copied(plan):
     axes = set_axes(plan_load_set(plan))
     claim = plan.segments[0].claim
@@ -112,6 +113,7 @@ def test_the_plan_at_a_point_is_predicted_there_not_copied(plan):
         assert expectation(claim_shares(moved)) is Expect.AGREE
 
 
+@pytest.mark.long
 def test_tipping_outside_the_set_is_predicted(plan):
     """15 mm higher (3 half-widths past the box): the pentagon tips over the left finger's
     push at mu = 0.1; the planner no longer predicts the claim over most of the segment."""
