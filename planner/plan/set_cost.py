@@ -17,7 +17,8 @@ joint the claim's guaranteed band and the guaranteed pieces (the band minus ever
 possible set; :func:`planner.plan.guarantee.guarantee` over the vertex loads,
 :func:`planner.plan.load_bounds.load_bands`); with several the guaranteed region's radius (the
 Chebyshev radius of :func:`planner.plan.polytope.torque_region`).  The waypoint is the one with
-the smallest margin relative to its command's size (the likeliest to bind).
+the smallest margin relative to its command's size (the likeliest to bind).  A size at which a
+stage of the planner fails (:class:`DegenerateError`) shows nothing guaranteed, marked inexact.
 
 Units: efforts in N m (revolute) or N (prismatic); sizes in kg, m, and friction (no unit).
 """
@@ -30,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from planner.errors import InputError
+from planner.errors import DegenerateError, InputError
 from planner.model.load_set import LoadSet, point_set
 from planner.plan.guarantee import guarantee
 from planner.plan.intervals import EMPTY, Interval
@@ -150,6 +151,14 @@ def cost_point(plan: Plan, seg_i: int, wp_i: int, load_set: LoadSet, mu: Any,
     system = hand.system(w.q, 0.0, joint_inputs(hand, seg.velocity_joints,
                                                 w.velocity_commands))
     loads = hand.load_vertices(w.q)
+    try:
+        return _cost_point(plan, seg, system, loads, mu, size)
+    except DegenerateError:  # a stage fails at this size: nothing guaranteed that it can show
+        return CostPoint(size, EMPTY, (), -math.inf, False)
+
+
+def _cost_point(plan: Plan, seg: Any, system: Any, loads: Any, mu: Any,
+                size: float) -> CostPoint:
     if len(seg.effort_joints) == 1:
         g = guarantee(system, seg.claim, mu, model=plan.mu_model, loads=loads)
         band = g.claim_band.guaranteed if g.claim_band is not None else EMPTY

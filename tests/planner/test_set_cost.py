@@ -110,3 +110,17 @@ def test_the_figure_is_written(tmp_path, plan):
     assert LISTED == COST_FIGURE
     out = draw_plan_cost(plan, tmp_path / COST_FIGURE)
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_a_size_where_a_stage_fails_shows_nothing_guaranteed(plan, monkeypatch):
+    from planner.errors import DegenerateError
+    from planner.plan import set_cost as module
+
+    def fails(*args, **kwargs):
+        raise DegenerateError("load set: the admissible modes differ between vertex loads")
+
+    monkeypatch.setattr(module, "guarantee", fails)
+    got = module.set_cost(plan, (0.0, 1.0))
+    for pts in got.curves.values():
+        assert all(p.band.empty and not p.pieces and not p.exact and p.radius == -math.inf
+                   for p in pts)
