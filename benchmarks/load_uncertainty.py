@@ -1,4 +1,4 @@
-"""Benchmark: field tasks planned over the workpiece's uncertain mass and centre of mass.
+"""Benchmark: field tasks planned over the workpiece's uncertain mass, centre of mass and contacts.
 
 For each task (default ``block_tilting`` and ``box_pivot_up``, scenarios/data):
 
@@ -11,12 +11,15 @@ For each task (default ``block_tilting`` and ``box_pivot_up``, scenarios/data):
   both axes): the finite ends and the widest piece's width, and whether the friction-only
   commands stay guaranteed (:func:`planner.plan.load_margins.holds`);
 * the uncertainty each plan's commands tolerate (:func:`planner.plan.load_margins.tolerated`)
-  and its time.
+  and its time;
+* the whole set: the same task planned with mass, centre of mass *and* every contact's position
+  ``+-CONTACTS`` m along its feature (docs/planning.md, "Contact positions"), its time over the
+  friction-only time in the same run, and the band along the friction-only plan over that set.
 
 Writes benchmarks/results/load_uncertainty.json.
 
     python3 benchmarks/load_uncertainty.py [--tasks block_tilting,box_pivot_up]
-        [--mass 0.2] [--com 0.005] [--repeats 1]
+        [--mass 0.2] [--com 0.005] [--contacts 0.002] [--repeats 1]
 """
 
 from __future__ import annotations
@@ -34,28 +37,36 @@ from typing import Any
 
 import numpy as np
 
+from planner.errors import DegenerateError
 from planner.files.atomic import atomic_write_json
 from planner.files.hand_file import hand_file_from_dict
 from planner.plan.guarantee import guarantee
 from planner.plan.hand_planner import plan_hand
 from planner.plan.load_margins import holds, tolerated
+from planner.plan.offset_bounds import offset_box
 from planner.plan.partition import joint_inputs
 from scenarios.registry import DATA_DIR
 
 
-def with_set(data: dict[str, Any], mass: float, com: float) -> dict[str, Any]:
-    """``data`` with mass ``m0 (1 +- mass)`` and centre of mass ``c0 +- com`` [m]."""
+def with_set(data: dict[str, Any], mass: float, com: float,
+             contacts: float = 0.0) -> dict[str, Any]:
+    """``data`` with mass ``m0 (1 +- mass)``, centre of mass ``c0 +- com`` [m] and, when
+    ``contacts`` > 0, every contact ``+- contacts`` [m] along its feature."""
     d = copy.deepcopy(data)
     wp = d["workpiece"]
     m, (cx, cy) = wp["mass"], wp.get("com", [0.0, 0.0])
     d["uncertainty"] = {"mass": [m * (1 - mass), m * (1 + mass)],
                         "com": [[cx - com, cx + com], [cy - com, cy + com]]}
+    if contacts > 0:
+        d["uncertainty"]["contacts"] = contacts
     return d
 
 
-def bands_along(plan: Any, data: dict[str, Any], mass: float, com: float) -> dict[str, Any]:
-    """The claim's band at every waypoint of ``plan`` over the set of ``mass``, ``com``."""
-    hf = hand_file_from_dict(with_set(data, mass, com))
+def bands_along(plan: Any, data: dict[str, Any], mass: float, com: float,
+                contacts: float = 0.0) -> dict[str, Any]:
+    """The claim's band at every waypoint of ``plan`` over the set of ``mass``, ``com`` and
+    ``contacts`` (a waypoint where the box changes the modes counts as without a band)."""
+    hf = hand_file_from_dict(with_set(data, mass, com, contacts))
     lows, widths, n = [], [], 0
     for seg in plan.segments:
         if len(seg.effort_joints) != 1:
@@ -63,17 +74,20 @@ def bands_along(plan: Any, data: dict[str, Any], mass: float, com: float) -> dic
         hand = replace(seg.hand_model[0], load_set=hf.hand.load_set)
         for w in seg.waypoints:
             q = np.concatenate([w.pose, w.angles])
-            system = hand.system(q, 0.0, joint_inputs(hand, seg.velocity_joints,
-                                                      w.velocity_commands))
-            g = guarantee(system, seg.claim, list(seg.mu_intervals), model=plan.mu_model,
-                          loads=hand.load_vertices(q))
+            joints = joint_inputs(hand, seg.velocity_joints, w.velocity_commands)
+            system = hand.system(q, 0.0, joints)
             n += 1
+            try:
+                g = guarantee(system, seg.claim, list(seg.mu_intervals), model=plan.mu_model,
+                              loads=hand.load_vertices(q), box=offset_box(hand, q, joints))
+            except DegenerateError:
+                continue
             if g.pieces:
                 best = g.best()
                 widths.append(best.upper - best.lower)
                 lows.append(best.lower if math.isfinite(best.lower) else best.upper)
     fin = [x for x in widths if math.isfinite(x)]
-    return {"mass_fraction": mass, "com_m": com, "waypoints": n,
+    return {"mass_fraction": mass, "com_m": com, "contacts_m": contacts, "waypoints": n,
             "waypoints_with_a_band": len(widths),
             "finite_end_mean": statistics.fmean(lows) if lows else None,
             "finite_width_min": min(fin) if fin else None,
@@ -81,12 +95,14 @@ def bands_along(plan: Any, data: dict[str, Any], mass: float, com: float) -> dic
             "friction_only_commands_hold": holds(plan, hf.hand.load_set)}
 
 
-def run_task(name: str, mass: float, com: float, repeats: int) -> dict[str, Any]:
+def run_task(name: str, mass: float, com: float, contacts: float,
+             repeats: int) -> dict[str, Any]:
     path = DATA_DIR / f"{name}.json"
     data = json.loads(path.read_text())
     hf_set = hand_file_from_dict(with_set(data, mass, com))
-    t_plain, t_set = [], []
-    plain = robust = None
+    hf_all = hand_file_from_dict(with_set(data, mass, com, contacts))
+    t_plain, t_set, t_all = [], [], []
+    plain = robust = full = None
     for _ in range(repeats):
         t0 = time.perf_counter()
         plain = plan_hand(path, margins=False)
@@ -94,12 +110,33 @@ def run_task(name: str, mass: float, com: float, repeats: int) -> dict[str, Any]
         t0 = time.perf_counter()
         robust = plan_hand(hf_set, margins=False)
         t_set.append(time.perf_counter() - t0)
+        t0 = time.perf_counter()
+        try:
+            full = plan_hand(hf_all, margins=False)
+        except DegenerateError as exc:  # no guaranteed plan over the whole set
+            full = str(exc)
+        t_all.append(time.perf_counter() - t0)
     assert plain is not None and robust is not None
     t0 = time.perf_counter()
     tol = tolerated(robust)
     t_tol = time.perf_counter() - t0
     shrink = [bands_along(plain, data, f * mass, f * com) for f in (0.0, 0.5, 1.0)]
-    mp, ms = statistics.median(t_plain), statistics.median(t_set)
+    mp, ms, ma = (statistics.median(t_plain), statistics.median(t_set),
+                  statistics.median(t_all))
+    whole: dict[str, Any] = {"set": hf_all.hand.load_set.to_dict(), "plan_seconds": ma,
+                             "ratio_to_friction_only": ma / mp,
+                             "bands_along_friction_only_plan": [
+                                 bands_along(plain, data, f * mass, f * com, f * contacts)
+                                 for f in (0.5, 1.0)]}
+    if isinstance(full, str):
+        whole["planned"] = False
+        whole["reason"] = full
+    else:
+        t0 = time.perf_counter()
+        whole.update(planned=True, reached=full.reached, exact=full.exact,
+                     segments=[s.claim for s in full.segments],
+                     tolerated=tolerated(full).to_dict())
+        whole["tolerated_seconds"] = time.perf_counter() - t0
     return {
         "task": name, "set": hf_set.hand.load_set.to_dict(),
         "plan_seconds_friction_only": mp, "plan_seconds_with_set": ms, "ratio": ms / mp,
@@ -112,6 +149,7 @@ def run_task(name: str, mass: float, com: float, repeats: int) -> dict[str, Any]
                             "with_set": float(min(s.margins().min() for s in robust.segments))},
         "tolerated": tol.to_dict(), "tolerated_seconds": t_tol,
         "shrinking_along_friction_only_plan": shrink,
+        "whole_set": whole,
     }
 
 
@@ -120,12 +158,14 @@ def main() -> None:
     ap.add_argument("--tasks", default="block_tilting,box_pivot_up")
     ap.add_argument("--mass", type=float, default=0.2, help="mass +- fraction (default 0.2)")
     ap.add_argument("--com", type=float, default=0.005, help="centre of mass +- m (0.005)")
+    ap.add_argument("--contacts", type=float, default=0.002,
+                    help="every contact +- m along its feature (0.002)")
     ap.add_argument("--repeats", type=int, default=1)
     ap.add_argument("--out", default="benchmarks/results/load_uncertainty.json")
     args = ap.parse_args()
     rows = []
     for name in args.tasks.split(","):
-        r = run_task(name, args.mass, args.com, args.repeats)
+        r = run_task(name, args.mass, args.com, args.contacts, args.repeats)
         rows.append(r)
         print(f"{name}: plan {r['plan_seconds_friction_only']:.2f} s friction only, "
               f"{r['plan_seconds_with_set']:.2f} s with mass +-{100 * args.mass:g} % and "
@@ -137,6 +177,17 @@ def main() -> None:
                   f"{s['waypoints_with_a_band']}/{s['waypoints']} waypoints with a band, mean "
                   f"finite end {s['finite_end_mean']}, smallest finite width "
                   f"{s['finite_width_min']}, friction-only commands hold: "
+                  f"{s['friction_only_commands_hold']}", flush=True)
+        w = r["whole_set"]
+        print(f"   whole set (contacts +-{1000 * args.contacts:g} mm too): plan "
+              f"{w['plan_seconds']:.2f} s (ratio {w['ratio_to_friction_only']:.2f} to friction "
+              f"only); " + (f"reached {w['reached']}, exact {w['exact']}, tolerated "
+                            f"{w['tolerated']}" if w["planned"] else f"no plan: {w['reason']}"),
+              flush=True)
+        for s in w["bands_along_friction_only_plan"]:
+            print(f"   whole set x{s['mass_fraction'] / args.mass if args.mass else 0:.1f}: "
+                  f"{s['waypoints_with_a_band']}/{s['waypoints']} waypoints with a band, mean "
+                  f"finite end {s['finite_end_mean']}, friction-only commands hold: "
                   f"{s['friction_only_commands_hold']}", flush=True)
     atomic_write_json(args.out, {
         "command": "python3 benchmarks/load_uncertainty.py " + " ".join(

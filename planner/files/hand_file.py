@@ -381,7 +381,8 @@ def _hand_file(data: Any) -> HandFile:
         name=string(data.get("name", "hand"), "name"),
         meta={k: data[k] for k in ("description", "load") if k in data},
         environment=env,
-        load_set=(uncertainty_section(data["uncertainty"], mass, com)
+        load_set=(uncertainty_section(data["uncertainty"], mass, com,
+                                      ("palm", *(e[0] for e in env), *(f.name for f in fingers)))
                   if "uncertainty" in data else None),
     )
     centroid = V.mean(axis=0) @ rotation(pose[2]).T + pose[:2]

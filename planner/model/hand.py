@@ -223,9 +223,10 @@ class Hand:
         s = np.array([f[3] for f in frames])
         return pts, nrm, s
 
-    def jacobian(self, q: Any) -> np.ndarray:
+    def jacobian(self, q: Any, points: np.ndarray | None = None) -> np.ndarray:
         """(n_c, 2, n_theta) manipulator contact-point velocities per joint rate, contact frame
-        (eqs. 3, 5).
+        (eqs. 3, 5); ``points (n_c, 2)`` [m, world] the contact points (default where the
+        features touch at ``q``; :meth:`system` moves them along their features).
 
         The finger point at the contact moves with the chain's point Jacobian
         (:meth:`planner.model.kinematics.Chain.point_jacobian`: ``rot90(p - o_j)`` per revolute
@@ -234,6 +235,7 @@ class Hand:
         """
         q = np.asarray(q, dtype=float)
         pts, nrm, _ = self.contact_geometry(q)
+        pts = pts if points is None else np.asarray(points, dtype=float)
         J = np.zeros((self.n_contacts, 2, self.n_joints))
         for i, c in enumerate(self.contacts):
             if c.kind in ("palm", "surface"):
@@ -276,17 +278,42 @@ class Hand:
         q: Any,
         mu: Any,
         joints: Sequence[Any],
+        offsets: Any = None,
     ) -> System:
         """The planner :class:`System` at configuration ``q`` (eqs. 1-5).
 
         ``joints``: per joint ``{"velocity": rad/s or m/s}`` or ``{"effort": N m or N}``.
+        ``offsets (n_c,)`` [m]: each contact point moved by that distance along its contact
+        frame's tangent ``t = rot90(n)`` (along its straight feature; the normal kept), ``W``
+        and ``J`` taken at the moved point (docs/planning.md, "Contact positions"); default
+        none.
         """
         q = self.check_q(q)
         pts, nrm, _ = self.contact_geometry(q)
+        if offsets is not None:
+            s = as_array(offsets, (self.n_contacts,), "contact offsets")
+            pts = pts + s[:, None] * np.stack([rot90(n) for n in nrm])
         return System.from_contacts(
             points=pts, normals=nrm, mu=mu, external_wrench=self.g_obj_at(q),
-            jacobian=self.jacobian(q), joints=list(joints),
+            jacobian=self.jacobian(q, pts), joints=list(joints),
         )
+
+    def body_name(self, c: ContactSpec) -> str:
+        """The body a contact touches besides the workpiece: ``palm``, an environment surface's
+        name, or the finger's name (side and tip contacts)."""
+        if c.kind == "palm":
+            return "palm"
+        if c.kind == "surface":
+            return self.environment[c.surface][0]
+        return self.fingers[c.finger].name
+
+    def contact_offsets(self) -> np.ndarray | None:
+        """``(n_c,)`` half-width [m] of each contact's position along its feature
+        (:meth:`LoadSet.offsets`); None when no contact may move."""
+        if self.load_set is None or not self.load_set.has_offsets:
+            return None
+        d = self.load_set.offsets(tuple(self.body_name(c) for c in self.contacts))
+        return d if np.any(d > 0) else None
 
     # ---- closing a configuration -----------------------------------------------------------
     def close(

@@ -19,13 +19,21 @@ of ``C`` -- at most 8 points.  The load set ``{g_obj}`` is the image of ``Theta`
 map, hence the convex hull of the wrenches at those vertices (:meth:`LoadSet.vertices`).  Why that
 is enough for the guarantees and where it is not: docs/planning.md, "Uncertainty beyond friction".
 
+Contact positions.  The set may also move each contact along its feature: ``contact_offset``
+[m] (every contact ``+-`` that distance) and ``body_offsets`` (per body the contact touches
+besides the workpiece -- ``"palm"``, a surface's or a finger's name -- its own half-width,
+overriding ``contact_offset``).  :meth:`offsets` resolves them for a contact set; the planner
+takes the box's vertices (:mod:`planner.plan.offset_bounds`; why vertices suffice:
+docs/planning.md, "Contact positions").
+
 Units: kg, m (body frame), N, N m.
 """
 
 from __future__ import annotations
 
 import itertools
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 
@@ -42,6 +50,8 @@ class LoadSet:
     com: tuple[tuple[float, float], tuple[float, float]]
     nominal_mass: float
     nominal_com: tuple[float, float]
+    contact_offset: float = 0.0
+    body_offsets: tuple[tuple[str, float], ...] = ()
 
     def __post_init__(self) -> None:
         lo, hi = self.mass
@@ -54,13 +64,30 @@ class LoadSet:
                 raise InputError(f"centre-of-mass box: expected {axis}_lo <= "
                                  f"{self.nominal_com[k]:g} (the workpiece's com.{axis}) <= "
                                  f"{axis}_hi, finite, got [{a:g}, {b:g}]")
+        for name, d in (("contacts", self.contact_offset),
+                        *((f"contacts.{n}", d) for n, d in self.body_offsets)):
+            if not (np.isfinite(d) and d >= 0.0):
+                raise InputError(f"{name}: expected a half-width >= 0 [m], finite, got {d:g}")
 
     @property
     def trivial(self) -> bool:
-        """True when the set is the nominal point (the plan is today's friction-only one)."""
+        """True when the mass and centre of mass are the nominal point (the load is the
+        nominal wrench; contact offsets are :attr:`has_offsets`)."""
         return (self.mass[0] == self.mass[1] == self.nominal_mass
                 and all(self.com[k][0] == self.com[k][1] == self.nominal_com[k]
                         for k in range(2)))
+
+    @property
+    def has_offsets(self) -> bool:
+        """True when some contact may move along its feature."""
+        return self.contact_offset > 0.0 or any(d > 0.0 for _, d in self.body_offsets)
+
+    def offsets(self, bodies: tuple[str, ...]) -> np.ndarray:
+        """``(n_c,)`` the half-width [m] of each contact's position along its feature, for the
+        contacts touching ``bodies`` (one name per contact): its body's entry of
+        :attr:`body_offsets`, else :attr:`contact_offset`."""
+        own = dict(self.body_offsets)
+        return np.array([own.get(b, self.contact_offset) for b in bodies], dtype=float)
 
     def points(self) -> np.ndarray:
         """``(K, 3)`` the distinct vertices ``(m, c_x, c_y)`` of ``Theta`` (module docstring):
@@ -82,22 +109,32 @@ class LoadSet:
         return np.array(out, dtype=float)
 
     def widened(self, axis: str, half: float) -> LoadSet:
-        """The set with ``axis`` (``"mass"`` [kg] or ``"com"`` [m, both coordinates]) replaced
-        by the symmetric interval ``nominal +- half`` (the other axis kept); a mass interval is
-        cut at ``1e-9`` of the nominal mass (masses stay positive)."""
+        """The set with ``axis`` (``"mass"`` [kg], ``"com"`` [m, both coordinates] or
+        ``"contacts"`` [m, every contact]) replaced by the symmetric interval ``nominal +-
+        half`` (the other axes kept); a mass interval is cut at ``1e-9`` of the nominal mass
+        (masses stay positive)."""
         if axis == "mass":
             m0 = self.nominal_mass
-            return LoadSet((max(m0 - half, 1e-9 * m0), m0 + half), self.com, m0,
-                           self.nominal_com)
+            return replace(self, mass=(max(m0 - half, 1e-9 * m0), m0 + half))
         if axis == "com":
             cx, cy = self.nominal_com
-            return LoadSet(self.mass, ((cx - half, cx + half), (cy - half, cy + half)),
-                           self.nominal_mass, self.nominal_com)
-        raise InputError(f"axis: expected 'mass' or 'com', got {axis!r}")
+            return replace(self, com=((cx - half, cx + half), (cy - half, cy + half)))
+        if axis == "contacts":
+            return replace(self, contact_offset=float(half), body_offsets=())
+        raise InputError(f"axis: expected 'mass', 'com' or 'contacts', got {axis!r}")
 
-    def to_dict(self) -> dict[str, list]:
-        """The hand file's ``uncertainty`` section (docs/file-formats.md)."""
-        return {"mass": list(self.mass), "com": [list(self.com[0]), list(self.com[1])]}
+    def to_dict(self) -> dict[str, Any]:
+        """The hand file's ``uncertainty`` section (docs/file-formats.md); ``contacts`` only
+        when some contact may move."""
+        out: dict[str, Any] = {"mass": list(self.mass),
+                               "com": [list(self.com[0]), list(self.com[1])]}
+        if self.body_offsets:
+            out["contacts"] = {n: d for n, d in self.body_offsets}
+            if self.contact_offset > 0.0:
+                out["contacts"]["*"] = self.contact_offset
+        elif self.contact_offset > 0.0:
+            out["contacts"] = self.contact_offset
+        return out
 
 
 def point_set(mass: float, com: np.ndarray) -> LoadSet:

@@ -7,11 +7,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
+
 from planner.errors import InputError
 from planner.model.system import System
 from planner.plan.bounds import ModeBand, mode_bands
 from planner.plan.intervals import EMPTY, Interval, subtract
 from planner.plan.load_bounds import load_bands
+from planner.plan.offset_bounds import OffsetBox
 from planner.predict.stages import DEFAULT_TOL
 
 
@@ -47,14 +50,20 @@ class Guarantee:
 
 def guarantee(
     system: System, claim: str, mu: Any, *, model: str = "common", tol: float = DEFAULT_TOL,
-    loads: Any = None,
+    loads: Any = None, box: OffsetBox | None = None,
 ) -> Guarantee:
     """Torques that make ``claim`` (a mode label, or a family such as ``"4S"``) the only
     possible mode for every friction in ``mu`` (Section 5.2, Figures 11-13) and, with
     ``loads (K, n_q)``, every external wrench in their convex hull (the workpiece's uncertain
-    mass and centre of mass: :func:`planner.plan.load_bounds.load_bands`)."""
-    bands = (mode_bands(system, mu, model=model, tol=tol) if loads is None
-             else load_bands(system, mu, loads, model=model, tol=tol))
+    mass and centre of mass: :func:`planner.plan.load_bounds.load_bands`); with ``box`` (a box
+    of contact offsets), every contact position in it too (:mod:`planner.plan.offset_bounds`)."""
+    if box is not None:
+        G = np.asarray(system.g_obj, dtype=float)[None] if loads is None else loads
+        bands = load_bands(system, mu, G, model=model, tol=tol, box=box)
+    elif loads is None:
+        bands = mode_bands(system, mu, model=model, tol=tol)
+    else:
+        bands = load_bands(system, mu, loads, model=model, tol=tol)
     label = resolve_claim(claim, [b.label for b in bands], [b.mode.family for b in bands])
     own = next((b for b in bands if b.label == label), None)
     if own is None:

@@ -53,6 +53,14 @@ from planner.plan.bounds import (
     mode_rows,
 )
 from planner.plan.intervals import EMPTY, Interval
+from planner.plan.offset_bounds import (
+    OffsetBox,
+    candidate_arrays,
+    lifted_interval,
+    sign_changes,
+    uniform_indeterminate,
+    uniform_stages,
+)
 from planner.predict.indeterminate import (
     IndeterminateKinematics,
     coulomb_rows,
@@ -140,22 +148,48 @@ def same_interval(a: Interval, b: Interval, scale: float) -> bool:
 
 
 def load_bands(system: System, mu: Any, loads: Any, *, model: str = "common", grid: int = 5,
-               tol: float = DEFAULT_TOL) -> tuple[ModeBand, ...]:
+               tol: float = DEFAULT_TOL,
+               box: OffsetBox | None = None) -> tuple[ModeBand, ...]:
     """Guaranteed and possible torque sets of every admissible mode for every friction in ``mu``
     and every load in the hull of ``loads (K, n_q)`` (module docstring).  Same arguments and
-    same band order as :func:`planner.plan.bounds.mode_bands`."""
+    same band order as :func:`planner.plan.bounds.mode_bands`.
+
+    ``box``: a box of contact offsets (:func:`planner.plan.offset_bounds.offset_box`, its
+    systems with ``system``'s joints; their loads are replaced by ``loads``): the bands then
+    hold over every contact position in it too -- a determinate mode's guaranteed set by
+    intersection at the vertices, its possible set by the same row bound over vertex geometry
+    x vertex load x friction point; a force-indeterminate mode's, or one whose ``det Q_AI``
+    changes sign inside the box (then guaranteed nowhere), by the lifted program over the whole
+    friction box (:func:`planner.plan.offset_bounds.lifted_interval`: exact for a friction box
+    or a rolling-only mode, else an outer bound and ``exact`` False); docs/planning.md,
+    "Contact positions".  Raises :class:`DegenerateError` when the modes may change inside the
+    box (:func:`planner.plan.offset_bounds.uniform_stages`)."""
     G = check_loads(system, loads)
     mu_lo, mu_hi = friction_interval(mu, system.n_contacts)
-    systems = [with_load(system, g) for g in G]
+    geos = [system] if box is None else list(box.systems)
+    systems = [with_load(geo, g) for geo in geos for g in G]
     per = [mode_bands(s, mu, model=model, grid=grid, tol=tol) for s in systems]
     labels = [b.label for b in per[0]]
     if any([b.label for b in bands] != labels for bands in per[1:]):
         raise DegenerateError("load set: the admissible modes differ between vertex loads "
-                              "(they depend on kinematics only)")
-    stage, index = admissible_modes(system, tol=tol)
-    rows = [mode_rows(s, friction_points(s, mu_lo, mu_hi, model, grid, stage, index),
-                      stage=stage, index=index) for s in systems]
-    kins = indeterminate_kinematics(system, tol=tol)
+                              "or vertex geometries")
+    if box is not None:
+        stages = uniform_stages(geos, tol=tol)
+    else:
+        stages = [admissible_modes(system, tol=tol)]
+    stage_of = [stages[k // len(G)] for k in range(len(systems))]
+    pts = [friction_points(s, mu_lo, mu_hi, model, grid, *stage_of[k])
+           for k, s in enumerate(systems)]
+    if box is not None:  # every geometry at every friction point: the signs of det Q_AI compared
+        pts = [np.unique(np.concatenate(pts), axis=0)] * len(systems)
+    rows = [mode_rows(s, pts[k], stage=stage_of[k][0], index=stage_of[k][1])
+            for k, s in enumerate(systems)]
+    n_det = len(stages[0][1])
+    poles = (sign_changes(np.stack([r.det for r in rows])) if box is not None and n_det
+             else np.zeros(n_det, bool))
+    box_exact = bool(model == "independent" or np.all(mu_lo == mu_hi))
+    kins = (indeterminate_kinematics(system, tol=tol) if box is None
+            else uniform_indeterminate(box, tol=tol))
     out = []
     for j, base in enumerate(per[0]):
         own = [bands[j] for bands in per]
@@ -165,7 +199,13 @@ def load_bands(system: System, mu: Any, loads: Any, *, model: str = "common", gr
         got = [b.possible for b in own if not b.possible.empty]
         inner = Interval(min(p.lower for p in got), max(p.upper for p in got)) if got else EMPTY
         exact = all(b.exact for b in own)
-        if j < len(index):  # determinate: the row bound, exact when it meets the inner hull
+        if box is not None and j < n_det and poles[j]:
+            # det Q_AI crosses zero inside the box: not guaranteed there; the lifted program
+            guaranteed = EMPTY
+            kin_j = candidate_arrays(stages[0][0], int(stages[0][1][j]))
+            possible = lifted_interval(box, kin_j, mu_lo, mu_hi, G)
+            exact = box_exact or not np.any(kin_j.codes == SLIDE)
+        elif j < n_det:  # determinate: the row bound, exact when it meets the inner hull
             s0 = np.concatenate([r.s0[:, j] for r in rows])
             s1 = np.concatenate([r.s1[:, j] for r in rows])
             det = np.concatenate([r.det[:, j] for r in rows])
@@ -176,17 +216,21 @@ def load_bands(system: System, mu: Any, loads: Any, *, model: str = "common", gr
             exact = exact and same_interval(outer, inner, size)
             possible = outer
         else:
-            kin = kins[j - len(index)]
+            kin = kins[j - n_det]
             has_slide = bool(np.any(kin.codes == SLIDE))
-            pts = (np.repeat(np.linspace(mu_lo[0], mu_hi[0], 21)[:, None], system.n_contacts, 1)
-                   if has_slide and model == "common" and np.all(mu_lo == mu_lo[0])
-                   and np.all(mu_hi == mu_hi[0]) and not np.all(mu_lo == mu_hi)
-                   else np.concatenate(box_points(mu_lo, mu_hi, grid)) if has_slide
-                   else np.stack([mu_lo, mu_hi]))
-            ivs = [indeterminate_interval_over(system, kin, m, G) for m in pts]
-            ivs = [iv for iv in ivs if not iv.empty]
-            possible = (Interval(min(iv.lower for iv in ivs), max(iv.upper for iv in ivs))
-                        if ivs else EMPTY)
+            mpts = (np.repeat(np.linspace(mu_lo[0], mu_hi[0], 21)[:, None], system.n_contacts, 1)
+                    if has_slide and model == "common" and np.all(mu_lo == mu_lo[0])
+                    and np.all(mu_hi == mu_hi[0]) and not np.all(mu_lo == mu_hi)
+                    else np.concatenate(box_points(mu_lo, mu_hi, grid)) if has_slide
+                    else np.stack([mu_lo, mu_hi]))
+            if box is None:
+                ivs = [indeterminate_interval_over(system, kin, m, G) for m in mpts]
+                ivs = [iv for iv in ivs if not iv.empty]
+                possible = (Interval(min(iv.lower for iv in ivs), max(iv.upper for iv in ivs))
+                            if ivs else EMPTY)
+            else:  # the whole friction box at once (exact for a box or rolling only)
+                possible = lifted_interval(box, kin, mu_lo, mu_hi, G)
+                exact = box_exact or not has_slide
         out.append(ModeBand(base.mode, guaranteed, possible, exact=exact))
     return tuple(out)
 

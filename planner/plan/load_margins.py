@@ -14,11 +14,13 @@ claimed mode the only possible one for every friction in the segment's box and e
   ``det Q_AI`` changes sign over the corners is checked at the corners and a 3-point grid, as
   :func:`planner.plan.polytope.torque_region` does (not exact; the plan says so).
 
-:func:`tolerated` widens one axis of the set at a time -- the mass to ``m0 +- d`` [kg], or both
-centre-of-mass coordinates to ``c0 +- d`` [m] -- the other kept as planned, and searches the
-largest ``d`` every waypoint keeps.  The sets are nested, so each waypoint's test is monotone in
-``d``: the search's lower end is certified (every waypoint holds there; the value reported) and a
-waypoint fails at its upper end, ``resolution`` above.
+:func:`tolerated` widens one axis of the set at a time -- the mass to ``m0 +- d`` [kg], both
+centre-of-mass coordinates to ``c0 +- d`` [m], or every contact's position along its feature to
+``+- d`` [m] (:mod:`planner.plan.offset_bounds`; plans whose segments all have one effort joint)
+-- the others kept as planned, and searches the largest ``d`` every waypoint keeps.  The sets
+are nested, so each waypoint's test is monotone in ``d``: the search's lower end is certified
+(every waypoint holds there; the value reported) and a waypoint fails at its upper end,
+``resolution`` above.
 """
 
 from __future__ import annotations
@@ -38,6 +40,7 @@ from planner.plan.bounds import admissible_modes, affine_rows, box_points
 from planner.plan.guarantee import guarantee, resolve_claim
 from planner.plan.load_bounds import concat_rows, with_load
 from planner.plan.model import Plan
+from planner.plan.offset_bounds import offset_box
 from planner.plan.partition import joint_inputs
 from planner.predict.indeterminate import coulomb_rows, indeterminate_kinematics
 from planner.predict.stages import DEFAULT_TOL, force_matrices
@@ -56,13 +59,17 @@ def command_guaranteed(hand: Hand, q: np.ndarray, V: tuple[int, ...], rates: Any
 
 def _guaranteed(hand: Hand, q: np.ndarray, V: tuple[int, ...], rates: Any, claim: str, mu: Any,
                 model: str, tau: np.ndarray, tol: float) -> bool:
-    system = hand.system(q, 0.0, joint_inputs(hand, V, rates))
+    joints = joint_inputs(hand, V, rates)
+    system = hand.system(q, 0.0, joints)
     loads = hand.load_vertices(q)
     G = np.asarray(system.g_obj)[None] if loads is None else loads
     p = len(system.effort_joints)
+    box = offset_box(hand, q, joints)
     if p == 1:
-        g = guarantee(system, claim, mu, model=model, tol=tol, loads=loads)
+        g = guarantee(system, claim, mu, model=model, tol=tol, loads=loads, box=box)
         return any(piece.contains(float(tau[0])) for piece in g.pieces)
+    if box is not None:  # contact positions: one effort joint only (docs/planning.md)
+        return False
     lo, hi = friction_interval(mu, system.n_contacts)
     corners, grid = box_points(lo, hi, 3)
     stage, index = admissible_modes(system, tol=tol)
@@ -131,20 +138,29 @@ class Tolerance:
     com_m: float
     mass_resolution_kg: float
     com_resolution_m: float
+    contacts_m: float | None = None
+    contacts_resolution_m: float = 0.0
 
     def to_dict(self) -> dict[str, Any]:
-        def fin(x: float) -> float | None:
-            return x if math.isfinite(x) else None
+        def fin(x: float | None) -> float | None:
+            return x if x is not None and math.isfinite(x) else None
         return {"mass_kg": fin(self.mass_kg), "com_m": fin(self.com_m),
                 "mass_resolution_kg": self.mass_resolution_kg,
                 "com_resolution_m": self.com_resolution_m,
+                "contacts_m": fin(self.contacts_m),
+                "contacts_resolution_m": self.contacts_resolution_m,
+                "contacts_computed": self.contacts_m is not None,
                 "method": "bisection on the exact guarantee of the commands at every waypoint"}
 
     def words(self) -> str:
         m = "all of it" if not math.isfinite(self.mass_kg) else f"+-{self.mass_kg:.4g} kg"
         c = ("the workpiece's size" if not math.isfinite(self.com_m)
              else f"+-{1000 * self.com_m:.3g} mm")
-        return f"tolerates mass {m}, centre of mass {c} (each axis alone, the other as planned)"
+        p = ("" if self.contacts_m is None else ", contact positions the workpiece's size"
+             if not math.isfinite(self.contacts_m)
+             else f", contact positions +-{1000 * self.contacts_m:.3g} mm")
+        return (f"tolerates mass {m}, centre of mass {c}{p} (each axis alone, the others as "
+                "planned)")
 
 
 def plan_load_set(plan: Plan) -> LoadSet | None:
@@ -194,7 +210,11 @@ def tolerated(plan: Plan, *, steps: int = 10) -> Tolerance:
     base = hand.load_set or point_set(hand.mass, hand.com)
     wps = _waypoints(plan)
     out, res = [], []
-    for axis, cap in (("mass", hand.mass), ("com", hand.length_scale)):
+    axes = [("mass", hand.mass), ("com", hand.length_scale)]
+    one_effort = all(len(seg.effort_joints) == 1 for seg in plan.segments)
+    if one_effort:
+        axes.append(("contacts", hand.length_scale))
+    for axis, cap in axes:
         step = cap / 2 ** steps
         lo, hi = cap, math.inf
 
@@ -214,4 +234,6 @@ def tolerated(plan: Plan, *, steps: int = 10) -> Tolerance:
             lo, hi = a, b
         out.append(math.inf if lo == cap else lo)
         res.append(0.0 if not math.isfinite(hi) else hi - lo)
-    return Tolerance(out[0], out[1], res[0], res[1])
+    if not one_effort:  # contact positions: one effort joint only (docs/planning.md)
+        return Tolerance(out[0], out[1], res[0], res[1])
+    return Tolerance(out[0], out[1], res[0], res[1], out[2], res[2])

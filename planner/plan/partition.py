@@ -35,12 +35,13 @@ from typing import Any
 
 import numpy as np
 
-from planner.errors import InputError
+from planner.errors import DegenerateError, InputError
 from planner.model.closure import constraint_rank, contact_rate_rows
 from planner.model.hand import Hand
 from planner.model.modes import BREAK, ROLL, Mode
 from planner.plan.guarantee import Guarantee, guarantee
 from planner.plan.intervals import EMPTY, Interval
+from planner.plan.offset_bounds import offset_box
 from planner.plan.polytope import TorqueRegion, band_region, empty_region, torque_region
 
 
@@ -138,24 +139,33 @@ def guaranteed_at(hand: Hand, q: np.ndarray, V: tuple[int, ...], rates: np.ndarr
                   mu: Any, model: str) -> Guaranteed:
     """The guaranteed efforts of ``claim`` at configuration ``q`` with the joints ``V`` at
     ``rates`` (module docstring).  Raises :class:`DegenerateError` from the stages."""
-    system = hand.system(q, 0.0, joint_inputs(hand, V, rates))
+    joints = joint_inputs(hand, V, rates)
+    system = hand.system(q, 0.0, joints)
     loads = hand.load_vertices(q)  # the uncertain mass and centre of mass (None: nominal)
+    box = offset_box(hand, q, joints)  # the box of contact positions (None: none)
+    if box is not None and len(system.effort_joints) != 1:
+        raise DegenerateError(f"contact offsets: guaranteed with one effort-controlled joint, "
+                              f"got {len(system.effort_joints)} (joints {V} velocity-controlled)")
     if len(system.effort_joints) == 1:
-        g = guarantee(system, claim, mu, model=model, loads=loads)
+        g = guarantee(system, claim, mu, model=model, loads=loads, box=box)
         if g.claim_band is None:
             E = tuple(int(j) for j in system.effort_joints)
             return Guaranteed(empty_region(g.claim, 1, E, {
                 "reason": f"{g.claim} is not kinematically admissible"}), g)
-        return Guaranteed(_over_loads(band_region(system, g, g.best()), loads), g)
+        return Guaranteed(_over_loads(band_region(system, g, g.best()), loads, box is not None),
+                          g)
     return Guaranteed(_over_loads(torque_region(system, claim, mu, model=model, loads=loads),
                                   loads))
 
 
-def _over_loads(region: TorqueRegion, loads: Any) -> TorqueRegion:
-    """An empty region's reason names the mass / centre-of-mass set when there is one."""
-    if loads is None or not region.empty or "reason" not in region.diagnosis:
+def _over_loads(region: TorqueRegion, loads: Any, positions: bool = False) -> TorqueRegion:
+    """An empty region's reason names the mass / centre-of-mass set (or, with ``positions``,
+    the box of contact positions) when there is one."""
+    if (loads is None and not positions) or not region.empty or "reason" not in region.diagnosis:
         return region
-    reason = f"{region.diagnosis['reason']} (with the workpiece's mass and centre-of-mass set)"
+    what = ("the box of contact positions" if positions
+            else "the workpiece's mass and centre-of-mass set")
+    reason = f"{region.diagnosis['reason']} (with {what})"
     return replace(region, diagnosis={**region.diagnosis, "reason": reason})
 
 

@@ -16,7 +16,9 @@ At each size the planner's exact functions give the result, nothing is sampled: 
 joint the claim's guaranteed band and the guaranteed pieces (the band minus every rival's
 possible set; :func:`planner.plan.guarantee.guarantee` over the vertex loads,
 :func:`planner.plan.load_bounds.load_bands`); with several the guaranteed region's radius (the
-Chebyshev radius of :func:`planner.plan.polytope.torque_region`).  The waypoint is the one with
+Chebyshev radius of :func:`planner.plan.polytope.torque_region`), the plan's contact-offset box
+kept as planned (:func:`planner.plan.offset_bounds.offset_box`; guaranteed with one effort
+joint only, as the planner does; growing it is not one of the axes).  The waypoint is the one with
 the smallest margin relative to its command's size (the likeliest to bind).  A size at which a
 stage of the planner fails (:class:`DegenerateError`) shows nothing guaranteed, marked inexact.
 
@@ -36,6 +38,7 @@ from planner.model.load_set import LoadSet, point_set
 from planner.plan.guarantee import guarantee
 from planner.plan.intervals import EMPTY, Interval
 from planner.plan.model import Plan
+from planner.plan.offset_bounds import offset_box
 from planner.plan.partition import joint_inputs
 from planner.plan.polytope import torque_region
 
@@ -148,23 +151,26 @@ def cost_point(plan: Plan, seg_i: int, wp_i: int, load_set: LoadSet, mu: Any,
     seg = plan.segments[seg_i]
     w = seg.waypoints[wp_i]
     hand = replace(seg.hand_model[0], load_set=load_set)
-    system = hand.system(w.q, 0.0, joint_inputs(hand, seg.velocity_joints,
-                                                w.velocity_commands))
+    joints = joint_inputs(hand, seg.velocity_joints, w.velocity_commands)
+    system = hand.system(w.q, 0.0, joints)
     loads = hand.load_vertices(w.q)
     try:
-        return _cost_point(plan, seg, system, loads, mu, size)
+        box = offset_box(hand, w.q, joints)  # the contact positions' box (None: none)
+        return _cost_point(plan, seg, system, loads, mu, size, box)
     except DegenerateError:  # a stage fails at this size: nothing guaranteed that it can show
         return CostPoint(size, EMPTY, (), -math.inf, False)
 
 
 def _cost_point(plan: Plan, seg: Any, system: Any, loads: Any, mu: Any,
-                size: float) -> CostPoint:
+                size: float, box: Any) -> CostPoint:
     if len(seg.effort_joints) == 1:
-        g = guarantee(system, seg.claim, mu, model=plan.mu_model, loads=loads)
+        g = guarantee(system, seg.claim, mu, model=plan.mu_model, loads=loads, box=box)
         band = g.claim_band.guaranteed if g.claim_band is not None else EMPTY
         widest = g.best()
         radius = (-math.inf if widest.empty else 0.5 * (widest.upper - widest.lower))
         return CostPoint(size, band, g.pieces, radius, g.exact)
+    if box is not None:
+        raise DegenerateError("contact offsets: guaranteed with one effort-controlled joint")
     reg = torque_region(system, seg.claim, mu, model=plan.mu_model, loads=loads)
     return CostPoint(size, EMPTY, (), reg.margin, reg.exact)
 

@@ -88,12 +88,8 @@ def releases(n_contacts: int, n_keep: int) -> list[tuple[int, ...]]:
 
 def contact_body(hand: Hand, c: ContactSpec) -> str:
     """The name of the body a contact touches besides the workpiece: ``palm``, an environment
-    surface's name, or the finger's name (side and tip contacts)."""
-    if c.kind == "palm":
-        return "palm"
-    if c.kind == "surface":
-        return hand.environment[c.surface][0]
-    return hand.fingers[c.finger].name
+    surface's name, or the finger's name (side and tip contacts): :meth:`Hand.body_name`."""
+    return hand.body_name(c)
 
 
 def contact_dict(hand: Hand, c: ContactSpec) -> dict[str, Any]:

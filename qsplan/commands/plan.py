@@ -73,7 +73,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--max-expansions", type=int, default=40,
                    help="task search: nodes expanded at most (1..1000; hand files with a goal)")
     p.add_argument("--margins", action="store_true",
-                   help="also find the largest mass (+-kg) and centre-of-mass (+-mm) "
+                   help="also find the largest mass (+-kg), centre-of-mass (+-mm) and "
+                        "contact-position (+-mm, plans with one effort joint per segment) "
                         "uncertainty the commands tolerate, each axis alone (a bisection on "
                         "the exact guarantee, docs/planning.md 'Uncertainty beyond friction'); "
                         "always done for a hand file with an 'uncertainty' section")
@@ -297,14 +298,26 @@ def diagnosis_lines(d: Any) -> list[str]:
 
 
 def uncertainty_words(unc: Any) -> str:
-    """The plan's mass / centre-of-mass set and what its commands tolerate, in plain words."""
+    """The plan's uncertainty set (mass, centre of mass, contact positions) and what its
+    commands tolerate, in plain words."""
     st, tol = unc.get("set"), unc.get("tolerated") or {}
     def iv(pair: Any, scale: float = 1.0) -> str:
         return f"[{scale * pair[0]:.4g}, {scale * pair[1]:.4g}]"
     where = (f"over mass {iv(st['mass'])} kg, centre of mass x {iv(st['com'][0], 1000)} mm, "
              f"y {iv(st['com'][1], 1000)} mm" if st else "at the nominal mass and centre of mass")
+    pos = st.get("contacts") if st else None
+    if isinstance(pos, dict):
+        where += ", contact positions " + ", ".join(
+            f"{'other bodies' if k == '*' else k} +-{1000 * v:.3g} mm" for k, v in pos.items())
+    elif pos:
+        where += f", every contact position +-{1000 * pos:.3g} mm"
     m, c = tol.get("mass_kg"), tol.get("com_m")
     m_txt = "the whole mass" if m is None else f"+-{m:.4g} kg"
     c_txt = "the workpiece's size" if c is None else f"+-{1000 * c:.3g} mm"
-    return (f"guaranteed {where}; the commands tolerate mass {m_txt}, centre of mass {c_txt} "
-            "(each axis alone, the other as planned; bisection on the exact guarantee)")
+    p = tol.get("contacts_m")
+    p_txt = ("" if not tol.get("contacts_computed") else
+             ", contact positions the workpiece's size" if p is None else
+             f", contact positions +-{1000 * p:.3g} mm")
+    return (f"guaranteed {where}; the commands tolerate mass {m_txt}, centre of mass {c_txt}"
+            f"{p_txt} (each axis alone, the others as planned; bisection on the exact "
+            "guarantee)")

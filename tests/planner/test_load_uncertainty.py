@@ -184,7 +184,7 @@ def test_hand_file_section_reads_and_defaults_to_the_nominal_point():
 def test_load_set_checks_its_values():
     with pytest.raises(InputError, match="expected 0 < lo"):
         LoadSet((0.0, 1.0), ((0, 0), (0, 0)), 0.5, (0.0, 0.0))
-    with pytest.raises(InputError, match="axis: expected 'mass' or 'com', got 'x'"):
+    with pytest.raises(InputError, match="axis: expected 'mass', 'com' or 'contacts', got 'x'"):
         load_set().widened("x", 1.0)
 
 
