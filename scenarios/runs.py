@@ -66,14 +66,15 @@ def simulate_system(system: System, engine: str, *, mu: Any = None, mu_kinetic: 
 def validate_plan(plan: Any, engine: str, mu: Any, *, waypoints: int | None = None,
                   torques: np.ndarray | None = None,
                   name: str | None = None, source: str | None = None,
-                  expect: Expect | str = Expect.AGREE) -> RunResult:
+                  expect: Expect | str = Expect.AGREE,
+                  parameters: dict[str, Any] | None = None) -> RunResult:
     """Run ``plan`` (a :class:`planner.plan.model.Plan` or one of its segments) in ``engine``
     at friction ``mu`` and judge every segment and the whole; ``torques`` replaces a
     one-segment plan's efforts and ``waypoints`` shortens it (negative controls and short
-    runs)."""
+    runs); ``parameters`` are recorded in the summary's ``parameters``."""
     return execute(job_for_plan(plan, engine, mu, torques=torques,
                                 waypoints=waypoints, name=name or "validate", source=source,
-                                expect=Expect.parse(expect)))
+                                expect=Expect.parse(expect), parameters=parameters))
 
 
 def run_ruler(engine: str, *, mu_s: float, mu_k: float, predict_mu_k: float | None = None,

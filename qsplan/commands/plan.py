@@ -19,10 +19,13 @@ BOUNDS_FIGURES = ("fig10_bounds_mu_lo.png", "fig11_bounds_mu_hi.png",
                   "fig12_rival_bounds_mu_hi.png", "fig13_guaranteed.png")
 """Figures 10-13 of a one-segment plan with one effort joint
 (``planner.plots.bounds.plot_bounds``)."""
-FIGURES = (*BOUNDS_FIGURES, "regions.png", "task_story.png", "task_regions.png")
+COST_FIGURE = "uncertainty_cost.png"
+"""What each uncertainty costs (``planner.plots.set_cost.COST_FIGURE``): drawn for a plan with a
+mass / centre-of-mass set and an effort-controlled joint."""
+FIGURES = (*BOUNDS_FIGURES, "regions.png", "task_story.png", "task_regions.png", COST_FIGURE)
 """The entries ``--figures`` may get (:data:`BOUNDS_FIGURES`; ``plot_regions`` for other
-segments, ``planner.plots.task`` for a task), checked before any work; an entry of an earlier
-set that this plan does not draw goes with the old set."""
+segments, ``planner.plots.task`` for a task; :data:`COST_FIGURE`), checked before any work; an
+entry of an earlier set that this plan does not draw goes with the old set."""
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -38,7 +41,8 @@ def register(sub: argparse._SubParsersAction) -> None:
             "mode and exclude every rival for all friction in --mu (eq. 28, Figs. 10-13), space "
             "the waypoints so the held commands keep the guarantee, and write the plan "
             "(versioned JSON, docs/plan-format.md); with --figures, Figures 10-13 (one effort "
-            "joint) or the task's pictures. Exit 0 ok, 1 when no control partition can "
+            "joint) or the task's pictures, and with an uncertainty set the guaranteed efforts "
+            "as each uncertainty grows. Exit 0 ok, 1 when no control partition can "
             "guarantee the mode or the task stops short of its goal (a partial plan is still "
             "written, with its diagnosis), 2 bad input, 3 internal fault."
         ),
@@ -77,7 +81,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", default="plan.json", help="plan file to write")
     p.add_argument("--figures", help="folder for the figures (PNG): Figures 10-13 of a segment "
                                      "with one effort joint, the task's pictures for a task; "
-                                     "written together with the plan")
+                                     "with an uncertainty set, what each uncertainty costs "
+                                     f"({COST_FIGURE}); written together with the plan")
     p.set_defaults(func=run)
 
 
@@ -149,9 +154,28 @@ def run(args: argparse.Namespace) -> int:
 
 def _figures(plan: Any, work: Path, final: Path) -> list[Path]:
     """Figures 10-13 of a one-segment plan with one effort joint, the effort regions of one
-    with several (or none), a task's pictures."""
+    with several (or none), a task's pictures; and what each uncertainty costs
+    (:data:`COST_FIGURE`) for a plan with a mass / centre-of-mass set."""
     if not plan.segments:
         return []
+    return _plan_figures(plan, work, final) + _cost_figure(plan, work, final)
+
+
+def _cost_figure(plan: Any, work: Path, final: Path) -> list[Path]:
+    """:data:`COST_FIGURE` when the plan has a mass / centre-of-mass set (its hand's
+    ``uncertainty`` section, or ``--margins``) and an effort-controlled joint."""
+    from planner.plan.load_margins import plan_load_set
+
+    ls = plan_load_set(plan)
+    wanted = (ls is not None and not ls.trivial) or "uncertainty" in plan.extra
+    if not wanted or not any(s.effort_joints for s in plan.segments):
+        return []
+    from planner.plots.set_cost import draw_plan_cost
+
+    return [final / draw_plan_cost(plan, work / COST_FIGURE).name]
+
+
+def _plan_figures(plan: Any, work: Path, final: Path) -> list[Path]:
     if len(plan.segments) == 1 and "goal" not in plan.hand:
         from planner.plots.bounds import plot_bounds, plot_regions
 

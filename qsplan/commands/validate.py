@@ -7,9 +7,10 @@ and the engine artefact its run measured); ``--out`` holds one folder per engine
 ``consensus.json``, and the exit code is the consensus verdicts'.
 
 Default friction: every value of the plan's ``mu.validate`` list (the plan passes only if every
-run agrees). Exit codes: 0 agreed, 1 disagreed or inconclusive, 2 bad input (missing, malformed
-or tampered plan, bad option), 3 simulator fault. The simulator is imported lazily inside
-:func:`run`.
+run agrees).  A plan guaranteed over a mass / centre-of-mass set also runs at the set's corners
+and centre (``--set``, :mod:`qsplan.commands.validate_set`). Exit codes: 0 agreed, 1 disagreed
+or inconclusive, 2 bad input (missing, malformed or tampered plan, bad option), 3 simulator
+fault. The simulator is imported lazily inside :func:`run`.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from typing import Any
 
 from planner.errors import InputError
 from planner.model.validation import FrictionValue
+from qsplan.commands.validate_set import add_options as add_set_options
 from qsplan.options import MU_MAX, fmt, parse_engines, parse_number
 from scenarios.registry import RUN_ENTRIES
 from sim.backends import ENGINES
@@ -53,6 +55,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                                  "per run (subfolders mu_<value> when several); written "
                                  "into place only when every run has finished")
     p.add_argument("--no-render", action="store_true", help="skip the timeline and GIF")
+    add_set_options(p)
     p.set_defaults(func=run)
 
 
@@ -115,12 +118,16 @@ def run(args: argparse.Namespace) -> int:
                          f"stops before its first ({str(path)!r})")
     mus = _mu_values(mus, plan.validate_mu)
     check_contacts(mus, len(plan.segments[0].mu_intervals))
+    from qsplan.commands.validate_set import chosen_points
+    from qsplan.commands.validate_set import entries as set_entries
+
+    args.points = chosen_points(args, plan)  # bad --set / --outside: before any simulation
     render = not args.no_render and len(plan.segments) == 1
     if args.out is not None:
         from planner.files.outputs import output_set
 
         # the destination and every entry are checked before any simulation
-        entries = output_entries(mus, render)
+        entries = output_entries(mus, render) + set_entries(args.points[1])
         if len(engines) > 1:
             entries = (*(f"{e}/" for e in engines), CONSENSUS_FILE)
         with output_set(args.out, "dir", entries=entries) as work:
@@ -233,7 +240,17 @@ def _run(args: argparse.Namespace, engine: str, plan: Any, path: Path,
             summaries.append(write_run(res, out, render=render))
         else:
             summaries.append(res.summary.to_dict())
-    return lines, _exit_code(statuses), summaries
+    code = _exit_code(statuses)
+    axes, points = getattr(args, "points", ((), ()))
+    if points:
+        from qsplan.commands import validate_set
+
+        more, runs = validate_set.run_points(engine, plan, path, mus, axes, points, work,
+                                             mu_text, mu_folder)
+        lines += more + [f"{engine} {validate_set.summary_line(runs)}"]
+        other = validate_set.exit_code(runs)
+        code = 3 if 3 in (code, other) else max(code, other)
+    return lines, code, summaries
 
 
 def _mu_values(mus: list[FrictionValue] | None, validate_mu: tuple[FrictionValue, ...]

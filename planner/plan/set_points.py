@@ -1,0 +1,216 @@
+"""Points of a plan's uncertainty set, and the plan as it is at one of them (eqs. 2, 13-32).
+
+A plan guaranteed over a mass / centre-of-mass set (:class:`planner.model.load_set.LoadSet`;
+docs/planning.md, "Uncertainty beyond friction") is validated by running it at points of that set
+(docs/planning.md, "Validating at points of the set"):
+
+* the set is described by its **axes** (:func:`set_axes`): one interval per scalar the set lets
+  vary, with its nominal value -- the workpiece's mass ``m`` [kg] and the two body-frame
+  coordinates of its centre of mass [m].  Every other function here iterates over the axes, so a
+  further axis of the set is one more entry of :func:`set_axes` and of :func:`hand_data_at`;
+* the **corners** are every combination of the axes' ends (an axis of zero width gives one
+  value), the **centre** is every axis at its midpoint, and an **outside** point pushes one
+  axis's end out by ``step`` times its half-width, the other axes at their midpoints
+  (:func:`set_points`);
+* :func:`plan_at` is the plan run at a point: every segment's hand with that mass, centre of
+  mass and the load scaled with the mass (the load is proportional to the mass, as the set
+  assumes), and every waypoint's ``predicted`` modes *recomputed by the planner there*
+  (eqs. 13-32 at the point's load, the run's friction and the waypoint's commands;
+  :func:`predicted_at_command`) -- never copied from the plan.
+
+Units: kg, m (body frame), N.
+"""
+
+from __future__ import annotations
+
+import copy
+import itertools
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+
+from planner.errors import InputError
+from planner.model.hand import Hand
+from planner.model.load_set import LoadSet
+from planner.plan.model import Plan, Segment
+from planner.plan.partition import joint_inputs
+from planner.predict.feasibility import feasible_modes
+
+#: The kinds of point :func:`set_points` draws (``--set`` of ``qsplan validate``).
+POINT_KINDS = ("corners", "centre", "outside")
+#: How far past the set an outside point lies, in half-widths of its axis (``--outside``).
+OUTSIDE_STEP = 0.25
+
+
+@dataclass(frozen=True)
+class SetAxis:
+    """One scalar the set lets vary: ``key`` (short, as in point names: ``m``, ``cx``,
+    ``cy``), ``name`` in words, its ``unit``, the interval ``lo <= nominal <= hi``."""
+
+    key: str
+    name: str
+    unit: str
+    lo: float
+    hi: float
+    nominal: float
+
+    @property
+    def mid(self) -> float:
+        return 0.5 * (self.lo + self.hi)
+
+    @property
+    def half(self) -> float:
+        return 0.5 * (self.hi - self.lo)
+
+
+def set_axes(load_set: LoadSet) -> tuple[SetAxis, ...]:
+    """The axes of ``load_set``: the mass interval [kg], then the centre-of-mass box's x and y
+    intervals [m, body frame]."""
+    (ax, bx), (ay, by) = load_set.com
+    cx, cy = load_set.nominal_com
+    return (SetAxis("m", "mass", "kg", *load_set.mass, load_set.nominal_mass),
+            SetAxis("cx", "centre of mass x", "m", ax, bx, cx),
+            SetAxis("cy", "centre of mass y", "m", ay, by, cy))
+
+
+@dataclass(frozen=True)
+class SetPoint:
+    """One point of (or just outside) the set: ``name`` (``centre``, ``m+cx-cy+`` for a corner:
+    each varying axis at its upper ``+`` or lower ``-`` end, ``out-m+`` for the mass pushed
+    above its interval), ``kind`` (``corner``, ``centre``, ``outside``), ``values`` one per axis
+    of :func:`set_axes` (their units), ``inside`` whether it belongs to the set."""
+
+    name: str
+    kind: str
+    values: tuple[float, ...]
+    inside: bool
+
+    def to_dict(self, axes: Sequence[SetAxis]) -> dict[str, Any]:
+        return {"name": self.name, "kind": self.kind, "inside": self.inside,
+                "values": {a.key: v for a, v in zip(axes, self.values)}}
+
+    def words(self, axes: Sequence[SetAxis]) -> str:
+        """``m=0.11 kg cx=22 mm cy=16.5 mm`` (lengths in mm)."""
+        return " ".join(f"{a.key}={1000 * v:.4g} mm" if a.unit == "m" else
+                        f"{a.key}={v:.4g} {a.unit}" for a, v in zip(axes, self.values))
+
+
+def parse_kinds(text: str) -> tuple[str, ...]:
+    """``"corners,centre"``, ``"all"`` (every kind) or ``"none"`` -> the kinds, in
+    :data:`POINT_KINDS` order; :class:`InputError` naming what came otherwise."""
+    words = [w.strip() for w in str(text).split(",")]
+    if words == ["none"]:
+        return ()
+    if words == ["all"]:
+        return POINT_KINDS
+    bad = [w for w in words if w not in POINT_KINDS]
+    if bad or not words:
+        raise InputError(f"--set: expected 'none', 'all' or comma-separated kinds of "
+                         f"{', '.join(POINT_KINDS)}, got {text!r}")
+    return tuple(k for k in POINT_KINDS if k in words)
+
+
+def set_points(axes: Sequence[SetAxis], kinds: Sequence[str],
+               step: float = OUTSIDE_STEP) -> tuple[SetPoint, ...]:
+    """The points of ``kinds`` (module docstring); ``step`` > 0 half-widths past an end for an
+    outside point (an axis of zero width has none; a mass pushed to ``<= 0`` is left out)."""
+    if not (np.isfinite(step) and step > 0):
+        raise InputError(f"--outside: expected a finite step > 0 (in half-widths of each "
+                         f"axis), got {step!r}")
+    out: list[SetPoint] = []
+    wide = [a for a in axes if a.hi > a.lo]
+    if "corners" in kinds:
+        ends = [(a.lo, a.hi) if a.hi > a.lo else (a.lo,) for a in axes]
+        for vals in itertools.product(*ends):
+            name = "".join(f"{a.key}{'+' if v == a.hi else '-'}" for a, v in zip(axes, vals)
+                           if a.hi > a.lo) or "nominal"
+            out.append(SetPoint(name, "corner", tuple(float(v) for v in vals), True))
+    if "centre" in kinds:
+        out.append(SetPoint("centre", "centre", tuple(a.mid for a in axes), True))
+    if "outside" in kinds:
+        for a in wide:
+            for sign, end in (("+", a.hi + step * a.half), ("-", a.lo - step * a.half)):
+                if abs(end) <= 1e-12 * (abs(a.lo) + abs(a.hi)):
+                    end = 0.0  # rounding of an end that lands on zero
+                if a.key == "m" and not end > 0:
+                    continue
+                vals = tuple(end if b is a else b.mid for b in axes)
+                out.append(SetPoint(f"out-{a.key}{sign}", "outside", vals, False))
+    return tuple(out)
+
+
+def hand_data_at(hand: Mapping[str, Any], axes: Sequence[SetAxis],
+                 values: Sequence[float]) -> dict[str, Any]:
+    """The hand-file content ``hand`` at the point ``values`` (one per axis of
+    :func:`set_axes`): ``workpiece.mass``, ``workpiece.com`` and ``load.force`` times
+    ``m / m0`` (the load is proportional to the mass); its ``uncertainty`` section is dropped
+    (the point is a nominal workpiece)."""
+    at = {a.key: float(v) for a, v in zip(axes, values)}
+    d = copy.deepcopy(dict(hand))
+    d.pop("uncertainty", None)
+    wp = d["workpiece"]
+    m0 = next(a.nominal for a in axes if a.key == "m")
+    wp["mass"] = at["m"]
+    wp["com"] = [at["cx"], at["cy"]]
+    if "load" in d and "force" in d["load"]:
+        d["load"]["force"] = [float(f) * at["m"] / m0 for f in d["load"]["force"]]
+    return d
+
+
+def predicted_at_command(hand: Hand, q: Any, V: Sequence[int], rates: Any,
+                         tau: Any, mu: Any) -> tuple[str, ...]:
+    """The modes the planner finds feasible (eqs. 13-32, :func:`feasible_modes`) for ``hand``
+    at configuration ``q (3 + n_theta,)`` with the joints ``V`` at ``rates`` and the others at
+    the efforts ``tau (n_theta - |V|,)``, at friction ``mu`` (one coefficient or ``(n_c,)``)."""
+    system = hand.system(q, 0.0, joint_inputs(hand, tuple(V), rates))
+    inputs = np.array(system.joint_inputs)
+    E = [j for j in range(hand.n_joints) if j not in V]
+    inputs[E] = np.asarray(tau, dtype=float)
+    return tuple(sorted(feasible_modes(system.with_joint_inputs(inputs), mu).labels))
+
+
+def segment_at(seg: Segment, axes: Sequence[SetAxis], values: Sequence[float],
+               mu: Any) -> Segment:
+    """``seg`` at the point ``values`` (:func:`hand_data_at`) with every waypoint's
+    ``predicted`` recomputed there at friction ``mu`` (:func:`predicted_at_command`)."""
+    moved = replace(seg, hand=hand_data_at(seg.hand, axes, values), regions=(), shortfall=None)
+    hand = moved.hand_model[0]
+    V = seg.velocity_joints
+    wps = tuple(replace(w, predicted=predicted_at_command(hand, w.q, V, w.velocity_commands,
+                                                          w.torque_commands, mu))
+                for w in seg.waypoints)
+    return replace(moved, waypoints=wps)
+
+
+def plan_at(plan: Plan, axes: Sequence[SetAxis], point: SetPoint,
+            mus: Sequence[Any]) -> Plan:
+    """``plan`` at ``point`` (module docstring); ``mus`` per segment its friction (one
+    coefficient or one per contact of the segment)."""
+    if len(mus) != len(plan.segments):
+        raise InputError(f"mus: expected {len(plan.segments)} (one per segment), got "
+                         f"{len(mus)}")
+    if len(point.values) != len(axes):
+        raise InputError(f"point: expected {len(axes)} values (one per axis), got "
+                         f"{len(point.values)}")
+    segs = tuple(segment_at(s, axes, point.values, mu) for s, mu in zip(plan.segments, mus))
+    return replace(plan, segments=segs, hand=hand_data_at(plan.hand, axes, point.values))
+
+
+def claim_shares(plan: Plan) -> tuple[tuple[float, float], ...]:
+    """Per segment ``(only, absent)``: the fractions of its duration whose hold intervals have
+    the claim as the only predicted mode, and have it not predicted at all (each waypoint's
+    ``predicted`` held to the next waypoint; the last waypoint holds nothing)."""
+    out = []
+    for seg in plan.segments:
+        t = np.array([w.t for w in seg.waypoints], dtype=float)
+        dt = np.diff(t)
+        total = float(dt.sum())
+        if not total > 0:
+            out.append((0.0, 0.0))
+            continue
+        only = sum(d for d, w in zip(dt, seg.waypoints) if tuple(w.predicted) == (seg.claim,))
+        absent = sum(d for d, w in zip(dt, seg.waypoints) if seg.claim not in w.predicted)
+        out.append((float(only / total), float(absent / total)))
+    return tuple(out)
