@@ -194,7 +194,9 @@ class EngineSettings:
 #: * hand: the settings measured on the two-finger hand (docs/simulation.md, "Two-finger
 #:   hand"): pymunk at 1 ms; MuJoCo with a 0.01 s solref, masses x 0.1 (then scaled up by the
 #:   load per size, :data:`MUJOCO_REFERENCE_LOAD_PER_SIZE`), a 1e3 N/m in-plane spring, 0.3 s
-#:   settling; commands ramped over 0.05 s at a waypoint; plans run at their own speed up to
+#:   settling, ``impratio`` raised per run so a sticking contact's soft-friction creep stays
+#:   below half the slip threshold (:func:`with_stick_limits`, docs/simulation.md "MuJoCo:
+#:   friction creep"); commands ramped over 0.05 s at a waypoint; plans run at their own speed up to
 #:   the drive limit (2 mm/s pymunk, 1.5 mm/s MuJoCo: the two-finger plan runs at 1.2 mm/s in
 #:   both);
 #: * ruler: pymunk at 2 ms and 0.3 mm/s, MuJoCo at 1 ms and 0.15 mm/s per finger for the

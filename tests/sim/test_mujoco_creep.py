@@ -87,3 +87,32 @@ def test_stick_limits_are_checked() -> None:
         with_stick_limits(EngineSettings(), 1.0, 0.0)
     es = with_stick_limits(EngineSettings(), 2.0, 1e-4)
     assert (es.contact_force, es.stick_speed) == (2.0, 1e-4)
+
+
+def test_a_plan_run_hands_mujoco_its_contacts_force_and_creep_speed() -> None:
+    """The flip's plan at its box's upper corner: the load plus the squeeze as the contact
+    force, half the slip threshold as the creep speed (at the simulated size), and the built
+    model's impratio the creep bound of its soft wall and table pairs."""
+    from pathlib import Path
+
+    from planner.plan.plan_file import load_plan
+    from sim.backends import make_backend
+    from sim.jobs import job_for_plan
+    from sim.similarity import scaled_masses, scaled_scene
+
+    plan = load_plan(Path(__file__).resolve().parents[1] / "data" / "plan_flip_against_wall.json")
+    job = job_for_plan(plan, "mujoco", (0.4, 0.4, 1.0))
+    es = job.settings
+    assert es.contact_force == pytest.approx(job.parameters["load_N"]
+                                             + job.parameters["squeeze_N"])
+    assert es.stick_speed == pytest.approx(0.5 * job.thresholds.slip_speed * job.scale)
+    b = make_backend("mujoco", es)
+    b.build(scaled_masses(scaled_scene(job.scene, job.scale), es.mass_scale))
+    need = creep_impratio(b.model, b.data, {"all": list(range(b.model.npair))},
+                          es.contact_force, es.stick_speed)
+    assert b.impratio_used == pytest.approx(need) and need > 10.0
+    frictionless = job_for_plan(plan, "mujoco", (0.0, 0.0, 0.7))
+    b0 = make_backend("mujoco", frictionless.settings)
+    b0.build(scaled_masses(scaled_scene(frictionless.scene, frictionless.scale),
+                           frictionless.settings.mass_scale))
+    assert b0.impratio_used < b.impratio_used  # frictionless wall and table need none
