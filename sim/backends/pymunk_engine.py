@@ -7,8 +7,9 @@ friction values), one shape per contact site so one arbiter holds one contact; a
 would sit exactly on the line of a polygon edge it is paired with is moved off it
 (:mod:`sim.backends.pymunk_edges`: Chipmunk reports such a contact along the edge's normal at the
 depth of the radius). Driven bodies are kinematic bodies; velocity joints: revolute = pivot +
-SimpleMotor of unbounded force, prismatic = a kinematic carriage moving along the axis with the body
-welded to it by pivot + gear joints; effort joints: pivot (or groove + gear) with the effort applied
+SimpleMotor of unbounded force, prismatic = the body itself kinematic, moved along the axis at the
+rate (held to a carriage by a pivot and a gear, a light link slowed the solver's sweeps on the
+next joint until it came off: :mod:`sim.backends.pymunk_solver`); effort joints: pivot (or groove + gear) with the effort applied
 as a body torque / force every step. Joints on a parent body (chains,
 :meth:`PymunkBackend._add_child_joint`): the same constraints between the two bodies, efforts
 applied equal and opposite. """
