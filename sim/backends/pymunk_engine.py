@@ -10,9 +10,9 @@ depth of the radius). Driven bodies are kinematic bodies; velocity joints: revol
 SimpleMotor of unbounded force, prismatic = the body itself kinematic, moved along the axis at the
 rate (held to a carriage by a pivot and a gear, a light link slowed the solver's sweeps on the
 next joint until it came off: :mod:`sim.backends.pymunk_solver`); effort joints: pivot (or
-groove + gear) with the effort applied as a body torque / force every step. Joints on a parent body (chains,
-:meth:`PymunkBackend._add_child_joint`): the same constraints between the two bodies, efforts
-applied equal and opposite. """
+groove + gear) with the effort applied as a body torque / force every step. Joints on a parent
+body (chains, :meth:`PymunkBackend._add_child_joint`): the same constraints between the two
+bodies, efforts applied equal and opposite. """
 
 
 from __future__ import annotations
