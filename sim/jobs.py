@@ -51,6 +51,7 @@ from sim.settings import (
     scene_scale,
     settings_for,
     with_mass_for_load,
+    with_stick_limits,
 )
 from sim.similarity import scaled_masses, scaled_scene, unscaled_recording
 from sim.summary import RunSummary
@@ -147,7 +148,8 @@ def execute(job: SimJob) -> RunResult:
     summary = RunSummary(
         name=job.name, kind=job.kind.value, engine=job.engine, source=job.source,
         expect=job.expect, verdict=verdict,
-        parameters={**job.parameters, **_run_parameters(job, rec)},
+        parameters={**job.parameters, **_run_parameters(job, rec), **(
+            {"impratio": backend.impratio_used} if hasattr(backend, "impratio_used") else {})},
         predicted=job.predicted, observed=obs,
         segments=tuple(sv.to_dict() for sv in judgement.segments), wall_time_s=wall)
     return RunResult(job, summary, rec, judgement)
@@ -307,6 +309,10 @@ def job_for_plan(plan: Any, engine: str, mu: Any, *, torques: np.ndarray | None 
         for seg, d in zip(exp.segments, drives)))
     th = replace(Thresholds.for_drive(min(drives), load, creep_floor=creep, settle=es.settle,
                                       length_scale=size), jam_depth_rate=np.inf)
+    # a sticking contact may creep at half the slip threshold (where the classifier's
+    # hysteresis leaves S) holding its friction on the load plus the squeeze
+    # (docs/simulation.md, "MuJoCo: friction creep")
+    es = with_stick_limits(es, load + squeeze, 0.5 * th.slip_speed * s)
     run = RunSettings(duration=lay.duration, dt=es.dt, slip_speed=SLIP_OF_DRIVE * min(drives),
                       penetration_tol=PENETRATION_OF_SIZE * size, record_every=es.record_every,
                       open_at_start=lay.open_at_start, control_switches=lay.control_switches())

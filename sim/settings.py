@@ -32,6 +32,8 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from enum import Enum
 
+import numpy as np
+
 from planner.errors import InputError
 
 
@@ -132,7 +134,10 @@ class EngineSettings:
 
     Backend options: ``iterations`` (pymunk); ``mass_scale`` factor on the scene's masses
     (dynamics only: loads are explicit forces); MuJoCo ``solref`` of every pair,
-    ``z_stiffness`` [N/m] of the spring holding dynamic bodies in the plane, the impedance of
+    ``z_stiffness`` [N/m] of the spring holding dynamic bodies in the plane, ``contact_force``
+    [N] and ``stick_speed`` [m/s] (MuJoCo's ``impratio`` is raised until a contact holding
+    its friction coefficient times ``contact_force`` creeps slower than ``stick_speed``:
+    :func:`with_stick_limits`; ``None``: no such bound), the impedance of
     each contact role (:mod:`sim.backends.roles`): ``support_solimp``, ``support_solref``,
     ``support_impratio``, ``carry_solref``, ``carry_impratio``, ``squeeze_d0`` (None: the stiff
     default), ``squeeze_solref``, and ``heavy_ratio`` (driven-body mass over the heaviest
@@ -162,6 +167,8 @@ class EngineSettings:
     squeeze_solref: tuple[float, float] | None = SQUEEZE_SOLREF
     heavy_ratio: float = HEAVY_RATIO
     load_per_size: float | None = None
+    contact_force: float | None = None
+    stick_speed: float | None = None
 
     def drive_speed(self, size: float) -> float:
         """Speed [m/s] of the fastest manipulator contact in a scene of ``size`` [m]."""
@@ -187,7 +194,9 @@ class EngineSettings:
 #: * hand: the settings measured on the two-finger hand (docs/simulation.md, "Two-finger
 #:   hand"): pymunk at 1 ms; MuJoCo with a 0.01 s solref, masses x 0.1 (then scaled up by the
 #:   load per size, :data:`MUJOCO_REFERENCE_LOAD_PER_SIZE`), a 1e3 N/m in-plane spring, 0.3 s
-#:   settling; commands ramped over 0.05 s at a waypoint; plans run at their own speed up to
+#:   settling, ``impratio`` raised per run so a sticking contact's soft-friction creep stays
+#:   below half the slip threshold (:func:`with_stick_limits`, docs/simulation.md "MuJoCo:
+#:   friction creep"); commands ramped over 0.05 s at a waypoint; plans run at their own speed up to
 #:   the drive limit (2 mm/s pymunk, 1.5 mm/s MuJoCo: the two-finger plan runs at 1.2 mm/s in
 #:   both);
 #: * ruler: pymunk at 2 ms and 0.3 mm/s, MuJoCo at 1 ms and 0.15 mm/s per finger for the
@@ -277,3 +286,16 @@ def with_mass_for_load(settings: EngineSettings, load: float, mass: float,
         return settings
     ratio = load / (mass * size) / ref
     return replace(settings, mass_scale=settings.mass_scale * ratio) if ratio > 1.0 else settings
+
+
+def with_stick_limits(settings: EngineSettings, force: float, speed: float) -> EngineSettings:
+    """``settings`` with the friction a run's contacts must hold: ``force`` [N] the largest
+    normal force a contact carries (a contact of friction ``mu`` holds at most ``mu force`` of
+    friction), ``speed`` [m/s, at the simulated size] the slip speed a contact holding it may
+    creep at. MuJoCo derives its ``impratio`` from them
+    (:func:`sim.backends.mujoco_impedance.creep_impratio`; docs/simulation.md, "MuJoCo: friction
+    creep"); the other engines solve Coulomb friction exactly and ignore them."""
+    if not (np.isfinite(force) and force >= 0 and np.isfinite(speed) and speed > 0):
+        raise InputError(f"stick limits: expected a finite force >= 0 [N] and a speed > 0 "
+                         f"[m/s], got {force} and {speed}")
+    return replace(settings, contact_force=float(force), stick_speed=float(speed))

@@ -33,7 +33,8 @@ def _mujoco_options(es: EngineSettings) -> dict[str, Any]:
             "support_solimp": es.support_solimp, "carry_solref": es.carry_solref,
             "carry_impratio": es.carry_impratio, "squeeze_d0": es.squeeze_d0,
             "squeeze_solref": es.squeeze_solref, "heavy_ratio": es.heavy_ratio,
-            "support_solref": es.support_solref, "support_impratio": es.support_impratio}
+            "support_solref": es.support_solref, "support_impratio": es.support_impratio,
+            "contact_force": es.contact_force, "stick_speed": es.stick_speed}
 
 
 def _dart_options(es: EngineSettings) -> dict[str, Any]:

@@ -40,7 +40,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from sim.backends.mujoco_impedance import apply_role_impedance, scene_load
+from sim.backends.mujoco_impedance import apply_role_impedance, creep_impratio, scene_load
 from sim.backends.mujoco_polygon import polygon_geoms
 from sim.backends.roles import contact_roles
 from sim.backends.switching import replace_joint, switch_joint
@@ -75,8 +75,15 @@ class MujocoBackend:
                  squeeze_solref: tuple[float, float] | None = None,
                  heavy_ratio: float = HEAVY_RATIO,
                  support_solref: tuple[float, float] | None = None,
-                 support_impratio: float | None = None) -> None:
+                 support_impratio: float | None = None,
+                 contact_force: float | None = None,
+                 stick_speed: float | None = None) -> None:
         self.impratio = impratio
+        #: a contact holding its friction times ``contact_force`` [N] creeps slower than
+        #: ``stick_speed`` [m/s] (:func:`sim.backends.mujoco_impedance.creep_impratio`)
+        self.contact_force, self.stick_speed = contact_force, stick_speed
+        #: the impratio the built model runs with (the roles' or the creep bound's)
+        self.impratio_used = impratio
         #: driven-body mass over the heaviest dynamic body's (:data:`HEAVY_RATIO`)
         self.heavy_ratio = heavy_ratio
         #: solimp d0 of every ``squeeze`` pair, rising to ``solimp[0]`` (the stiff default) over
@@ -252,6 +259,13 @@ class MujocoBackend:
         self.squeeze_widths = apply_role_impedance(self.model, self.data, self.roles,
                                                    self._subpairs, scene_load(self.scene), self)
         mujoco.mj_forward(self.model, self.data)
+        if self.contact_force is not None and self.stick_speed is not None:
+            need = creep_impratio(self.model, self.data, self._subpairs, self.contact_force,
+                                  self.stick_speed)
+            if need > self.model.opt.impratio:
+                self.model.opt.impratio = need
+                mujoco.mj_forward(self.model, self.data)
+        self.impratio_used = float(self.model.opt.impratio)
 
     def _heavy_mass(self, scene: Scene) -> float:
         """Mass [kg] of a driven body (armature of a velocity-controlled joint per length

@@ -99,3 +99,40 @@ def contact_diag_a(model: Any, data: Any, pair: int) -> float:
         if con.efc_address >= 0 and {int(con.geom[0]), int(con.geom[1])} == geoms:
             out = max(out, float(data.efc_diagA[con.efc_address]))
     return out
+
+
+def creep_impratio(model: Any, data: Any, subpairs: Mapping[str, list[int]], force: float,
+                   speed: float) -> float:
+    """The ``impratio`` [-] at which no contact of the built model creeps faster than
+    ``speed`` [m/s] while it sticks under its friction coefficient times ``force`` [N] (the
+    largest normal force a contact carries), and every contact sliding at least that fast
+    carries its full Coulomb force; 0 for a model without contacts.
+
+    MuJoCo's friction rows are soft constraints with no position term: the solver makes a
+    row's acceleration ``a = aref - R f`` with ``aref = -b v`` (``b = 2 / (d_width
+    timeconst)``, the damping of its ``solref``), so a sticking contact holding friction
+    ``f_t`` reaches the steady slip ``|v| = R_t |f_t| / b`` -- a creep proportional to the
+    friction force -- and a sliding one at ``|v|`` carries at most ``b |v| / R_t``. With the
+    elliptic cone the friction rows' regulariser is the normal row's over the impratio,
+    ``R_t = R_n / impratio`` (``R_n = (1 - imp) / imp x diagA`` from the pair's ``solimp``
+    and inverse effective mass). Hence ``impratio >= R_n mu force / (b speed)`` for every
+    contact, ``mu`` its model pair's sliding friction; ``R_n`` and ``b`` are read from the
+    model's constraint rows (``efc_R``, ``efc_KBIP``) after a forward pass (``data`` must hold
+    one), and the largest ratio over the contacts of ``subpairs``' model pairs is returned.
+    Noslip iterations cut the creep further; this is the bound without them."""
+    if not (force >= 0 and speed > 0):
+        raise ValueError(f"creep_impratio: expected force >= 0 and speed > 0, got {force}, "
+                         f"{speed}")
+    mu_of = {frozenset((int(model.pair_geom1[i]), int(model.pair_geom2[i]))):
+             float(model.pair_friction[i][0]) for ks in subpairs.values() for i in ks}
+    need = 0.0
+    for c in range(data.ncon):
+        con = data.contact[c]
+        a = int(con.efc_address)
+        mu = mu_of.get(frozenset((int(con.geom[0]), int(con.geom[1]))))
+        if a < 0 or mu is None:
+            continue
+        r_n, b = float(data.efc_R[a]), float(data.efc_KBIP[a, 1])
+        if b > 0:
+            need = max(need, r_n * mu * force / (b * speed))
+    return need

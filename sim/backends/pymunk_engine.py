@@ -7,11 +7,12 @@ friction values), one shape per contact site so one arbiter holds one contact; a
 would sit exactly on the line of a polygon edge it is paired with is moved off it
 (:mod:`sim.backends.pymunk_edges`: Chipmunk reports such a contact along the edge's normal at the
 depth of the radius). Driven bodies are kinematic bodies; velocity joints: revolute = pivot +
-SimpleMotor of unbounded force, prismatic = a kinematic carriage moving along the axis with the body
-welded to it by pivot + gear joints; effort joints: pivot (or groove + gear) with the effort applied
-as a body torque / force every step. Joints on a parent body (chains,
-:meth:`PymunkBackend._add_child_joint`): the same constraints between the two bodies, efforts
-applied equal and opposite. """
+SimpleMotor of unbounded force, prismatic = the body itself kinematic, moved along the axis at the
+rate (held to a carriage by a pivot and a gear, a light link slowed the solver's sweeps on the
+next joint until it came off: :mod:`sim.backends.pymunk_solver`); effort joints: pivot (or
+groove + gear) with the effort applied as a body torque / force every step. Joints on a parent
+body (chains, :meth:`PymunkBackend._add_child_joint`): the same constraints between the two
+bodies, efforts applied equal and opposite. """
 
 
 from __future__ import annotations
@@ -81,10 +82,15 @@ class PymunkBackend:
         self.bodies: dict[str, pymunk.Body] = {}
         self.shapes: dict[str, list[pymunk.Shape]] = {}
         offsets = edge_line_offsets(scene)
+        # a body slid by a velocity-controlled joint on the base has no free coordinate:
+        # it is kinematic, moved at the joint's rate (not a light body held to a carriage,
+        # whose joint rows slow the solver's sweeps; docs/simulation.md, "pymunk")
+        slid = {j.body: j.name for j in scene.joints if j.parent is None
+                and j.kind == JointKind.PRISMATIC and j.control == Control.VELOCITY}
         for b in scene.bodies:
             if b.kind == BodyKind.STATIC:
                 body = pymunk.Body(body_type=pymunk.Body.STATIC)
-            elif b.kind == BodyKind.DRIVEN:
+            elif b.kind == BodyKind.DRIVEN or b.name in slid:
                 body = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
             else:
                 body = pymunk.Body(b.mass, _moment(b))
@@ -128,13 +134,7 @@ class PymunkBackend:
                     self.motors[j.name] = motor
             else:
                 if j.control == Control.VELOCITY:
-                    car = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
-                    car.position = _xy(j.anchor)
-                    space.add(car)
-                    # gear phase = the body's angle: Chipmunk holds b.angle - a.angle = phase
-                    space.add(pymunk.PivotJoint(car, body, _xy(j.anchor)),
-                              pymunk.GearJoint(car, body, body.angle, 1.0))
-                    self.carriages[j.name] = car
+                    self.carriages[j.name] = body  # kinematic (``slid``), moved at the rate
                 else:
                     axis = np.asarray(j.axis, dtype=float)
                     anchor = np.asarray(j.anchor, dtype=float)

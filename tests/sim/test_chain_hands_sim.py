@@ -26,7 +26,7 @@ from planner.plan.segment_planner import plan_segment
 from planner.predict.feasibility import feasible_modes
 from scenarios.runs import validate_plan
 from sim.backends import DEFAULT_ENGINES, EngineSettings, make_backend
-from sim.scene import Body, Capsule, Control, Joint, JointKind, Scene
+from sim.scene import Body, Capsule, Control, Joint, JointKind, Scene, preload_depth
 from sim.scenes.hand import finger_body, hand_scene, joint_coordinates
 from sim.schedule import SegmentSchedule, effort_force
 from sim.settings import SceneKind, settings_for, with_mass_for_load
@@ -74,8 +74,14 @@ def test_links_follow_the_planners_forward_kinematics(name, engine):
                 assert abs(np.angle(np.exp(1j * (th - np.arctan2(d[1], d[0]))))) < 1e-4
         if k < steps:
             be.step(dt)
-    # the joints moved at their commanded rates (both engines lag by at most one step)
-    assert np.allclose(q[3:], q0[3:] + rates * steps * dt, atol=1.01 * np.max(np.abs(rates)) * dt)
+    # the joints moved at their commanded rates: both engines lag by at most one step, and a
+    # finger may be pushed out of its contact's pre-load overlap -- pymunk corrects overlaps
+    # with bias velocities that a motor does not hold -- by at most the overlap over its
+    # shortest link (a kinematic slide leaves the correction to the others)
+    lever = min(link.length for f in hand.fingers for link in f.chain_links)
+    pushed = preload_depth(hand.length_scale) / lever
+    assert np.allclose(q[3:], q0[3:] + rates * steps * dt,
+                       atol=1.01 * np.max(np.abs(rates)) * dt + pushed)
 
 
 def _two_link_scene(kind, u):
