@@ -80,7 +80,9 @@ class SegmentExpectation:
     ``travel`` [m] the predicted path length; ``drive`` [m/s] its fastest commanded contact
     speed and ``slip_speed`` [m/s] the classifier's slip threshold for it; ``slips`` (n, n_c)
     [m/s] each contact's predicted tangential relative velocity at each waypoint (eq. 5,
-    :func:`sim.schedule.predicted_slips`; empty: not known)."""
+    :func:`sim.schedule.predicted_slips`; empty: not known); ``points`` (k, 2) [m] the
+    body-frame points of the workpiece whose positions are judged (its polygon's vertices;
+    default its frame origin alone), :func:`point_travel`, :func:`point_errors`."""
 
     claim: Mode
     start: float
@@ -94,17 +96,47 @@ class SegmentExpectation:
     drive: float = 0.0
     slip_speed: float = 0.0
     slips: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    points: np.ndarray = field(default_factory=lambda: np.zeros((1, 2)))
 
 
 @dataclass(frozen=True, eq=False)
 class PlanSchedule:
     """A plan's segments in run order (one for a single-segment plan); ``travel`` [m] of the
-    whole task; ``goal`` (3,) the final predicted pose; ``length`` [m] the hand's size."""
+    whole task (:func:`point_travel` of its ``points``); ``goal`` (3,) the final predicted
+    pose; ``length`` [m] the hand's size; ``points`` (k, 2) as in
+    :class:`SegmentExpectation`."""
 
     segments: tuple[SegmentExpectation, ...]
     travel: float
     goal: np.ndarray
     length: float
+    points: np.ndarray = field(default_factory=lambda: np.zeros((1, 2)))
+
+
+def point_positions(poses: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """(n, k, 2) [m] world positions of the body-frame ``points`` (k, 2) at the workpiece
+    ``poses`` (n, 3) ``(x, y, phi)``: ``(x, y) + R(phi) p`` (docs/conventions.md)."""
+    q = np.atleast_2d(np.asarray(poses, dtype=float))
+    p = np.atleast_2d(np.asarray(points, dtype=float))
+    c, s = np.cos(q[:, 2])[:, None], np.sin(q[:, 2])[:, None]
+    return np.stack([q[:, 0:1] + c * p[None, :, 0] - s * p[None, :, 1],
+                     q[:, 1:2] + s * p[None, :, 0] + c * p[None, :, 1]], axis=-1)
+
+
+def point_travel(poses: np.ndarray, points: np.ndarray) -> float:
+    """[m] the longest path any of the workpiece's ``points`` (k, 2) takes through ``poses``
+    (n, 3): what the workpiece travels, wherever its frame origin is (a block tilted about
+    its frame origin travels by its far corners)."""
+    w = point_positions(poses, points)
+    return float(np.max(np.sum(np.linalg.norm(np.diff(w, axis=0), axis=2), axis=0)))
+
+
+def point_errors(simulated: np.ndarray, predicted: np.ndarray, points: np.ndarray
+                 ) -> np.ndarray:
+    """(n,) [m] at each of the n poses the largest distance between where a workpiece point
+    (``points`` (k, 2)) is in ``simulated`` (n, 3) and where ``predicted`` (n, 3) puts it."""
+    d = point_positions(simulated, points) - point_positions(predicted, points)
+    return np.max(np.linalg.norm(d, axis=2), axis=1)
 
 
 @dataclass(frozen=True, eq=False)

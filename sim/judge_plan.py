@@ -34,7 +34,14 @@ import numpy as np
 from planner.errors import InputError
 from planner.model.modes import SLIDE, Mode
 from sim.classify import Thresholds, judged_mask, observed_modes
-from sim.expectation import Judgement, PlanSchedule, SegmentExpectation, SegmentVerdict
+from sim.expectation import (
+    Judgement,
+    PlanSchedule,
+    SegmentExpectation,
+    SegmentVerdict,
+    point_errors,
+    point_travel,
+)
 from sim.run import Recording
 from sim.verdict import (
     MODE_FRACTION_REQUIRED,
@@ -147,8 +154,8 @@ def _judge_steps(rec: Recording, observed: list[ObservedMode], th: Thresholds,
     k = np.clip(np.searchsorted(rec.times, t_cmp - 1e-9), 0, len(rec.times) - 1)
     if not judged:
         # before the settling time only the pose can be judged (modes need settling)
-        off = float(np.linalg.norm(rec.poses[-1, iw, :2] - pred_poses[-1, :2]))
-        travel = float(np.linalg.norm(pred_poses[-1, :2] - pred_poses[0, :2]))
+        off = float(point_errors(rec.poses[-1:, iw], pred_poses[-1:], seg.points)[0])
+        travel = point_travel(pred_poses[[0, -1]], seg.points)
         if off > POSE_TOLERANCE_OF_TRAVEL * max(travel, 0.01 * length):
             return Verdict(Outcome.DISAGREED, (
                 f"the workpiece left the planned path before the settling time: "
@@ -158,7 +165,7 @@ def _judge_steps(rec: Recording, observed: list[ObservedMode], th: Thresholds,
     interval = np.clip(np.searchsorted(t, rec.times[settled], side="right") - 1, 0, len(t) - 2)
     try:
         return compare_plan(seg.claim, judged, [seg.predicted[j] for j in interval], pred_poses,
-                            rec.poses[k, iw], interval=interval,
+                            rec.poses[k, iw], interval=interval, points=seg.points,
                             unresolved=unresolved_slides(seg, rec.times[settled],
                                                          th.slip_speed))
     except InputError:
@@ -218,6 +225,7 @@ def compare_plan(
     *,
     interval: Sequence[int] | np.ndarray | None = None,
     unresolved: np.ndarray | None = None,
+    points: np.ndarray | None = None,
     mode_fraction: float = MODE_FRACTION_REQUIRED,
     pose_tolerance: float = POSE_TOLERANCE_OF_TRAVEL,
 ) -> Verdict:
@@ -229,8 +237,12 @@ def compare_plan(
     threshold at each step (:func:`unresolved_slides`; default none: the claim's tokens
     exactly);
     ``predicted_poses``, ``simulated_poses`` (n, 3) ``(x, y, theta)`` [m, m, rad] at the n
-    waypoints. ``agreed`` when the claim holds on ``>= mode_fraction`` of the judged steps and
-    the final position is within ``pose_tolerance`` of the travel.
+    waypoints; ``points`` (k, 2) [m] the body-frame workpiece points whose positions are
+    compared (default the frame origin): the travel is the longest of their paths, a
+    position error the largest of their distances (:func:`sim.expectation.point_travel`,
+    :func:`~sim.expectation.point_errors`), so neither depends on where the user put the
+    workpiece's frame. ``agreed`` when the claim holds on ``>= mode_fraction`` of the judged
+    steps and the final position is within ``pose_tolerance`` of the travel.
     """
     m = len(observed)
     if m == 0:
@@ -245,7 +257,8 @@ def compare_plan(
     idx = np.zeros(m, dtype=int) if interval is None else np.asarray(interval, dtype=int)
     if idx.shape != (m,):
         raise InputError(f"interval: expected {m} indices, got shape {idx.shape}")
-    travel = float(np.sum(np.linalg.norm(np.diff(pred[:, :2], axis=0), axis=1)))
+    pts = np.zeros((1, 2)) if points is None else np.asarray(points, dtype=float)
+    travel = point_travel(pred, pts)
     if travel <= 0.0:
         raise InputError("predicted_poses: expected a segment with positive travel, got 0")
     slow = (np.zeros((m, len(claim.codes)), dtype=bool) if unresolved is None
@@ -257,7 +270,7 @@ def compare_plan(
     claim_frac = float(np.mean(shown))
     read_r = float(np.mean([o != claim and s for o, s in zip(observed, shown)]))
     pred_frac = float(np.mean([o in p for o, p in zip(observed, predicted)]))
-    errs = np.linalg.norm(simu[:, :2] - pred[:, :2], axis=1)
+    errs = point_errors(simu, pred, pts)
     counts = count_labels(observed)
     per_wp = []
     for k in range(int(idx.max()) + 1):
@@ -304,7 +317,7 @@ def whole_verdict(exp: PlanSchedule, verdicts: Sequence[Verdict],
         reasons.append(f"only {len(verdicts)} of {n} segments ran")
     if final is None:
         reasons.append("no final position: the run stopped before the end of the plan")
-    elif (off := float(np.linalg.norm(final[:2] - exp.goal[:2]))) > (
+    elif (off := float(point_errors(final[None, :], exp.goal[None, :], exp.points)[0])) > (
             POSE_TOLERANCE_OF_TRAVEL * exp.travel):
         reasons.append(f"final position {off:.3g} m from the plan's, more than "
                        f"{POSE_TOLERANCE_OF_TRAVEL:.0%} of the travel {exp.travel:.3g} m")

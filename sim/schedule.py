@@ -33,7 +33,7 @@ from planner.errors import InputError
 from planner.model.closure import tangent_jacobian
 from planner.model.hand import Hand
 from planner.model.modes import Mode
-from sim.expectation import PlanSchedule, SegmentExpectation
+from sim.expectation import PlanSchedule, SegmentExpectation, point_travel
 from sim.scene import BodyState, Command
 from sim.verdict import ObservedMode
 
@@ -211,18 +211,20 @@ class PlanLayout:
     def expectation(self) -> PlanSchedule:
         """What the run is judged against (:class:`sim.expectation.PlanSchedule`)."""
         segments = []
+        points = np.asarray(self.hand.vertices, dtype=float)  # judged at its corners
         for k, (s, t0, members) in enumerate(zip(self.schedules, self.starts, self.members)):
             gained = tuple(j for j, i in enumerate(members)
                            if k > 0 and i not in self.members[k - 1])
-            travel = float(np.sum(np.linalg.norm(np.diff(s.poses[:, :2], axis=0), axis=1)))
+            travel = point_travel(s.poses, points)
             segments.append(SegmentExpectation(
                 claim=s.claim, start=t0, times=s.times, predicted=s.predicted, poses=s.poses,
                 planned_start=np.asarray(self.q_starts[k][:3], dtype=float), pairs=members,
                 gained=gained, travel=travel,
-                slips=predicted_slips(self.hands[k], s.times, s.poses, s.angles)))
+                slips=predicted_slips(self.hands[k], s.times, s.poses, s.angles),
+                points=points))
         return PlanSchedule(tuple(segments), float(sum(s.travel for s in segments)),
                             np.asarray(self.schedules[-1].poses[-1], dtype=float),
-                            self.hand.length_scale)
+                            self.hand.length_scale, points)
 
 
 def plan_layout(plan: Any, *, torques: np.ndarray | None = None,

@@ -148,8 +148,9 @@ def runs_off_words(hand: Hand, i: int, s: float) -> str:
 
 def motion_words(start: np.ndarray, end: np.ndarray, length_scale: float) -> str:
     """Which way the workpiece moves from pose ``start`` to ``end`` ``(x, y, phi)``:
-    ``"moves 1.60 mm left, turning 0.30 deg clockwise"`` (mm below 1 m, else m; ``stays in
-    place`` below 1e-6 of ``length_scale``)."""
+    ``"moves 1.60 mm left, turning 0.30 deg clockwise"`` (mm below 1 m, else m; below 1e-6 of
+    ``length_scale`` ``"stays in place"``, or ``"turns 11.5 deg counter-clockwise about its frame
+    origin"`` when it turns: the frame origin is the turning point the user chose)."""
     d = np.asarray(end[:2], dtype=float) - np.asarray(start[:2], dtype=float)
     turn = math.degrees(math.remainder(float(end[2]) - float(start[2]), 2 * math.pi))
     dist = float(np.linalg.norm(d))
@@ -157,7 +158,7 @@ def motion_words(start: np.ndarray, end: np.ndarray, length_scale: float) -> str
            f"turning {abs(turn):.3g} deg {'counter-clockwise' if turn > 0 else 'clockwise'}")
     if dist <= 1e-6 * length_scale:
         return ("stays in place" if rot == "without turning" else
-                f"stays in place, {rot}")
+                f"turns {rot.removeprefix('turning ')} about its frame origin")
     size = f"{1e3 * dist:.3g} mm" if dist < 1.0 else f"{dist:.3g} m"
     sectors = ("right", "up and to the right", "up", "up and to the left", "left",
                "down and to the left", "down", "down and to the right")

@@ -75,7 +75,7 @@ def test_new_contacts_named_by_the_hand_model_read_in_words(two_finger, two_link
     ((0.01, 0.01, -0.3346), "moves 14.1 mm up and to the right, turning 19.2 deg clockwise"),
     ((0.0, -2.0, 0.1), "moves 2 m down, turning 5.73 deg counter-clockwise"),
     ((1e-9, 0.0, 0.0), "stays in place"),
-    ((0.0, 0.0, 0.2), "stays in place, turning 11.5 deg counter-clockwise"),
+    ((0.0, 0.0, 0.2), "turns 11.5 deg counter-clockwise about its frame origin"),
 ])
 def test_which_way_the_workpiece_moves(end, words):
     assert motion_words(np.zeros(3), np.array(end), 0.05) == words

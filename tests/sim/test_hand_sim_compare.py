@@ -59,6 +59,40 @@ def test_pose_drift_fails():
     assert "of travel" in v.reasons[0]
 
 
+SQUARE = np.array([[0.0, 0.0], [0.05, 0.0], [0.05, 0.05], [0.0, 0.05]])  # frame at a corner
+
+
+def _tilt(n, angle):
+    return np.column_stack([np.zeros(n), np.zeros(n), np.linspace(0.0, angle, n)])
+
+
+def test_a_workpiece_turned_about_its_frame_origin_is_judged_by_its_corners():
+    """A block tilted 0.5 rad about its frame origin (the pivot corner, where a user puts it):
+    the origin does not move, the far corner travels 0.0707 x 0.5 = 35.4 mm. A run that turns
+    1 % less ends 0.354 mm = 1 % of that travel off (agreed); 5 % less, 5 % (disagreed). By
+    the frame origin alone there is no travel to judge against."""
+    pred = _tilt(20, 0.5)
+    for short, outcome in ((0.01, Outcome.AGREED), (0.05, Outcome.DISAGREED)):
+        sim = _tilt(20, 0.5 * (1 - short))
+        v = compare_plan(CLAIM, [CLAIM] * 5, [ONLY_CLAIM] * 5, pred, sim, points=SQUARE)
+        assert v.outcome is outcome and v.plan is not None
+        assert v.plan.travel == pytest.approx(np.hypot(0.05, 0.05) * 0.5, rel=1e-4)  # chords
+        assert v.plan.final_error_of_travel == pytest.approx(short, rel=1e-3)
+    with pytest.raises(InputError, match="positive travel, got 0"):
+        compare_plan(CLAIM, [CLAIM] * 5, [ONLY_CLAIM] * 5, pred, _tilt(20, 0.45))
+
+
+def test_the_corners_and_the_origin_agree_on_a_translation():
+    """A pure translation moves every point alike: the corners give the origin's numbers."""
+    sim = _poses(40)
+    sim[-1, 0] += 0.01 * 0.039
+    a = compare_plan(CLAIM, [CLAIM] * 5, [ONLY_CLAIM] * 5, _poses(40), sim)
+    b = compare_plan(CLAIM, [CLAIM] * 5, [ONLY_CLAIM] * 5, _poses(40), sim, points=SQUARE)
+    assert a.plan is not None and b.plan is not None
+    assert b.plan.travel == pytest.approx(a.plan.travel)
+    assert b.plan.final_error == pytest.approx(a.plan.final_error)
+
+
 def test_bad_shapes_rejected():
     with pytest.raises(InputError, match=r"expected shape \(3, 3\).*got \(3, 2\)"):
         compare_plan(CLAIM, [CLAIM], [ONLY_CLAIM], np.zeros((3, 3)), np.zeros((3, 2)))
