@@ -81,8 +81,8 @@ class SegmentExpectation:
     speed and ``slip_speed`` [m/s] the classifier's slip threshold for it; ``slips`` (n, n_c)
     [m/s] each contact's predicted tangential relative velocity at each waypoint (eq. 5,
     :func:`sim.schedule.predicted_slips`; empty: not known); ``points`` (k, 2) [m] the
-    body-frame points of the workpiece whose positions are judged (its polygon's vertices;
-    default its frame origin alone), :func:`point_travel`, :func:`point_errors`."""
+    body-frame points of the workpiece whose positions are judged (a plan run: its centre of
+    mass; default its frame origin), :func:`point_travel`, :func:`point_errors`."""
 
     claim: Mode
     start: float

@@ -211,7 +211,7 @@ class PlanLayout:
     def expectation(self) -> PlanSchedule:
         """What the run is judged against (:class:`sim.expectation.PlanSchedule`)."""
         segments = []
-        points = np.asarray(self.hand.vertices, dtype=float)  # judged at its corners
+        points = np.asarray(self.hand.com, dtype=float).reshape(1, 2)  # judged at its com
         for k, (s, t0, members) in enumerate(zip(self.schedules, self.starts, self.members)):
             gained = tuple(j for j, i in enumerate(members)
                            if k > 0 and i not in self.members[k - 1])
