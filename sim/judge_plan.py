@@ -241,8 +241,9 @@ def compare_plan(
     compared (a plan run's: the centre of mass; default the frame origin): the travel is the
     longest of their paths, a position error the largest of their distances
     (:func:`sim.expectation.point_travel`, :func:`~sim.expectation.point_errors`), so neither
-    depends on where the user put the workpiece's frame. ``agreed`` when the claim holds on ``>= mode_fraction`` of the judged
-    steps and the final position is within ``pose_tolerance`` of the travel.
+    depends on where the user put the workpiece's frame. ``agreed`` when the claim holds on
+    ``>= mode_fraction`` of the judged steps and the final position is within
+    ``pose_tolerance`` of the travel.
     """
     m = len(observed)
     if m == 0:
