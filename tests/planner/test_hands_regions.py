@@ -177,6 +177,7 @@ def test_chebyshev_centre_of_a_box_and_of_an_empty_set():
 
 
 @pytest.mark.long
+@pytest.mark.slow  # about a minute; by hand (-m slow)
 def test_the_one_planner_plans_one_or_several_effort_joints_alike():
     """``plan_hand`` (the hand file entry point) gives the same segment as ``plan_segment``, for
     two effort joints as for one: one planner, one segment type."""
@@ -218,6 +219,7 @@ def test_an_empty_region_says_why():
 
 
 @pytest.mark.long
+@pytest.mark.slow  # about a minute; by hand (-m slow)
 def test_a_partial_plan_stops_where_no_region_exists_and_says_why():
     hf = load_hand_file(DATA / "three_finger_hand.json")
     hand, s = hf.hand, hf.segment

@@ -181,6 +181,7 @@ AGREE_HALF = [p for p in AGREE if p != ("three_finger_hand", "mujoco")]
 
 
 @pytest.mark.long
+@pytest.mark.slow  # about a minute of MuJoCo runs; by hand (-m slow)
 def test_the_squeeze_force_stiffens_mujoco_hand_contacts():
     """effort_force: |tau| / longest normal lever (eq. 3 without friction), by hand; the
     MuJoCo masses follow it, pymunk's do not."""

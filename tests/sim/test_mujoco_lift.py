@@ -75,7 +75,9 @@ def test_sliding_finger_chatters_with_the_stiff_impedance() -> None:
     assert "S-1 S-2 B3" in res.summary.observed["counts"]
 
 
-@pytest.mark.parametrize("case,index", [("ex43", 133), ("ex41", 13), ("system", 39)])
+@pytest.mark.parametrize("case,index", [
+    pytest.param("ex43", 133, marks=pytest.mark.slow),  # 30 s: by hand; two cases stay in CI
+    ("ex41", 13), ("system", 39)])
 @pytest.mark.long
 def test_soft_squeeze_agrees_where_the_stiff_one_did_not(case, index) -> None:
     """ex43 / 133: the sliding finger's lift-off; ex41 / 13: Example 4.1 in the 3S region
