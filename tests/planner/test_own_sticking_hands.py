@@ -1,4 +1,5 @@
-"""Own hands with sticking contacts, written from the docs and checked against statics by hand.
+"""Own hands with sticking contacts, written from the docs and checked against statics by hand
+(docs/planning.md, "Own sticking hands").
 
 ``tests/data/own_pivot_left.json``: a flat 0.12 x 0.04 m box of 0.2 kg pivoted counter-clockwise
 about its bottom-LEFT corner (vertex 0) by a point finger on its top face 0.01 m right of that
@@ -37,7 +38,9 @@ DATA = Path(__file__).resolve().parents[1] / "data"
 #: name -> (contact's distance from the pivot a, face height h, centre of mass (x, y), weight)
 HANDS = {"own_pivot_left": (0.01, 0.04, (0.06, 0.02), 0.2 * 9.81),
          "own_tilt_small": (0.006, 0.02, (0.01, 0.01), 0.02 * 9.81)}
-R_TIP = 0.002  # the gantry finger's tip radius (half its link width)
+#: The gantry finger's tip radius (half its link width): the sticking (``R``) tip rolls on the
+#: turning face, so its contact point is the tip centre minus ``R_TIP`` times the face's normal.
+R_TIP = 0.002
 
 
 def _effort_interval(hf, q, mu_table, mu_finger):
@@ -168,7 +171,7 @@ def test_bands_hold_under_dense_friction_sampling_and_a_widened_band_is_caught(n
     waypoint: some sample then admits another mode or none."""
     seg = _plan(name).segments[0]
     hand = seg.hand_model[0]
-    rng = np.random.default_rng(27)
+    rng = np.random.default_rng(0)
     ws = seg.waypoints
     checked = list(range(0, len(ws) - 1, max(1, len(ws) // 6))) + [len(ws) - 1]
     violations, samples, caught = [], 0, 0
