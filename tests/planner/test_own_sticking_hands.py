@@ -193,3 +193,22 @@ def test_bands_hold_under_dense_friction_sampling_and_a_widened_band_is_caught(n
     assert samples >= 2 * 3 * 15 * len(checked)
     assert violations == []
     assert caught == len(checked)
+
+
+@pytest.mark.parametrize("name,lo,hi,contact", [
+    ("own_pivot_left", (0.5, 0.2), (0.8, 1.0), "contact 2 (finger's tip on edge 2)"),
+    ("own_pivot_left", (0.2, 0.6), (0.8, 1.0), "contact 1 (vertex 0 on the table)")])
+def test_the_remedy_names_the_least_friction_by_hand(name, lo, hi, contact):
+    """A friction box reaching below ``a / h`` = 0.25 at one contact guarantees nothing at the
+    start; the diagnosis names that contact and the friction it needs, ``a / h`` (the moments
+    of the module docstring with the squeeze growing without bound)."""
+    from planner.plan.segment_planner import remedies
+
+    hf = load_hand_file(DATA / f"{name}.json")
+    a, h = HANDS[name][:2]
+    out = remedies(_segment_hand(hf), hf.q0, (0,), np.array([hf.segment.speeds[0]]), "R1 R2",
+                   np.array(lo), np.array(hi), "independent")
+    named = [r for r in out if r.startswith(contact)]
+    assert len(named) == 1, out
+    need = float(named[0].split("at least ")[1].split(" ")[0])
+    assert a / h <= need <= a / h + 0.005
