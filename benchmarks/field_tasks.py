@@ -11,6 +11,8 @@ asserted here; tests/planner/test_any_mode.py holds the planning checks.
     PYTHONPATH=. python benchmarks/field_tasks.py --out benchmarks/results/field_tasks.json
     PYTHONPATH=. python benchmarks/field_tasks.py --tasks block_tilting --engines pymunk
     PYTHONPATH=. python benchmarks/field_tasks.py --tasks flip_against_wall --keep  # one task anew
+    PYTHONPATH=. python benchmarks/field_tasks.py --tasks tests/data/own_tilt_small.json \
+        --out own.json                      # a task given as a hand file path (named by its stem)
 """
 
 from __future__ import annotations
@@ -50,10 +52,17 @@ def _mu_text(mu: Any) -> str:
 NEGATIVE_REACH = 0.3
 
 
-def task_rows(name: str, engines: tuple[str, ...], negative: bool = True,
+def _task_path(task: str) -> Path:
+    """A shipped task's name (``scenarios/data/NAME.json``) or a hand file's path."""
+    return Path(task) if task.endswith(".json") else ROOT / "scenarios" / "data" / f"{task}.json"
+
+
+def task_rows(task: str, engines: tuple[str, ...], negative: bool = True,
               one_mu: bool = False) -> list[dict]:
+    path = _task_path(task)
+    name = path.stem
     t0 = time.perf_counter()
-    plan = plan_hand(ROOT / "scenarios" / "data" / f"{name}.json")
+    plan = plan_hand(path)
     planning = time.perf_counter() - t0
     rows: list[dict] = []
     base = {"task": name, "reached": plan.reached, "segments": len(plan.segments),
@@ -117,12 +126,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--keep", action="store_true",
                     help="keep the rows of the other tasks already in --out (re-run some tasks)")
     args = ap.parse_args(argv)
-    names = args.tasks.split(",")
+    tasks = args.tasks.split(",")
+    names = [_task_path(t).stem for t in tasks]
     rows: list[dict] = []
     if args.keep and Path(args.out).is_file():
         rows = [r for r in json.loads(Path(args.out).read_text()) if r.get("task") not in names]
-    for name in names:
-        rows += task_rows(name, tuple(args.engines.split(",")), one_mu=args.one_mu)
+    for task in tasks:
+        rows += task_rows(task, tuple(args.engines.split(",")), one_mu=args.one_mu)
     rows.sort(key=lambda r: TASKS.index(r["task"]) if r["task"] in TASKS else len(TASKS))
     atomic_write_json(args.out, rows)
     print(closing_table(rows))
