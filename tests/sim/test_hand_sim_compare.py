@@ -82,6 +82,19 @@ def test_a_workpiece_turned_about_its_frame_origin_is_judged_by_its_corners():
         compare_plan(CLAIM, [CLAIM] * 5, [ONLY_CLAIM] * 5, pred, _tilt(20, 0.45))
 
 
+def test_the_contacts_sink_is_added_to_the_position_allowance():
+    """A run 2.6 % of its 39 mm travel off (1.01 mm) misses the 2 % (0.78 mm) alone, and agrees
+    when its contacts sank 0.3 mm (0.78 + 0.3 = 1.08 mm allowed) -- not when they sank 0.2 mm."""
+    sim = _poses(40)
+    sim[-1, 0] += 0.026 * 0.039
+    for sink, outcome in ((0.0, Outcome.DISAGREED), (2e-4, Outcome.DISAGREED),
+                          (3e-4, Outcome.AGREED)):
+        v = compare_plan(CLAIM, [CLAIM] * 5, [ONLY_CLAIM] * 5, _poses(40), sim, sink=sink)
+        assert v.outcome is outcome, (sink, v.reasons)
+    assert "the contacts' sink 0.0002 m" in compare_plan(
+        CLAIM, [CLAIM] * 5, [ONLY_CLAIM] * 5, _poses(40), sim, sink=2e-4).reasons[0]
+
+
 def test_the_corners_and_the_origin_agree_on_a_translation():
     """A pure translation moves every point alike: the corners give the origin's numbers."""
     sim = _poses(40)
@@ -135,7 +148,7 @@ def test_short_midband_plan_passes(plans, engine, tmp_path):
     v = res.verdict
     assert v.outcome is Outcome.AGREED, v.reasons
     assert v.plan is not None
-    assert v.plan.claim_fraction >= 0.95 and v.plan.final_error_of_travel < 0.02
+    assert v.plan.claim_fraction >= 0.95  # the position: within 2 % of the travel plus the sink
     s = json.loads((tmp_path / "summary.json").read_text())
     assert s["passed"] is True and s["claim"] == CLAIM.label and s["engine"] == engine
     assert s["kind"] == "hand" and s["predicted"]["claims"] == [CLAIM.label]
