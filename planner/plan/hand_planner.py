@@ -20,7 +20,7 @@ from planner.plan.model import Plan
 from planner.plan.policies import DEFAULT_POLICY
 from planner.plan.segment_planner import plan_segment
 from planner.plan.task import TaskOptions, plan_task
-from planner.plan.task_contacts import contact_body, contact_dict
+from planner.plan.task_contacts import contact_dict
 
 #: Task search defaults when the hand file has no ``segment`` section (docs/planning.md).
 TASK_SPEED = 0.02  # rad/s or m/s
@@ -93,7 +93,7 @@ def body_frictions(plan: Plan, hf: HandFile, bodies: Mapping[str, tuple[float, f
 
 
 def _dict_body(hand: Hand, c: Mapping[str, Any]) -> str:
-    """:func:`contact_body` of a contact object (docs/two-finger-task.md)."""
+    """:meth:`Hand.body_name` of a contact object (docs/two-finger-task.md)."""
     if c["kind"] in ("palm", "surface"):
         return "palm" if c["kind"] == "palm" else str(c["surface"])
     return hand.fingers[int(c["finger"])].name
@@ -132,10 +132,10 @@ def plan_hand(source: str | os.PathLike[str] | HandFile, *, mu: Any = None,
     default = _default_interval(hf) if mu is None else None
     if mu is None:
         if bodies:
-            mu = [bodies.get(contact_body(hf.hand, c), default) for c in hf.hand.contacts]
+            mu = [bodies.get(hf.hand.body_name(c), default) for c in hf.hand.contacts]
             if any(m is None for m in mu):
-                missing = sorted({contact_body(hf.hand, c) for c in hf.hand.contacts
-                                  if contact_body(hf.hand, c) not in bodies})
+                missing = sorted({hf.hand.body_name(c) for c in hf.hand.contacts
+                                  if hf.hand.body_name(c) not in bodies})
                 raise InputError(f"{name}: expected a friction interval for the bodies "
                                  f"{missing} (mu.bodies or mu.interval), got none")
             mu = [tuple(m) for m in mu]

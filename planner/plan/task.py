@@ -55,7 +55,6 @@ from planner.plan.partition import joint_inputs
 from planner.plan.segment_planner import NoRegionError, plan_segment, remedies
 from planner.plan.task_contacts import (
     after_event,
-    contact_body,
     contact_dict,
     releases,
     with_contacts,
@@ -71,7 +70,7 @@ class TaskOptions:
     """Search settings: ``speed`` of the driven joint (rad/s or m/s, both signs are tried),
     ``mu`` the friction interval ``(lo, hi)`` of every contact whose body has none in
     ``friction`` (body name -- ``palm``, an environment surface's or a finger's name -- to its
-    interval, :func:`planner.plan.task_contacts.contact_body`; with any, the model is
+    interval, :meth:`planner.model.hand.Hand.body_name`; with any, the model is
     ``independent``), ``model``
     (``common``/``independent``), ``max_time`` (s) and ``steps`` per segment (RK4 steps over
     ``max_time``), ``waypoints`` per planned segment (None: the spacing rule,
@@ -240,7 +239,7 @@ def plan_task(hand: Hand, q0: Any, goal: Goal, opts: TaskOptions, *,
         """One ``(lo, hi)`` per contact of ``h``: its body's interval, else ``opts.mu``."""
         if not friction:
             return (lo, hi)
-        return [friction.get(contact_body(h, c), (lo, hi)) for c in h.contacts]
+        return [friction.get(h.body_name(c), (lo, hi)) for c in h.contacts]
 
     def stop(hk: Hand) -> Callable[[np.ndarray], bool] | None:
         if goal.pose is None or goal.missing_contacts(hk.contacts):

@@ -86,12 +86,6 @@ def releases(n_contacts: int, n_keep: int) -> list[tuple[int, ...]]:
     return list(itertools.combinations(range(n_contacts), n_contacts - n_keep))
 
 
-def contact_body(hand: Hand, c: ContactSpec) -> str:
-    """The name of the body a contact touches besides the workpiece: ``palm``, an environment
-    surface's name, or the finger's name (side and tip contacts): :meth:`Hand.body_name`."""
-    return hand.body_name(c)
-
-
 def contact_dict(hand: Hand, c: ContactSpec) -> dict[str, Any]:
     """A contact as a hand file's contact object (docs/two-finger-task.md)."""
     if c.kind == "palm":
