@@ -24,6 +24,7 @@ import pymunk
 
 from planner.errors import InputError
 from sim.backends.pymunk_edges import edge_line_offsets
+from sim.backends.pymunk_solver import slid_bodies
 from sim.backends.switching import replace_joint, switch_joint
 from sim.scene import (
     ABSENT,
@@ -85,8 +86,7 @@ class PymunkBackend:
         # a body slid by a velocity-controlled joint on the base has no free coordinate:
         # it is kinematic, moved at the joint's rate (not a light body held to a carriage,
         # whose joint rows slow the solver's sweeps; docs/simulation.md, "pymunk")
-        slid = {j.body: j.name for j in scene.joints if j.parent is None
-                and j.kind == JointKind.PRISMATIC and j.control == Control.VELOCITY}
+        slid = slid_bodies(scene)
         for b in scene.bodies:
             if b.kind == BodyKind.STATIC:
                 body = pymunk.Body(body_type=pymunk.Body.STATIC)
