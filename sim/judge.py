@@ -202,10 +202,11 @@ def judge_modes(rec: Recording, exp: ModeSet, th: Thresholds
         return Verdict(Outcome.INCONCLUSIVE, ("no step could be judged (the run ended before "
                                               "the settling time)",)), observed
     times = rec.times[mask]
-    moves_as, until = None, -np.inf
-    if exp.modes and exp.system is not None and len(judged) > 1:
-        q_obs, until = _judged_twist(rec, exp, th, mask)
-        moves_as = stretch_readings(exp, q_obs, th.slip_speed)
+    # the workpieces' mean twist over the stretch: read by the matcher and by the twist check
+    q_obs, until = (_judged_twist(rec, exp, th, mask) if exp.modes and len(judged) > 1
+                    else (None, -np.inf))
+    moves_as = (stretch_readings(exp, q_obs, th.slip_speed)
+                if q_obs is not None and exp.system is not None else None)
     matcher = ModeMatcher(exp, clearing_times(rec, exp, th, mask) if exp.modes else None,
                           moves_as, until)
     hits = [bool(matcher.matches(o, t)) if exp.modes else o == JAM
@@ -217,9 +218,9 @@ def judge_modes(rec: Recording, exp: ModeSet, th: Thresholds
                f"(required {MODE_FRACTION_REQUIRED:.0%})"]
     base = Verdict(outcome, tuple(reasons), agreement=agreement, judged_steps=len(judged),
                    observed_counts=counts)
-    if not exp.modes or len(judged) < 2:
+    if q_obs is None:  # no modes, or fewer than two judged steps
         return _moved_by_correction(base, rec, exp, th, mask, judged), observed
-    verdict = _motion(rec, exp, th, judged, mask, matcher, base)
+    verdict = _motion(rec, exp, th, judged, mask, matcher, base, q_obs)
     if verdict.outcome is Outcome.DISAGREED and agreement < MODE_FRACTION_REQUIRED:
         verdict = _engine_cannot_tell(verdict, rec, exp, th, mask)
     return _moved_by_correction(verdict, rec, exp, th, mask, judged), observed
@@ -312,13 +313,14 @@ def _judged_twist(rec: Recording, exp: ModeSet, th: Thresholds, mask: np.ndarray
 
 
 def _motion(rec: Recording, exp: ModeSet, th: Thresholds, judged: Sequence[ObservedMode],
-            mask: np.ndarray, matcher: ModeMatcher, base: Verdict) -> Verdict:
+            mask: np.ndarray, matcher: ModeMatcher, base: Verdict, q_obs: np.ndarray
+            ) -> Verdict:
     """Twist and forces of the judged steps against the reference mode (module docstring,
-    2-4)."""
+    2-4); ``q_obs`` (3 n_b,) the workpieces' mean twist over the stretch
+    (:func:`_judged_twist`)."""
     idx = [rec.body_names.index(b) for b in exp.bodies]
     times = rec.times[mask]
     poses = rec.poses[mask][:, idx]
-    q_obs, _ = _judged_twist(rec, exp, th, mask)
     factor = exp.velocity_factor
     steps_of = np.zeros(len(exp.modes), dtype=int)
     for o, t in zip(judged, times):
