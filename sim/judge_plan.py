@@ -177,11 +177,8 @@ def contact_sink(rec: Recording) -> float:
     """[m] the deepest a contact of ``rec`` sank into its surface while touching (0 when none
     did): a rigid model's positions are realized only to within it, since the workpiece sits
     that much deeper in the surfaces that hold it (docs/simulation.md, "Judging a run")."""
-    on = np.asarray(rec.present, dtype=bool)
-    if on.size == 0 or not on.any():
-        return 0.0
-    depth = np.where(on, np.nan_to_num(np.asarray(rec.depth, dtype=float)), 0.0)
-    return float(max(depth.max(), 0.0))
+    depth = np.nan_to_num(np.asarray(rec.depth, dtype=float))
+    return float(np.max(np.where(np.asarray(rec.present, dtype=bool), depth, 0.0), initial=0.0))
 
 
 def unresolved_slides(seg: SegmentExpectation, times: np.ndarray, slip_speed: float
