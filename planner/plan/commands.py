@@ -41,11 +41,12 @@ import numpy as np
 from planner.errors import DegenerateError, InputError
 from planner.files.hand_limits import JointLimits
 from planner.model.hand import Hand
+from planner.plan.bounds import box_points
 from planner.plan.curves import BandsAt
 from planner.plan.intervals import EMPTY, Interval, subtract
 from planner.plan.limits_words import effort_limit_words, speed_limit_words
 from planner.plan.model import Waypoint
-from planner.plan.partition import Guaranteed, choose_pieces, joint_inputs
+from planner.plan.partition import Guaranteed, choose_pieces, joint_inputs, predicted_modes
 from planner.plan.policies import (
     HoldSet,
     change_report,
@@ -57,7 +58,6 @@ from planner.plan.policies import (
 from planner.plan.polytope import TorqueRegion, band_region, chebyshev_centre, torque_scale
 from planner.plan.trajectory import Trajectory
 from planner.plan.wording import effort_unit, joint_words
-from planner.predict.feasibility import feasible_modes
 
 
 def check_policy(policy: str) -> None:
@@ -311,8 +311,9 @@ def _any_effort(hand: Hand, states: Trajectory, V: tuple[int, ...], vel: np.ndar
         inside = _slack(reg.A, reg.b, tau) >= 0
         hold_A, hold_b = (both_A, both_b) if _slack(nxt.A, nxt.b, tau) >= 0 and inside else (
             reg.A, reg.b)
-        pred = (reg.claim,) if inside else _predicted_at(hand, states.q[k], V, vel[k], reg,
-                                                        tau, mu_box)
+        # outside its own region, the modes at the corners of the friction box
+        pred = (reg.claim,) if inside else predicted_modes(
+            hand, states.q[k], V, vel[k], tau, box_points(mu_box[0], mu_box[1], 2)[0])
         rows.append((tuple(float(x) for x in tau), axis_bands(hold_A, hold_b, tau),
                      _slack(both_A, both_b, tau), pred, reg.rivals, reg))
     return rows, holds
@@ -347,18 +348,3 @@ def axis_bands(A: np.ndarray, b: np.ndarray, tau: np.ndarray) -> tuple[tuple[flo
     return tuple(out)
 
 
-def _predicted_at(hand: Hand, q: np.ndarray, V: tuple[int, ...], rates: np.ndarray,
-                  reg: TorqueRegion, tau: np.ndarray, mu_box: tuple[np.ndarray, np.ndarray]
-                  ) -> tuple[str, ...]:
-    """The modes the planner finds feasible at command ``tau`` at the corners of the friction
-    box ``mu_box`` (for a command outside its own region)."""
-    from planner.plan.bounds import box_points
-
-    system = hand.system(q, 0.0, joint_inputs(hand, V, rates))
-    inputs = np.array(system.joint_inputs)
-    inputs[list(reg.effort_joints)] = tau
-    system = system.with_joint_inputs(inputs)
-    labels: set[str] = set()
-    for mu in box_points(mu_box[0], mu_box[1], 2)[0]:
-        labels.update(feasible_modes(system, mu).labels)
-    return tuple(sorted(labels))

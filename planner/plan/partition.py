@@ -43,6 +43,7 @@ from planner.plan.guarantee import Guarantee, guarantee
 from planner.plan.intervals import EMPTY, Interval
 from planner.plan.offset_bounds import offset_box
 from planner.plan.polytope import TorqueRegion, band_region, empty_region, torque_region
+from planner.predict.feasibility import feasible_modes
 
 
 def mode_unknowns(label: str) -> int:
@@ -115,6 +116,23 @@ def joint_inputs(hand: Hand, V: tuple[int, ...], rates: Any) -> list[dict[str, f
     """Per joint ``{"velocity": rate}`` for ``V`` (rates in order) and ``{"effort": 0}`` else."""
     r = dict(zip(V, (float(x) for x in rates)))
     return [{"velocity": r[j]} if j in r else {"effort": 0.0} for j in range(hand.n_joints)]
+
+
+def predicted_modes(hand: Hand, q: Any, V: tuple[int, ...], rates: Any, tau: Any,
+                    mus: Any) -> tuple[str, ...]:
+    """The modes the planner finds feasible (eqs. 13-32,
+    :func:`planner.predict.feasibility.feasible_modes`) for ``hand`` at configuration ``q
+    (3 + n_theta,)`` with the joints ``V`` at ``rates`` and the others at the efforts ``tau
+    (n_theta - |V|,)``, at any friction of ``mus`` (each one coefficient or ``(n_c,)``): their
+    union, sorted."""
+    system = hand.system(q, 0.0, joint_inputs(hand, tuple(V), rates))
+    inputs = np.array(system.joint_inputs)
+    inputs[[j for j in range(hand.n_joints) if j not in V]] = np.asarray(tau, dtype=float)
+    system = system.with_joint_inputs(inputs)
+    labels: set[str] = set()
+    for mu in mus:
+        labels.update(feasible_modes(system, mu).labels)
+    return tuple(sorted(labels))
 
 
 @dataclass(frozen=True, eq=False)

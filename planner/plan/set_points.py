@@ -16,7 +16,7 @@ docs/planning.md, "Uncertainty beyond friction") is validated by running it at p
   mass and the load scaled with the mass (the load is proportional to the mass, as the set
   assumes), and every waypoint's ``predicted`` modes *recomputed by the planner there*
   (eqs. 13-32 at the point's load, the run's friction and the waypoint's commands;
-  :func:`predicted_at_command`) -- never copied from the plan.
+  :func:`planner.plan.partition.predicted_modes`) -- never copied from the plan.
 
 Units: kg, m (body frame), N.
 """
@@ -32,11 +32,9 @@ from typing import Any
 import numpy as np
 
 from planner.errors import InputError
-from planner.model.hand import Hand
 from planner.model.load_set import LoadSet
 from planner.plan.model import Plan, Segment
-from planner.plan.partition import joint_inputs
-from planner.predict.feasibility import feasible_modes
+from planner.plan.partition import predicted_modes
 
 #: The kinds of point :func:`set_points` draws (``--set`` of ``qsplan validate``).
 POINT_KINDS = ("corners", "centre", "outside")
@@ -159,27 +157,16 @@ def hand_data_at(hand: Mapping[str, Any], axes: Sequence[SetAxis],
     return d
 
 
-def predicted_at_command(hand: Hand, q: Any, V: Sequence[int], rates: Any,
-                         tau: Any, mu: Any) -> tuple[str, ...]:
-    """The modes the planner finds feasible (eqs. 13-32, :func:`feasible_modes`) for ``hand``
-    at configuration ``q (3 + n_theta,)`` with the joints ``V`` at ``rates`` and the others at
-    the efforts ``tau (n_theta - |V|,)``, at friction ``mu`` (one coefficient or ``(n_c,)``)."""
-    system = hand.system(q, 0.0, joint_inputs(hand, tuple(V), rates))
-    inputs = np.array(system.joint_inputs)
-    E = [j for j in range(hand.n_joints) if j not in V]
-    inputs[E] = np.asarray(tau, dtype=float)
-    return tuple(sorted(feasible_modes(system.with_joint_inputs(inputs), mu).labels))
-
-
 def segment_at(seg: Segment, axes: Sequence[SetAxis], values: Sequence[float],
                mu: Any) -> Segment:
     """``seg`` at the point ``values`` (:func:`hand_data_at`) with every waypoint's
-    ``predicted`` recomputed there at friction ``mu`` (:func:`predicted_at_command`)."""
+    ``predicted`` recomputed there at friction ``mu``
+    (:func:`planner.plan.partition.predicted_modes`)."""
     moved = replace(seg, hand=hand_data_at(seg.hand, axes, values), regions=(), shortfall=None)
     hand = moved.hand_model[0]
     V = seg.velocity_joints
-    wps = tuple(replace(w, predicted=predicted_at_command(hand, w.q, V, w.velocity_commands,
-                                                          w.torque_commands, mu))
+    wps = tuple(replace(w, predicted=predicted_modes(hand, w.q, V, w.velocity_commands,
+                                                     w.torque_commands, (mu,)))
                 for w in seg.waypoints)
     return replace(moved, waypoints=wps)
 
