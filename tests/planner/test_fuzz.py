@@ -488,9 +488,8 @@ def test_valid_files_survive_json_round_trip(data_dir):
 
 
 # ---------------------------------------------------------------------------------------------
-# Regression tests for what benchmarks/robustness_table.py found (strict xfails until fixed in
-# 9140c51, 1009693, b84baee, caa1110 and 19cb604; docs/robustness.md has the before/after
-# table).
+# Tests for what benchmarks/robustness_table.py found (docs/robustness.md, "What the campaigns
+# found": each finding with the test that pins it).
 # ---------------------------------------------------------------------------------------------
 @pytest.mark.parametrize("speed", [1e-9, 1e-10])
 def test_rod_prediction_does_not_depend_on_the_speed_unit(speed):
