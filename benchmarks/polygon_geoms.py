@@ -5,8 +5,8 @@ the stick/slip threshold, through the user's path (``qsplan simulate``'s
 Representations (:func:`sim.backends.mujoco_engine.polygon_geoms` replaced):
 
 ``edge boxes``
-    one box per edge, full length, ``h = 0.02 x size`` thick inward (the simplest
-    representation: its inner corner sticks out ``h cos theta`` at a vertex of angle ``theta < 90``);
+    one box per edge, full length, ``h = 0.02 x size`` thick inward (the simplest representation:
+    its inner corner sticks out ``h cos theta`` at a vertex of angle ``theta < 90``);
 ``edge slabs``
     one convex prism per edge, its ends cut along the vertex bisectors (all convex meshes);
 ``one mesh``
