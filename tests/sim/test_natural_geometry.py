@@ -303,7 +303,8 @@ def test_box_pushed_squarely_at_its_corner(form: str, engine: str, tmp_path: Pat
 @pytest.mark.parametrize("engine", ["pymunk", pytest.param("mujoco", marks=pytest.mark.slow)])
 def test_rough_finger_just_below_the_tip_height(engine: str, tmp_path: Path) -> None:
     """The rear corner may carry nothing (a member of the certificate family): the box slides
-    at the finger's speed and that is agreement (was disagreed / inconclusive)."""
+    at the finger's speed and that is agreement, not a disagreement over the rear corner's
+    ``B`` reading."""
     code, s = simulate("box_rough_finger_below_tip.json", engine, tmp_path)
     assert code == 0, s["reason"]
     assert s["predicted"]["labels"] == ["S-1 S-2 R3"]
@@ -312,7 +313,7 @@ def test_rough_finger_just_below_the_tip_height(engine: str, tmp_path: Path) -> 
 
 @pytest.mark.parametrize("engine", ["pymunk", pytest.param("mujoco", marks=pytest.mark.slow)])
 def test_finger_slides_over_a_box_that_stays(engine: str, tmp_path: Path) -> None:
-    """Zero predicted twist: judged with an absolute tolerance (the relative error was inf)."""
+    """Zero predicted twist: judged with an absolute tolerance (a relative error is inf)."""
     code, s = simulate("box_finger_slides_up_side.json", engine, tmp_path)
     assert code == 0, s["reason"]
     assert s["predicted"]["labels"] == ["R1 R2 S-3"]
@@ -322,7 +323,7 @@ def test_finger_slides_over_a_box_that_stays(engine: str, tmp_path: Path) -> Non
 @pytest.mark.parametrize("engine", ["mujoco", pytest.param("pymunk", marks=pytest.mark.slow)])
 def test_box_on_twelve_supports_smooth_finger(engine: str, tmp_path: Path) -> None:
     """The frictionless finger's contact flickers between R, S+ and S- in MuJoCo, and the
-    rearmost supports carry nothing (was inconclusive, 45 % of the steps in the mode). The
+    rearmost supports carry nothing; read step by step, only 45 % of the steps show the mode. The
     observed forces against the hand values: the push is the supports' sliding friction,
     ``0.8 x 10 N`` -- to 2 % in pymunk; MuJoCo's soft friction is viscous inside the cone and
     slides the supports at 0.92 of it (docs/simulation.md, "MuJoCo: sliding supports"), so
