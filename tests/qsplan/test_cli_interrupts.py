@@ -230,8 +230,8 @@ def test_closed_stdout_of_a_real_simulation(tmp_path):
 def test_a_signal_while_the_outputs_module_is_imported(monkeypatch):
     """A signal can arrive while ``planner.files.outputs`` is still being imported (the module
     is in ``sys.modules`` without its functions yet): the status line says no outputs were
-    written instead of raising AttributeError (found by the fuzz campaign: a SIGTERM 0.74 s
-    into ``qsplan plan`` printed a traceback)."""
+    written instead of raising AttributeError (the fuzz campaign's case: a SIGTERM 0.74 s
+    into ``qsplan plan``)."""
     import types
 
     from qsplan import interrupts

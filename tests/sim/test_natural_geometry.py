@@ -34,11 +34,12 @@ friction 0.8, pushed at ``y = 0.15`` m by a smooth finger: ``P = 8`` N; tipping 
 > W w/2`` (1.2 < 3 N m), so every support slides; the support loads are any split of 10 N whose
 resultant acts ``(W w/2 - P y)/W = 0.18`` m behind the front corner (force-indeterminate).
 
-Each test fails without the change it proves (docs/simulation.md, "Natural geometry"): the
-ladder held by two fixed contacts and the stacked blocks' corners in MuJoCo (corner spurs of
-the per-edge boxes), the stacked blocks in pymunk (a start fault: a foot circle centred on the
-line of a block's side), the static questions (refused before), the rough finger, the zero
-twist and the twelve supports (judged ``disagreed`` / ``inconclusive`` before).
+Each test fails without the handling it checks (docs/simulation-measurements.md, "Natural
+geometry: corners and vertices"): the ladder held by two fixed contacts and the stacked blocks'
+corners in MuJoCo (corner spurs of per-edge boxes), the stacked blocks in pymunk (a start
+fault: a foot circle centred on the line of a block's side), the static questions (a system
+with no drive is run, not refused), the rough finger, the zero twist and the twelve supports
+(not judged ``disagreed`` / ``inconclusive``).
 """
 
 from __future__ import annotations
