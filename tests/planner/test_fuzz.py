@@ -89,8 +89,8 @@ NASTY_VALUES: tuple[Any, ...] = (
     [0.0], [1.0, 2.0, 3.0, 4.0, 5.0], {"velocity": 1.0}, {"effort": math.nan},
 )
 
-#: Values that still crash a loader with a non-project exception (none since caa1110; keep the
-#: hook for the next finding: the benchmark mixes them in and counts the crashes, CI does not).
+#: Values that crash a loader with a non-project exception (none known; the hook stays for the
+#: next finding: the benchmark mixes them in and counts the crashes, CI does not).
 KNOWN_CRASH_VALUES: tuple[Any, ...] = ()
 
 
