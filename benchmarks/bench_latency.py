@@ -1,4 +1,4 @@
-"""Issue 15 benchmark: correct at any size, fast inside a planning loop.
+"""Benchmark: mode prediction is correct at any size and fast inside a planning loop.
 
 Measures in one run, with the machine's load average before and after (other jobs inflate
 absolute times; the ratios are measured in the same run):

@@ -1,4 +1,4 @@
-"""Issue 2 benchmark: all feasible modes by exhaustive batched enumeration vs a per-mode loop.
+"""Benchmark: all feasible modes by exhaustive batched enumeration vs a per-mode loop.
 
 On seeded random systems (``planner.sweeps.random_systems``: contacts on a random convex workpiece,
 random manipulator Jacobian, ``|tau_I| = n_c - 3``) with ``n_c = 3..12``, time

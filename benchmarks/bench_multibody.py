@@ -1,4 +1,4 @@
-"""Issue 17 benchmark: every feasible mode of n_b = 3 workpieces with n_c = 12 contacts.
+"""Benchmark: every feasible mode of n_b = 3 workpieces with n_c = 12 contacts.
 
 Seeded random multi-body systems (``planner.sweeps.random_systems.random_multibody_system``:
 three random polygons, 12 contacts, about 40 % of them between two workpieces, two

@@ -1,4 +1,4 @@
-"""Issue 6 benchmark: exact pruned search vs exhaustive batched enumeration vs a per-mode loop.
+"""Benchmark: exact pruned search vs exhaustive batched enumeration vs a per-mode loop.
 
 On seeded random systems (``planner.sweeps.random_systems``, ``|tau_I| = n_c - 3``, planted loads)
 with ``n_c = 3..20``: time per configuration of :func:`planner.predict.search.search_modes`, the eq.

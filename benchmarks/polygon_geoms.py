@@ -5,8 +5,8 @@ the stick/slip threshold, through the user's path (``qsplan simulate``'s
 Representations (:func:`sim.backends.mujoco_engine.polygon_geoms` replaced):
 
 ``edge boxes``
-    one box per edge, full length, ``h = 0.02 x size`` thick inward (the representation
-    replaced: its inner corner sticks out ``h cos theta`` at a vertex of angle ``theta < 90``);
+    one box per edge, full length, ``h = 0.02 x size`` thick inward (the simplest representation:
+    its inner corner sticks out ``h cos theta`` at a vertex of angle ``theta < 90``);
 ``edge slabs``
     one convex prism per edge, its ends cut along the vertex bisectors (all convex meshes);
 ``one mesh``
@@ -17,8 +17,8 @@ Representations (:func:`sim.backends.mujoco_engine.polygon_geoms` replaced):
 
 ``--features`` also runs the given representations with the environment contacts near an acute
 vertex paired with a small feature of their own (a circle of radius ``0.005 x size`` touching
-the vertex, or a capsule on the edge) instead of the polygon: the special case the system
-scenes used before.
+the vertex, or a capsule on the edge) instead of the polygon: a special case for the environment
+contacts in place of one polygon for every contact.
 
 Cases: the ladder of ``tests/data`` held by fixed contacts (fingertips at its two 30-deg
 corners) and on environment surfaces, the box of ``scenarios/data`` pushed low and high, the

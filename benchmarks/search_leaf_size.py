@@ -2,7 +2,7 @@
 lp_min_size`` pairs on the same seeded random systems, one engine.
 
 How the native engine's defaults (8 / 4, ``planner.predict.search.NATIVE_BATCH_SIZE``) were
-chosen: on seeds the issue-15 benchmark does not use (its are 0-9), docs/scaling.md ("The
+chosen: on seeds ``bench_latency.py`` does not use (it uses 0-9), docs/scaling.md ("The
 native core").
 
     PYTHONPATH=. python benchmarks/search_leaf_size.py --n-c 20 --seeds 10-19 \\

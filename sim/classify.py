@@ -13,8 +13,8 @@ Hysteresis (:func:`window_tokens`): a contact leaves ``S`` only when ``|mean v_t
 ``slip_speed / 2`` and leaves ``B`` only when the mean force exceeds ``2 force_floor``, so a
 mean that hovers at a threshold does not chatter. A window mean cannot be frozen by flicker: a
 contact that slides on 60 % of its steps and reads rolling or broken on the rest has the mean
-slip of its sliding steps times 0.6 (the old debounce, which restarted its timer on every
-repeat of the current label, kept such a contact in its first label for ever).
+slip of its sliding steps times 0.6 (a debounce that restarts its timer on every repeat of
+the current label would keep such a contact in its first label for ever).
 
 Thresholds (:class:`Thresholds`; derived in docs/simulation.md, "Observed-mode classifier"):
 ``slip_speed = max(0.05 * drive_speed, 10 * creep_floor)``; ``force_floor = 1e-3 * |load|``;

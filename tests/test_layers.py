@@ -18,7 +18,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 LAYERS = ("planner", "sim", "scenarios", "qsplan")
-#: "No module over about 400 lines" (the house issue); the hard stop leaves room for a docstring.
+#: "No module over about 400 lines" (the project's rule); the hard stop leaves room for a docstring.
 MAX_LINES = 450
 
 

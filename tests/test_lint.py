@@ -1,4 +1,4 @@
-"""ruff and mypy are clean on the packages (the house issue: "mypy and ruff clean in CI").
+"""ruff and mypy are clean on the packages (the project's rule: "mypy and ruff clean in CI").
 
 Both run from the ``test`` extra, so the README's test command checks them on a fresh machine;
 their configuration is in ``pyproject.toml``.

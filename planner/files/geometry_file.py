@@ -15,7 +15,7 @@ contacts placed by feature (format in ``docs/file-formats.md``, "Geometry first"
 ``manipulator`` is then optional: without it the contact velocities are computed from the
 surfaces' and fingers' world-frame motion (:mod:`planner.model.layout`).  A file is read in this
 form when it has any of the keys above or a contact without ``normal``; any other file is read
-exactly as before (:mod:`planner.files.system_file`).
+with its normals and wrench as written (:mod:`planner.files.system_file`).
 """
 
 from __future__ import annotations

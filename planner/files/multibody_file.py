@@ -12,7 +12,8 @@ A system file with a top-level ``"workpieces"`` list describes ``n_b >= 1`` work
                                          environment with "environment": true
 
 It replaces the single-workpiece keys ``workpiece`` and ``external_wrench``; a file without it
-is read exactly as before (one workpiece, every contact with the manipulator or environment).
+is read as a single-workpiece file (one workpiece, every contact with the manipulator or
+environment).
 """
 
 from __future__ import annotations

@@ -30,8 +30,9 @@ points as well (``exact`` False).
 The common-friction model (one coefficient shared by all contacts) is a subset of the box: the
 box region is a sound inner approximation of it.  With ``p = 1``
 :func:`planner.plan.guarantee.guarantee` (exact critical points of the common model) is used,
-so the region is today's band.  With ``p = 0`` (every joint velocity-controlled) the region is a
-point: the mode is guaranteed or not, and the margin is the smallest normalised Coulomb slack.
+so the region is the one-joint guaranteed band.  With ``p = 0`` (every joint
+velocity-controlled) the region is a point: the mode is guaranteed or not, and the margin is
+the smallest normalised Coulomb slack.
 
 Units: ``tau_I`` in the joints' units (N m revolute, N prismatic); ``margin`` in the same units
 (the radius of the ball of commands that keep the guarantee).
@@ -176,11 +177,11 @@ def torque_region(system: System, claim: str, mu: Any, *, model: str = "common",
     axis of the sampled checks; ``cap``: half-width of the box of commands (default: twice the
     largest distance from zero torque to one of the claim's Coulomb hyperplanes, the problem's
     torque scale -- a region open towards harder squeezing is cut there); ``method``:
-    ``"auto"`` (today's band when ``p = 1``) or ``"polytope"`` (the corner H-representation for
-    any ``p``); ``loads``: ``(K, n_q)`` vertex wrenches of the workpiece's uncertain mass and
-    centre of mass (None: ``system.g_obj`` only).  A row is affine in the load and multilinear in
-    ``mu``, so its extremes over box x load hull are at corner x vertex pairs: the rows are taken
-    there (docs/planning.md, "Uncertainty beyond friction").
+    ``"auto"`` (the guaranteed band when ``p = 1``) or ``"polytope"`` (the corner
+    H-representation for any ``p``); ``loads``: ``(K, n_q)`` vertex wrenches of the workpiece's
+    uncertain mass and centre of mass (None: ``system.g_obj`` only).  A row is affine in the load
+    and multilinear in ``mu``, so its extremes over box x load hull are at corner x vertex pairs:
+    the rows are taken there (docs/planning.md, "Uncertainty beyond friction").
     """
     if method not in ("auto", "polytope"):
         raise InputError(f"method: expected 'auto' or 'polytope', got {method!r}")
@@ -351,7 +352,8 @@ def torque_scale(system: System, E: tuple[int, ...]) -> float:
 
 def _from_band(system: System, claim: str, mu: Any, model: str, tol: float,
                E: tuple[int, ...], loads: Any = None) -> TorqueRegion:
-    """``p = 1``: the widest piece of today's band (:func:`planner.plan.guarantee.guarantee`)."""
+    """``p = 1``: the widest piece of the guaranteed band
+    (:func:`planner.plan.guarantee.guarantee`)."""
     g = guarantee(system, claim, mu, model=model, tol=tol, loads=loads)
     return band_region(system, g, g.best(), tol=tol)
 

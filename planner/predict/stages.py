@@ -320,7 +320,7 @@ def force_stage(
     c_full.put(flat, c_A)
     fn, ft = c_full[:, 0::2], c_full[:, 1::2]
     ft -= muxi * fn
-    # eq. (3): tau = J^T c + g_man (a stacked product, as before: same bits, no BLAS threads)
+    # eq. (3): tau = J^T c + g_man (stacked: a 2-D product starts BLAS threads, docs/scaling.md)
     efforts = c_full.reshape(L, m, 2 * n_c) @ system.J
     efforts += system.g_man
     # Coulomb (eqs. 21-22): rolling mu c_n - |c_t| >= 0, sliding c_n >= 0.

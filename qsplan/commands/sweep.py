@@ -43,7 +43,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("system", nargs="?", help="system file (for 'mu')")
     p.add_argument("--grid", type=int, default=11, help="grid points per friction axis (mu)")
     p.add_argument("--mu-range", default="0:1",
-                   help="friction range LO:HI (mu); the older form LO,HI is still accepted")
+                   help="friction range LO:HI (mu); LO,HI is accepted too")
     p.add_argument("--contacts", type=int, default=8,
                    help="n_c of the random scenes, 3..40 (scenes)")
     p.add_argument("--count", type=int, default=20, help="number of scenes (seeds 0..COUNT-1)")

@@ -82,7 +82,7 @@ def load_width(load: float, d0: float, d_width: float, solref: tuple[float, floa
     ``K = 1 / (d_width timeconst dampratio)^2``; solved for ``|pos|`` at ``imp = d0``. Below it
     the contact is soft (``d0``: a lightly loaded sliding contact keeps enough penetration
     against the cone's lift, :data:`sim.settings.SQUEEZE_D0`), beyond it ``d_width`` (a squeeze
-    of many times the load is as stiff as before). ``diag_a`` [1/kg] is MuJoCo's ``efc_diagA``
+    of many times the load gets the full impedance). ``diag_a`` [1/kg] is MuJoCo's ``efc_diagA``
     of the contact (its inverse effective mass, from the bodies' masses)."""
     timeconst, dampratio = solref
     k = 1.0 / (d_width * timeconst * dampratio) ** 2

@@ -139,7 +139,7 @@ def test_free_keys_are_allowed():
 def test_hand_from_plan_is_the_typed_boundary():
     setup = hand_from_plan(BASE)
     assert isinstance(setup, HandSetup)
-    hand, q0 = setup  # a NamedTuple: unpacks like the old (hand, q0)
+    hand, q0 = setup  # a NamedTuple: unpacks as (hand, q0)
     assert hand.n_fingers == 2 and q0.shape == (5,)
     with pytest.raises(FileFormatError, match="plan.hand: fingers\\[0\\].type: expected"):
         hand_from_plan(_hand(lambda d: d["fingers"][0].update(type="prismatic")))

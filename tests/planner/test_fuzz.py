@@ -89,8 +89,8 @@ NASTY_VALUES: tuple[Any, ...] = (
     [0.0], [1.0, 2.0, 3.0, 4.0, 5.0], {"velocity": 1.0}, {"effort": math.nan},
 )
 
-#: Values that still crash a loader with a non-project exception (none since caa1110; keep the
-#: hook for the next finding: the benchmark mixes them in and counts the crashes, CI does not).
+#: Values that crash a loader with a non-project exception (none known; the hook stays for the
+#: next finding: the benchmark mixes them in and counts the crashes, CI does not).
 KNOWN_CRASH_VALUES: tuple[Any, ...] = ()
 
 
@@ -488,9 +488,8 @@ def test_valid_files_survive_json_round_trip(data_dir):
 
 
 # ---------------------------------------------------------------------------------------------
-# Regression tests for what benchmarks/robustness_table.py found (strict xfails until fixed in
-# 9140c51, 1009693, b84baee, caa1110 and 19cb604; docs/robustness.md has the before/after
-# table).
+# Tests for what benchmarks/robustness_table.py found (docs/robustness.md, "What the campaigns
+# found": each finding with the test that pins it).
 # ---------------------------------------------------------------------------------------------
 @pytest.mark.parametrize("speed", [1e-9, 1e-10])
 def test_rod_prediction_does_not_depend_on_the_speed_unit(speed):

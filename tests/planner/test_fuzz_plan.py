@@ -273,7 +273,7 @@ def test_plan_from_dict_deep_nesting(plan_dict):
 
 
 def test_nasty_values_are_covered():
-    """The mutation pool contains what the issue lists: NaN, huge numbers, wrong types."""
+    """The mutation pool contains the hostile values: NaN, huge numbers, wrong types."""
     assert any(isinstance(v, float) and math.isnan(v) for v in NASTY_VALUES)
     assert 1e308 in NASTY_VALUES and None in NASTY_VALUES and "0.5" in NASTY_VALUES
 

@@ -1,6 +1,7 @@
 """Problems written by their geometry (docs/file-formats.md, "Geometry first"): the answers
 derived by hand, the checks of points and normals against the body, the weight-moment
-warning, friction groups, and that every file written the old way keeps its answers."""
+warning, friction groups, and that every file with normals and wrench written out keeps its
+answers."""
 
 from __future__ import annotations
 
@@ -56,7 +57,7 @@ def test_box_pushed_low_slides_and_high_tips():
         text = (DATA / path).read_text()
         assert "external_wrench" not in text and "normal" not in text
         assert "contact_velocities" not in text
-    # the same box written the old way (shipped) gives the same answer, bit for bit
+    # the same box with normals and wrench written out (shipped) gives the same answer, bit for bit
     old = load_system(DATA / "box_on_table_low.json")
     a, b = feasible_modes(low).all_modes[0], feasible_modes(old).all_modes[0]
     assert np.array_equal(a.qdot, b.qdot) and np.allclose(low.g_obj, old.g_obj, atol=1e-12)
@@ -242,10 +243,10 @@ def test_world_motion_is_converted_to_contact_frame_velocities():
 
 
 def test_existing_files_keep_their_answers():
-    """Every shipped system file written the old way: the same wrench matrix, load, commands
-    and answers as before geometry-first input existed (tests/data/golden_answers.json, made
-    by the previous release on these files; ``part_tool_wall.json``'s part weight since carries
-    its moment about the origin, ``-0.5`` N m for its centre of mass at ``(0.5, 0.5)``)."""
+    """Every shipped system file with normals and wrench written out: the same wrench matrix,
+    load, commands and answers as recorded in tests/data/golden_answers.json by a reader
+    without geometry-first input (``part_tool_wall.json``'s part weight carries its moment
+    about the origin, ``-0.5`` N m for its centre of mass at ``(0.5, 0.5)``)."""
     golden = json.loads((ROOT / "tests" / "data" / "golden_answers.json").read_text())
     assert len(golden) >= 8
     for name, want in golden.items():

@@ -144,7 +144,7 @@ def test_one_effort_joint_region_is_todays_band():
     assert reg.b.tolist() == [band.upper, -band.lower]
     assert reg.centre[0] == 0.5 * (band.lower + band.upper)
     assert reg.margin == 0.5 * (band.upper - band.lower)
-    # The corner H-representation (any p) is sound for the common model: inside today's band.
+    # The corner H-representation (any p) is sound for the common model: inside the guaranteed band.
     poly = torque_region(system, "4S", (0.0, 0.2), method="polytope")
     assert poly.exact and not poly.empty
     a = poly.A[:, 0]

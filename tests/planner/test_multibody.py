@@ -206,7 +206,7 @@ def test_part_climbs_the_wall_when_the_wall_is_slippery() -> None:
 
 def test_file_round_trip_and_single_body_files_unchanged(tmp_path) -> None:
     """A multi-body system saved and loaded again gives the same W, loads and bodies; a one-body
-    file written today has no multi-body keys."""
+    file as saved has no multi-body keys."""
     system = load_system(STACK)
     path = save_system(system, tmp_path / "stack.json")
     again = load_system(path)

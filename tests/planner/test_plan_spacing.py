@@ -4,9 +4,9 @@ spacing keeps the guarantee over every hold interval (docs/planning.md, "Waypoin
 The hand is an own hexagon (``tests/data/hexagon_hand.json``, goal 2 mm to the left): its right
 finger touches the upper right edge nearly along the edge's normal, so when that finger is the
 velocity-controlled one its rate grows from 0.054 to 0.17 rad/s along the segment, and its
-guaranteed effort band collapses near t = 2.2 s.  Planned with the old defaults (the right
-finger velocity-controlled, its rate *at* each of 21 waypoints held) it ended 2.0-2.6 % of its
-travel off in both engines (limit 2 %).
+guaranteed effort band collapses near t = 2.2 s.  Planned with the right finger
+velocity-controlled and its rate *at* each of 21 evenly spaced waypoints held, it ends 2.0-2.6 %
+of its travel off in both engines (limit 2 %; docs/planning.md, "Waypoint spacing").
 """
 
 from __future__ import annotations
@@ -41,8 +41,8 @@ def _hexagon():
 
 @functools.cache
 def _right_finger_velocity(waypoints):
-    """The segment with the right finger velocity-controlled (the partition the old defaults
-    chose), ``waypoints`` evenly spaced or (None) by the spacing rule."""
+    """The segment with the right finger velocity-controlled (the other partition),
+    ``waypoints`` evenly spaced or (None) by the spacing rule."""
     hf, traj = _hexagon()
     return plan_segment(hf.hand, hf.q0, data=hf.data, drive=0, speed=0.02, mode=traj.mode,
                         mu=(0.0, 0.2), control=(1,), waypoints=waypoints, max_time=60.0,
@@ -67,7 +67,7 @@ def _replay(seg, rates):
 def test_held_rates_reach_every_planned_waypoint():
     """The commanded (mean) rates, held, bring the rigid quasistatic hand to every waypoint's
     planned pose; the rates *at* the waypoints, held, drift by first order in the spacing
-    (1.6 % of the travel here, the old defaults' error)."""
+    (1.6 % of the travel here)."""
     seg = _right_finger_velocity(21)
     hand = seg.hand_model.hand
     travel = seg.travel()
@@ -183,8 +183,8 @@ def test_plan_prints_a_warning_where_even_waypoints_lose_the_guarantee(capsys):
 @pytest.mark.long
 def test_the_hexagon_plan_validates_and_the_held_rates_at_waypoints_do_not(engine, tmp_path):
     """The default plan agrees in the simulator (final position 0.05-0.09 % of the travel in
-    pymunk); the old defaults' plan -- right finger velocity-controlled at its rate *at* each
-    of 21 waypoints -- ended 2.1 % off at mu = 0.2 (measured before the change)."""
+    pymunk); a plan with the right finger velocity-controlled at its rate *at* each of 21
+    waypoints ends 2.1 % off at mu = 0.2 (docs/planning.md, "Waypoint spacing")."""
     from scenarios.runs import validate_plan
     from sim.verdict import Outcome
 

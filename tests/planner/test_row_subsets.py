@@ -1,4 +1,4 @@
-"""Issue 17: the structural pre-filter of the relaxed-utility row-subset scan is exact."""
+"""The structural pre-filter of the relaxed-utility row-subset scan is exact."""
 
 from __future__ import annotations
 

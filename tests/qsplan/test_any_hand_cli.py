@@ -1,20 +1,17 @@
-"""``qsplan plan`` + ``qsplan validate`` on hands other than the shipped two-finger task.
+"""``qsplan plan`` + ``qsplan validate`` on hands other than the shipped two-finger task
+(random variants of the shipped hands, ``planner.sweeps.random_hands``):
 
-Found by planning and validating hands nobody had run through the command line (random
-variants of the shipped hands, ``planner.sweeps.random_hands``):
-
-* a hand file with one driven joint written as a list (``"drive": [1]``) was refused by the
-  version-1 planner;
-* per-contact friction intervals needed ``--model independent`` by hand; they are what the file
-  describes, so that is now the default there;
-* a plan's ``mu.validate`` came from the hand file even when the plan was made for another
-  interval (``--mu``), and a plan over per-contact intervals that share no coefficient had
-  nothing to validate at: the values are now those inside the planned box, else its corners and
-  centre (per-contact values, ``a/b/c`` on the command line);
-* a task plan's segment with two velocity- (or effort-) controlled joints drove every one of
-  them with the first joint's command: the two-link finger (proximal 0.02 rad/s, distal 0.01)
-  ended 17 % of its travel off the plan in both engines, the three-finger hand lost every
-  contact.
+* a hand file with one driven joint written as a list (``"drive": [1]``) is planned;
+* per-contact friction intervals are what the file describes, so ``--model independent`` is the
+  default there;
+* a plan's ``mu.validate`` values lie inside the planned box, also when the plan was made for
+  another interval (``--mu``) than the hand file's, and a plan over per-contact intervals that
+  share no coefficient is validated at its corners and centre (per-contact values, ``a/b/c`` on
+  the command line);
+* a task plan's segment with two velocity- (or effort-) controlled joints drives each joint
+  with its own command: driven with the first joint's command, the two-link finger (proximal
+  0.02 rad/s, distal 0.01) ends 17 % of its travel off the plan in both engines and the
+  three-finger hand loses every contact.
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
-"""Edges of the command line found by the extended fuzz campaign: each was an internal fault or
-an exit-2 message without what came."""
+"""Edges of the command line the fuzz campaign reaches: each is bad input (exit 2) with a message
+that says what was expected and what came, never an internal fault."""
 
 from __future__ import annotations
 

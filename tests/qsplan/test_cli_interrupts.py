@@ -154,7 +154,7 @@ def test_sweep_workers_end_with_the_command(tmp_path):
 
 def test_signal_while_python_exits_keeps_the_result(tmp_path):
     """The command finished (outputs written, exit 0) and Python collects its objects: a
-    signal now is ignored -- it killed the process without a word (exit by the signal)."""
+    signal then is ignored, not the end of the process without a word (exit by the signal)."""
     out = tmp_path / "out"
     _old_set(out)
     proc = subprocess.Popen([sys.executable, str(DRIVER), "slow_exit", str(out), "SIGINT"],
@@ -170,7 +170,7 @@ def test_signal_while_python_exits_keeps_the_result(tmp_path):
 
 def test_ctrl_c_while_python_imports_is_one_line(tmp_path):
     """The signal arrives while the command line still imports numpy and the commands (before
-    the old CLI's ``try``): one line, exit 130, never a traceback."""
+    any command runs): one line, exit 130, never a traceback."""
     proc = subprocess.Popen([sys.executable, "-m", "qsplan.cli", "modes",
                              str(DATA / "example_4_1.json")], env=ENV, cwd=tmp_path,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -230,8 +230,8 @@ def test_closed_stdout_of_a_real_simulation(tmp_path):
 def test_a_signal_while_the_outputs_module_is_imported(monkeypatch):
     """A signal can arrive while ``planner.files.outputs`` is still being imported (the module
     is in ``sys.modules`` without its functions yet): the status line says no outputs were
-    written instead of raising AttributeError (found by the fuzz campaign: a SIGTERM 0.74 s
-    into ``qsplan plan`` printed a traceback)."""
+    written instead of raising AttributeError (the fuzz campaign's case: a SIGTERM 0.74 s
+    into ``qsplan plan``)."""
     import types
 
     from qsplan import interrupts

@@ -1,8 +1,8 @@
-"""Defects the extended fuzz campaign found in areas being rewritten by other engineers: each was
-pinned here as a strict ``xfail`` until its owner fixed it, and is now a plain test.  A new
-finding goes here the same way (a strict ``xfail`` whose reason names the owner and what the
-code must do; docs/robustness.md lists what is refused now).  The ``HAND_FILE`` and
-``PLAN_LOADER`` reasons are kept for them."""
+"""Inputs the command-line fuzz campaign found, each a plain test of what the loaders refuse.
+
+A new finding goes here as a strict ``xfail`` whose reason names the owner and what the code
+must do, until it is fixed (docs/robustness.md lists what is refused).  The ``HAND_FILE`` and
+``PLAN_LOADER`` reasons are kept for such findings."""
 
 from __future__ import annotations
 

@@ -57,7 +57,7 @@ def test_without_indeterminate_modes_the_map_is_unchanged():
         return _box(mu, [0.01, 0.0])
 
     off = mu_grid(make([0.3, 0.3, 0.2]), (0, 1), [0.3, 0.3, 0.2], n=9, indeterminate=False)
-    assert off.labels == ()  # the old behaviour: everything "jam"
+    assert off.labels == ()  # without the relaxed modes: everything "jam"
     on = mu_grid(make([0.3, 0.3, 0.2]), (0, 1), [0.3, 0.3, 0.2], n=9)
     assert on.labels == ("S-1 S-2 R3",)
 

@@ -108,8 +108,8 @@ def test_a_support_loaded_past_its_clearing_time_still_disagrees() -> None:
 def test_a_sticking_finger_whose_bodies_slip_over_the_stretch_is_not_excused() -> None:
     """The MuJoCo stacked-blocks run with both blocks moved up by 7 % of the drive speed (above
     the slip threshold of 5 %, below the twist tolerance of 10 %): the finger predicted to stick
-    now slips along its face over the stretch, its flickering readings are not read as
-    sticking, and the run does not agree (before: agreed)."""
+    slips along its face over the stretch, its flickering readings are not read as sticking,
+    and the run does not agree."""
     trace = load_campaign_trace("mujoco_seed5_stacked2_finger_sticks")
     exp, th = trace.expectation(), trace.thresholds()
     assert judge(trace.rec, exp, th).verdict.outcome is Outcome.AGREED

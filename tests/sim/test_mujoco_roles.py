@@ -5,7 +5,7 @@ Measured (docs/simulation.md, "MuJoCo: contact roles"): with the stiff finger im
 for seconds after the fingers start; the "sticking" finger slips during the bounces (0.24 mm in
 the first 14 s from (-0.2, 0.35) at 0.5 / 0.3), which was the constant lag of every switch. The
 ``carry`` role (solref 10 ms, impratio 10 without squeeze pairs) removes it. The test runs the
-first 3 s of that start with both settings: the old one must show the slip (so the check can
+first 3 s of that start with both settings: the stiff one must show the slip (so the check can
 fail), the role one must show a tenth of it.
 """
 

@@ -34,11 +34,12 @@ friction 0.8, pushed at ``y = 0.15`` m by a smooth finger: ``P = 8`` N; tipping 
 > W w/2`` (1.2 < 3 N m), so every support slides; the support loads are any split of 10 N whose
 resultant acts ``(W w/2 - P y)/W = 0.18`` m behind the front corner (force-indeterminate).
 
-Each test fails without the change it proves (docs/simulation.md, "Natural geometry"): the
-ladder held by two fixed contacts and the stacked blocks' corners in MuJoCo (corner spurs of
-the per-edge boxes), the stacked blocks in pymunk (a start fault: a foot circle centred on the
-line of a block's side), the static questions (refused before), the rough finger, the zero
-twist and the twelve supports (judged ``disagreed`` / ``inconclusive`` before).
+Each test fails without the handling it checks (docs/simulation-measurements.md, "Natural
+geometry: corners and vertices"): the ladder held by two fixed contacts and the stacked blocks'
+corners in MuJoCo (corner spurs of per-edge boxes), the stacked blocks in pymunk (a start
+fault: a foot circle centred on the line of a block's side), the static questions (a system
+with no drive is run, not refused), the rough finger, the zero twist and the twelve supports
+(not judged ``disagreed`` / ``inconclusive``).
 """
 
 from __future__ import annotations
@@ -303,7 +304,8 @@ def test_box_pushed_squarely_at_its_corner(form: str, engine: str, tmp_path: Pat
 @pytest.mark.parametrize("engine", ["pymunk", pytest.param("mujoco", marks=pytest.mark.slow)])
 def test_rough_finger_just_below_the_tip_height(engine: str, tmp_path: Path) -> None:
     """The rear corner may carry nothing (a member of the certificate family): the box slides
-    at the finger's speed and that is agreement (was disagreed / inconclusive)."""
+    at the finger's speed and that is agreement, not a disagreement over the rear corner's
+    ``B`` reading."""
     code, s = simulate("box_rough_finger_below_tip.json", engine, tmp_path)
     assert code == 0, s["reason"]
     assert s["predicted"]["labels"] == ["S-1 S-2 R3"]
@@ -312,7 +314,7 @@ def test_rough_finger_just_below_the_tip_height(engine: str, tmp_path: Path) -> 
 
 @pytest.mark.parametrize("engine", ["pymunk", pytest.param("mujoco", marks=pytest.mark.slow)])
 def test_finger_slides_over_a_box_that_stays(engine: str, tmp_path: Path) -> None:
-    """Zero predicted twist: judged with an absolute tolerance (the relative error was inf)."""
+    """Zero predicted twist: judged with an absolute tolerance (a relative error is inf)."""
     code, s = simulate("box_finger_slides_up_side.json", engine, tmp_path)
     assert code == 0, s["reason"]
     assert s["predicted"]["labels"] == ["R1 R2 S-3"]
@@ -322,7 +324,7 @@ def test_finger_slides_over_a_box_that_stays(engine: str, tmp_path: Path) -> Non
 @pytest.mark.parametrize("engine", ["mujoco", pytest.param("pymunk", marks=pytest.mark.slow)])
 def test_box_on_twelve_supports_smooth_finger(engine: str, tmp_path: Path) -> None:
     """The frictionless finger's contact flickers between R, S+ and S- in MuJoCo, and the
-    rearmost supports carry nothing (was inconclusive, 45 % of the steps in the mode). The
+    rearmost supports carry nothing; read step by step, only 45 % of the steps show the mode. The
     observed forces against the hand values: the push is the supports' sliding friction,
     ``0.8 x 10 N`` -- to 2 % in pymunk; MuJoCo's soft friction is viscous inside the cone and
     slides the supports at 0.92 of it (docs/simulation.md, "MuJoCo: sliding supports"), so

@@ -88,7 +88,8 @@ def test_window_ignores_blips_and_dates_real_changes():
 
 def test_flicker_cannot_freeze_a_label():
     """A contact sliding on 60 % of the steps (reading R or B on the others, in bursts) is
-    sliding; the old debounce kept such a contact in its first label for ever."""
+    sliding; a debounce that restarts its timer on every repeat of the current label would
+    keep such a contact in its first label for ever."""
     rng = np.random.default_rng(0)
     T = 400
     slide = rng.random(T) < 0.6
@@ -230,7 +231,7 @@ def test_depth_creep_under_steady_forces_is_no_jam():
     rising = 1.5 + 20.0 * 0.01 * np.arange(100)[:, None] * np.ones((1, 2))
     jam = jam_steps(_rec(np.zeros((100, 2)), rising, depth=depth), th)
     assert jam[20:95].all() and not jam[:10].any()  # (the centred mean is short at the end)
-    # without the force condition (jam_depth_force = 0) depth alone decides, as before
+    # without the force condition (jam_depth_force = 0) depth alone decides
     th0 = Thresholds(slip_speed=1e-4, force_floor=1e-3, settle=0.0, jam_depth_rate=1e-5,
                      jam_rate_window=0.1)
     assert jam_steps(_rec(np.zeros((100, 2)), steady, depth=depth), th0)[20:].all()

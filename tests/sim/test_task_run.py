@@ -61,11 +61,10 @@ def test_the_figure_9_task_holds_in_one_continuous_pymunk_run(task_plan, mu):
 
 @pytest.mark.long
 def test_the_figure_9_task_holds_in_one_continuous_mujoco_run(task_plan):
-    """The whole task in one MuJoCo run agrees in every segment. It failed from segment 2 on
-    while the left tip's pair was the whole polygon: the neighbouring edge's box of MuJoCo's
-    polygon sticks out by ``thickness x cos 32 deg`` at the acute vertex 3 and the tip met it
-    outside the polygon (docs/planning.md, "Validation"); the tip now pairs with its declared
-    edge only."""
+    """The whole task in one MuJoCo run agrees in every segment.  The left tip pairs with its
+    declared edge only: paired with a one-box-per-edge polygon, it meets the neighbouring
+    edge's box, which sticks out by ``thickness x cos 32 deg`` at the acute vertex 3, outside
+    the polygon (docs/planning.md, "Validation"), and the run fails from segment 2 on."""
     run = validate_plan(task_plan, "mujoco", 0.1)
     assert run.verdict.outcome is Outcome.AGREED, run.verdict.reasons
     assert all(v.plan is not None and v.plan.claim_fraction >= 0.95 for v in verdicts(run))
