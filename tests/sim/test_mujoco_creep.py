@@ -116,3 +116,34 @@ def test_a_plan_run_hands_mujoco_its_contacts_force_and_creep_speed() -> None:
     b0.build(scaled_masses(scaled_scene(frictionless.scene, frictionless.scale),
                            frictionless.settings.mass_scale))
     assert b0.impratio_used < b.impratio_used  # frictionless wall and table need none
+
+
+def test_a_system_run_hands_mujoco_its_force_scale_and_creep_speed() -> None:
+    """Three blocks stacked on their corners (``qsplan simulate``'s job): the run's force scale
+    -- the largest total normal force of a certificate predicted at the simulated friction,
+    which bounds every contact's -- as the contact force, half the slip threshold as the creep
+    speed (at the simulated size, the plan runs' rule: :func:`sim.jobs.stick_limited`), and the
+    built model's impratio the creep bound, above the roles' value."""
+    from pathlib import Path
+
+    from planner.files.system_file import load_system
+    from planner.predict.feasibility import feasible_modes
+    from sim.backends import make_backend
+    from sim.jobs import job_for_system
+    from sim.similarity import scaled_masses, scaled_scene
+
+    data = Path(__file__).resolve().parents[1] / "data"
+    system = load_system(data / "stacked_corners_mujoco_creeps.json")
+    prediction = feasible_modes(system)
+    job = job_for_system(system, "mujoco", prediction)
+    es = job.settings
+    certified = max(float(np.sum(np.asarray(m.contact_forces)[:, 0]))
+                    for m in prediction.all_modes)
+    assert es.contact_force == pytest.approx(max(certified, job.parameters["load_N"]))
+    assert es.contact_force == pytest.approx(job.parameters["force_scale_N"])
+    assert es.stick_speed == pytest.approx(0.5 * job.thresholds.slip_speed * job.scale)
+    b = make_backend("mujoco", es)
+    b.build(scaled_masses(scaled_scene(job.scene, job.scale), es.mass_scale))
+    need = creep_impratio(b.model, b.data, {"all": list(range(b.model.npair))},
+                          es.contact_force, es.stick_speed)
+    assert b.impratio_used == pytest.approx(need) and need > es.support_impratio
