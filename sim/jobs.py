@@ -182,13 +182,15 @@ def observed_segments(observed: Sequence[Any], times: np.ndarray) -> list[dict[s
 
 def stick_limited(settings: EngineSettings, force: float, thresholds: Thresholds,
                   scale: float) -> EngineSettings:
-    """``settings`` with the stick limits of a run (:func:`sim.settings.with_stick_limits`;
-    every job builder takes them from here): ``force`` [N, user units] the largest normal force
-    a contact of the run carries, and a creep speed of :data:`CREEP_OF_SLIP` times the slip
-    threshold of ``thresholds`` [m/s, user units] at the simulated size (``scale`` [-], the
-    job's similarity factor; forces are scale-free). MuJoCo raises its ``impratio`` so that a
-    contact sticking under ``mu force`` creeps no faster (docs/simulation.md, "MuJoCo: friction
-    creep")."""
+    """``settings`` with the stick limits of a run (:func:`sim.settings.with_stick_limits`; the
+    one rule for any job whose contacts creep by MuJoCo's soft friction): ``force`` [N, user
+    units] the largest normal force a contact of the run carries, and a creep speed of
+    :data:`CREEP_OF_SLIP` times the slip threshold of ``thresholds`` [m/s, user units] at the
+    simulated size (``scale`` [-], the job's similarity factor; forces are scale-free). MuJoCo
+    raises its ``impratio`` so that a contact sticking under ``mu force`` creeps no faster.
+    Plan runs carry them (a jointed finger's contact creeps: noslip does not act on it);
+    system runs do not (their workpieces are free bodies, whose contacts noslip holds, and a
+    higher impratio cost agreeing runs: docs/simulation.md, "MuJoCo: friction creep")."""
     return with_stick_limits(settings, force, CREEP_OF_SLIP * thresholds.slip_speed * scale)
 
 
@@ -256,11 +258,9 @@ def job_for_system(system: System, engine: str, prediction: Any, *,
     th = replace(Thresholds.for_drive(drive, load, creep_floor=es.creep / s, settle=es.settle,
                                       jam_force=jam_force, length_scale=size),
                  load=scale_f, jam_depth_force=scale_f)
-    # every contact's normal force is bounded by the force scale: a predicted certificate's
-    # normal forces are >= 0 and sum to at most it (the load without a predicted mode: a jam's
-    # forces grow to the jam force, where a contact creeps at 20 x the bound's creep, still
-    # below the drive; docs/simulation.md, "MuJoCo: friction creep")
-    es = stick_limited(es, scale_f, th, s)
+    # no stick limits: a system scene's workpieces are free bodies (MuJoCo's out-of-plane
+    # slide), whose contacts' friction noslip re-solves without the soft creep the limits bound
+    # (docs/simulation.md, "MuJoCo: friction creep")
     wedges = wedge_pairs(system)
     ramp = es.start_ramp if not static and (es.ramp_always or wedges) else 0.0
     run = RunSettings(duration=duration, dt=es.dt, slip_speed=SLIP_OF_DRIVE * drive,
