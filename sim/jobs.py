@@ -75,6 +75,9 @@ PENETRATION_OF_SIZE = 0.02
 #: at 0.1 v, sqrt(5) less at 0.02 v); 0.02 v is still > 150 x the creep of a sticking finger in
 #: either engine (docs/simulation.md, "The ruler against its closed form").
 SWITCH_OF_SPEED = 0.02
+#: A sticking contact may creep at this fraction of the classifier's slip threshold: where its
+#: hysteresis leaves ``S`` (docs/simulation.md, "MuJoCo: friction creep").
+CREEP_OF_SLIP = 0.5
 
 
 @dataclass(frozen=True, eq=False)
@@ -177,6 +180,20 @@ def observed_segments(observed: Sequence[Any], times: np.ndarray) -> list[dict[s
     return out
 
 
+def stick_limited(settings: EngineSettings, force: float, thresholds: Thresholds,
+                  scale: float) -> EngineSettings:
+    """``settings`` with the stick limits of a run (:func:`sim.settings.with_stick_limits`; the
+    one rule for any job whose contacts creep by MuJoCo's soft friction): ``force`` [N, user
+    units] the largest normal force a contact of the run carries, and a creep speed of
+    :data:`CREEP_OF_SLIP` times the slip threshold of ``thresholds`` [m/s, user units] at the
+    simulated size (``scale`` [-], the job's similarity factor; forces are scale-free). MuJoCo
+    raises its ``impratio`` so that a contact sticking under ``mu force`` creeps no faster.
+    Plan runs carry them (a jointed finger's contact creeps: noslip does not act on it);
+    system runs do not (their workpieces are free bodies, whose contacts noslip holds, and a
+    higher impratio cost agreeing runs: docs/simulation.md, "MuJoCo: friction creep")."""
+    return with_stick_limits(settings, force, CREEP_OF_SLIP * thresholds.slip_speed * scale)
+
+
 # ---- systems ------------------------------------------------------------------------------
 def force_scale(modes: Sequence[Any], load: float) -> float:
     """The run's force scale [N]: the larger of ``load`` and the largest total normal force of
@@ -241,6 +258,9 @@ def job_for_system(system: System, engine: str, prediction: Any, *,
     th = replace(Thresholds.for_drive(drive, load, creep_floor=es.creep / s, settle=es.settle,
                                       jam_force=jam_force, length_scale=size),
                  load=scale_f, jam_depth_force=scale_f)
+    # no stick limits: a system scene's workpieces are free bodies (MuJoCo's out-of-plane
+    # slide), whose contacts' friction noslip re-solves without the soft creep the limits bound
+    # (docs/simulation.md, "MuJoCo: friction creep")
     wedges = wedge_pairs(system)
     ramp = es.start_ramp if not static and (es.ramp_always or wedges) else 0.0
     run = RunSettings(duration=duration, dt=es.dt, slip_speed=SLIP_OF_DRIVE * drive,
@@ -309,10 +329,9 @@ def job_for_plan(plan: Any, engine: str, mu: Any, *, torques: np.ndarray | None 
         for seg, d in zip(exp.segments, drives)))
     th = replace(Thresholds.for_drive(min(drives), load, creep_floor=creep, settle=es.settle,
                                       length_scale=size), jam_depth_rate=np.inf)
-    # a sticking contact may creep at half the slip threshold (where the classifier's
-    # hysteresis leaves S) holding its friction on the load plus the squeeze
+    # a sticking contact holds its friction on the load plus the squeeze
     # (docs/simulation.md, "MuJoCo: friction creep")
-    es = with_stick_limits(es, load + squeeze, 0.5 * th.slip_speed * s)
+    es = stick_limited(es, load + squeeze, th, s)
     run = RunSettings(duration=lay.duration, dt=es.dt, slip_speed=SLIP_OF_DRIVE * min(drives),
                       penetration_tol=PENETRATION_OF_SIZE * size, record_every=es.record_every,
                       open_at_start=lay.open_at_start, control_switches=lay.control_switches())

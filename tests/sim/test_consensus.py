@@ -198,8 +198,9 @@ def test_recorded_summaries_are_valid_run_summaries():
 
 def test_consensus_of_recorded_summaries_names_the_creeping_engine():
     """Three blocks stacked on their corners (tests/data/stacked_corners_mujoco_creeps.json),
-    predicted B1 R2 R3 R4 R5 R6 S-7: pymunk and DART hold it; in MuJoCo the sticking corners
-    creep."""
+    predicted B1 R2 R3 R4 R5 R6 S-7: pymunk and DART hold it; in MuJoCo the light top block
+    loses contact and slips on the middle one (docs/simulation-measurements.md, "MuJoCo:
+    stacked blocks")."""
     c = consensus(_summaries())
     assert c.verdicts == {"pymunk": "agreed", "mujoco": "disagreed", "dart": "agreed"}
     assert c.majority == "agreed" and c.odd == ("mujoco",) and c.explained

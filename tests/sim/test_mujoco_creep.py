@@ -116,3 +116,46 @@ def test_a_plan_run_hands_mujoco_its_contacts_force_and_creep_speed() -> None:
     b0.build(scaled_masses(scaled_scene(frictionless.scene, frictionless.scale),
                            frictionless.settings.mass_scale))
     assert b0.impratio_used < b.impratio_used  # frictionless wall and table need none
+
+
+
+@pytest.mark.parametrize("noslip", [20, 0])
+def test_noslip_holds_a_system_scenes_sticking_contact(noslip: int) -> None:
+    """A block at rest on a 20 deg incline at friction 0.4 (``qsplan simulate``'s job, its
+    workpiece a free body with MuJoCo's out-of-plane slide): the job carries no stick limits and
+    runs at the roles' impratio, at which the soft friction row alone lets a contact holding
+    ``mu`` times the load creep past the slip threshold (the impratio :func:`creep_impratio`
+    asks for half of it is higher). MuJoCo's noslip pass re-solves the friction rows without
+    that regulariser and holds both contacts (measured 0.000 x the threshold); without noslip
+    they creep at 2.8 x the threshold (docs/simulation.md, "MuJoCo: friction creep")."""
+    from dataclasses import replace
+    from pathlib import Path
+
+    from planner.files.system_file import load_system
+    from planner.predict.feasibility import feasible_modes
+    from sim.backends import make_backend
+    from sim.jobs import CREEP_OF_SLIP, job_for_system
+    from sim.run import run_scene
+    from sim.similarity import scaled_masses, scaled_scene
+
+    data = Path(__file__).resolve().parents[1] / "data"
+    system = load_system(data / "incline_20deg_mu04.json")
+    prediction = feasible_modes(system)
+    assert [m.label for m in prediction.all_modes] == ["R1 R2"]
+    job = job_for_system(system, "mujoco", prediction)
+    es, s = job.settings, job.scale
+    assert es.contact_force is None and es.stick_speed is None
+    b = make_backend("mujoco", es)
+    b.noslip_iterations = noslip
+    run = replace(job.run, slip_speed=job.run.slip_speed * s,
+                  penetration_tol=job.run.penetration_tol * s)
+    rec = run_scene(scaled_masses(scaled_scene(job.scene, s), es.mass_scale), b, run)
+    threshold = job.thresholds.slip_speed * s
+    need = creep_impratio(b.model, b.data, {"all": list(range(b.model.npair))},
+                          job.parameters["force_scale_N"], CREEP_OF_SLIP * threshold)
+    assert rec.fault is None and need > 10.0 * b.impratio_used
+    slip = np.abs(rec.slip_velocity[rec.times >= es.settle]).mean(axis=0) / threshold
+    if noslip:
+        assert np.all(slip < CREEP_OF_SLIP)  # measured: 0.000
+    else:
+        assert np.all(slip > 1.0)  # measured: 2.8
