@@ -24,7 +24,8 @@ from planner.plan.segment_planner import plan_segment
 from planner.predict.feasibility import feasible_modes
 
 DATA = Path(__file__).resolve().parents[2] / "scenarios" / "data"
-HANDS = ["three_finger_hand", "prismatic_finger_hand", "two_link_finger_hand", "table_push_hand"]
+HANDS = [pytest.param("three_finger_hand", marks=pytest.mark.long),  # 15-30 s to plan
+         "prismatic_finger_hand", "two_link_finger_hand", "table_push_hand"]
 
 
 def _segment(hf, **kw):

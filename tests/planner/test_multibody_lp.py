@@ -167,6 +167,7 @@ def test_brute_force_lp_agrees_with_feasible_modes(seed, n_b, n_c, n_e) -> None:
         check_certificate(system, m)
 
 
+@pytest.mark.long
 def test_brute_force_cases_are_not_vacuous() -> None:
     """The comparison above decides something: over the cases, at least ten LP-feasible modes
     (and both jammed and moving systems) are compared."""

@@ -67,6 +67,7 @@ def _bad(seg, k: int, end: int, tau: float) -> list[tuple[float, list[str]]]:
     return out
 
 
+@pytest.mark.long
 def test_midband_jumps_where_a_rival_appears_and_the_default_does_not(plans):
     mid, smooth = plans["midband"].extra["commands"], plans["smooth"].extra["commands"]
     scale = 0.06  # N m: the load's torque scale here (0.981 N on a ~0.06 m lever)
@@ -79,9 +80,8 @@ def test_midband_jumps_where_a_rival_appears_and_the_default_does_not(plans):
     assert plans["smooth"].policy == "smooth"
 
 
-@pytest.mark.parametrize("policy", [
-    "smooth", pytest.param("least-effort", marks=pytest.mark.long),
-    pytest.param("midband", marks=pytest.mark.long), pytest.param("constant", marks=pytest.mark.long)])
+@pytest.mark.long
+@pytest.mark.parametrize("policy", ["smooth", "least-effort", "midband", "constant"])
 def test_commands_hold_the_claim_under_dense_friction_sampling(plans, policy):
     seg = plans[policy]
     assert seg.torques().shape == (len(seg.waypoints), 1)
@@ -90,6 +90,7 @@ def test_commands_hold_the_claim_under_dense_friction_sampling(plans, policy):
     assert bad == []
 
 
+@pytest.mark.long
 def test_policies_order_effort_and_margin(plans):
     """Least effort squeezes least, max-margin (midband) keeps the largest margin, smooth keeps
     the required margin (half the hold band, capped at the load's scale)."""
@@ -101,6 +102,7 @@ def test_policies_order_effort_and_margin(plans):
     assert np.all(margins["smooth"] > 0) and np.all(margins["least-effort"] > 0)
 
 
+@pytest.mark.long
 def test_a_command_pushed_past_a_face_is_caught(plans):
     """Mutation: the smooth command moved just past the hold band's finite faces (1 % of the
     band, at least 1 % of the load's scale) fails the same dense check at some friction."""
@@ -226,6 +228,7 @@ def test_limits_parse_per_joint():
     assert lim.effort_rate == (3.0, np.inf) and lim.limited
 
 
+@pytest.mark.long
 def test_the_change_report_is_in_the_plan_file_and_the_output(plans, tmp_path, capsys):
     path = tmp_path / "p.json"
     d = _triangle(waypoints=4)

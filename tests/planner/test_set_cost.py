@@ -74,6 +74,7 @@ def test_the_guaranteed_band_shrinks_as_each_set_grows(cost):
             or axis == "friction"
 
 
+@pytest.mark.long
 def test_the_friction_axis_at_zero_width_is_the_box_centre(plan, cost):
     lo, hi = plan.segments[0].mu_intervals[0]
     assert widened_friction([(lo, hi)], 0.0) == [(0.5 * (lo + hi), 0.5 * (lo + hi))]
@@ -83,6 +84,7 @@ def test_the_friction_axis_at_zero_width_is_the_box_centre(plan, cost):
     assert cost.curves["friction"][2].size == pytest.approx(hi - lo)
 
 
+@pytest.mark.long
 def test_a_plan_at_a_point_uses_default_references(plan):
     hand = plan.segments[0].hand_model[0]
     bare = replace(plan, segments=tuple(
@@ -95,6 +97,7 @@ def test_a_plan_at_a_point_uses_default_references(plan):
     assert point_set(hand.mass, hand.com).trivial
 
 
+@pytest.mark.long
 def test_bad_multiples_are_refused(plan):
     with pytest.raises(InputError, match="multiples: expected finite sizes >= 0"):
         set_cost(plan, (0.0, -1.0))
@@ -112,6 +115,7 @@ def test_the_figure_is_written(tmp_path, plan):
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+@pytest.mark.long
 def test_a_size_where_a_stage_fails_shows_nothing_guaranteed(plan, monkeypatch):
     from planner.errors import DegenerateError
     from planner.plan import set_cost as module

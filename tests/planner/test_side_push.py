@@ -50,6 +50,7 @@ def _check_plan(plan, claim: str, band: tuple[float, float]) -> None:
         assert band[0] < w.torque_commands[0] < band[1]
 
 
+@pytest.mark.long
 def test_the_shipped_side_push_plans_with_the_default_options():
     """``qsplan plan side_push``: one ``S-1 S-2 R3 R4`` segment to the goal (50 mm right), the
     guaranteed band at every waypoint the one derived by hand, exact at the point friction."""
@@ -140,6 +141,7 @@ def test_the_shipped_file_is_the_documented_task():
     assert np.max(np.abs(hf.hand.gaps(hf.q0))) < 1e-12
 
 
+@pytest.mark.long
 def test_the_band_is_rechecked_by_the_feasibility_test_with_certificates():
     """Independently of the band code: at the plan's waypoints the feasibility test
     (:func:`planner.predict.feasibility.feasible_modes`, its own LP with a certificate) finds

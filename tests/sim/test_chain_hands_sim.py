@@ -229,7 +229,7 @@ def test_region_plans_of_chain_hands_agree(name, engine):
 
 @pytest.mark.parametrize("engine", DEFAULT_ENGINES)
 @pytest.mark.parametrize("name", ["prismatic_finger_hand", "two_link_finger_hand",
-                                  "three_finger_hand"])
+                                  pytest.param("three_finger_hand", marks=pytest.mark.long)])
 def test_torques_outside_the_region_disagree(name, engine):
     hand, q0, rp, mu = _region_plan(name)
     tau = outside_torques(rp, hand, mu)

@@ -120,6 +120,7 @@ def test_a_tip_pair_touches_its_declared_edge_only(acute_tip):
         assert np.allclose(np.asarray(end), vert + cap.radius * inward, atol=1e-12)
 
 
+@pytest.mark.long
 @pytest.mark.parametrize("engine", ["pymunk", "mujoco"])
 def test_a_tip_at_an_acute_vertex_reads_its_edge(acute_tip, engine):
     """The tip's first reading: the declared edge's normal and the pre-load depth (with the

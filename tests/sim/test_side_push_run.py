@@ -30,7 +30,7 @@ def _plan(mirrored: bool):
 
 @pytest.mark.long
 @pytest.mark.parametrize("mirrored", [False, pytest.param(True, marks=pytest.mark.slow)])
-@pytest.mark.parametrize("engine", DEFAULT_ENGINES)
+@pytest.mark.parametrize("engine", [pytest.param("pymunk", marks=pytest.mark.slow), "mujoco"])
 def test_the_side_push_agrees(engine, mirrored):
     plan = _plan(mirrored)
     mu = plan.validate_mu[0] if plan.validate_mu else (0.25, 0.25, 0.7, 0.7)

@@ -14,7 +14,7 @@ import pytest
 from planner.errors import InputError
 from planner.plan.hand_planner import plan_hand
 from planner.plan.model import negative_control
-from planner.plan.plan_file import save_plan
+from planner.plan.plan_file import load_plan, save_plan
 from scenarios.runs import validate_plan
 from sim.verdict import Outcome
 
@@ -31,7 +31,7 @@ def task_plan():
     return plan_hand(DATA / "figure9_task_hand.json")
 
 
-@pytest.mark.parametrize("mu", [0.0, 0.1])
+@pytest.mark.parametrize("mu", [0.0, pytest.param(0.1, marks=pytest.mark.slow)])  # 0.1: MuJoCo's run below
 @pytest.mark.long
 def test_the_figure_9_task_holds_in_one_continuous_pymunk_run(task_plan, mu):
     run = validate_plan(task_plan, "pymunk", mu)
@@ -86,6 +86,7 @@ def test_segment_3_agrees_in_mujoco_at_the_top_of_the_interval(task_plan):
     assert float(rec.depth[0].max()) < 10 * preload_depth(hand.length_scale)
 
 
+@pytest.mark.long
 @pytest.mark.parametrize("engine", ["pymunk", "mujoco"])
 def test_the_negative_control_fails(task_plan, engine):
     run = validate_plan(negative_control(task_plan), engine, 0.1, expect="disagree")
@@ -108,6 +109,7 @@ def test_validate_prints_a_verdict_per_segment(task_plan, tmp_path):
     assert [s["status"] for s in summary["segments"]] == ["agreed"] * 3
 
 
-def test_engines_are_checked(task_plan):
+def test_engines_are_checked():
+    plan = load_plan(Path(__file__).resolve().parents[1] / "data" / "plan_v1_two_finger.json")
     with pytest.raises(InputError, match="engine"):
-        validate_plan(task_plan, "bullet", 0.1)
+        validate_plan(plan, "bullet", 0.1)
