@@ -66,7 +66,7 @@ from sim.classify import (
     twist_error,
 )
 from sim.expectation import Expectation, Judgement, ModeSet, PlanSchedule, Switches
-from sim.judge_soft import clearing_times, stretch_readings
+from sim.judge_soft import clearing_times, contact_sink, stretch_readings, unexplained_reach
 from sim.run import FaultKind, Recording
 from sim.verdict import (
     FORCE_DRIFT_LIMIT,
@@ -245,15 +245,13 @@ def judge_moves(rec: Recording, exp: ModeSet, th: Thresholds) -> Verdict:
         return fault_verdict(rec.fault)
     if len(run.times) < 2:
         return Verdict(Outcome.INCONCLUSIVE, ("no step could be judged",))
-    idx = [run.body_names.index(b) for b in exp.bodies]
-    pose = run.poses[:, idx].copy()
-    pose[:, :, 2] = np.unwrap(pose[:, :, 2], axis=0)
     dt = float(run.times[-1] - run.times[0])
-    away = (pose - pose[0]) * np.array([1.0, 1.0, th.length_scale])  # (T, n_b, 3)
-    reach = float(np.max(np.linalg.norm(away, axis=2)))
+    sink = contact_sink(run)
+    reach = max(0.0, float(np.max(unexplained_reach(run, exp, th.length_scale))) - sink)
     speed = reach / dt if dt > 0 else 0.0
     moved = speed > TWIST_TOLERANCE * exp.drive
-    how = (f"a workpiece moved {reach:.3g} m from its start in {dt:.3g} s ({speed:.3g} m/s)"
+    how = (f"a workpiece moved {reach:.3g} m from its start in {dt:.3g} s ({speed:.3g} m/s) beyond "
+           f"its contacts' sinking (deepest {sink:.3g} m)"
            + (f", then {rec.fault.reason}" if rec.fault is not None else ""))
     judged = int(judged_mask(run, th).sum())
     if moved:

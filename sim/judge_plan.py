@@ -42,6 +42,7 @@ from sim.expectation import (
     point_errors,
     point_travel,
 )
+from sim.judge_soft import contact_sink
 from sim.run import Recording
 from sim.verdict import (
     MODE_FRACTION_REQUIRED,
@@ -171,14 +172,6 @@ def _judge_steps(rec: Recording, observed: list[ObservedMode], th: Thresholds,
                                                          th.slip_speed))
     except InputError:
         return None  # no predicted travel yet
-
-
-def contact_sink(rec: Recording) -> float:
-    """[m] the deepest a contact of ``rec`` sank into its surface while touching (0 when none
-    did): a rigid model's positions are realized only to within it, since the workpiece sits
-    that much deeper in the surfaces that hold it (docs/simulation.md, "Judging a run")."""
-    depth = np.nan_to_num(np.asarray(rec.depth, dtype=float))
-    return float(np.max(np.where(np.asarray(rec.present, dtype=bool), depth, 0.0), initial=0.0))
 
 
 def unresolved_slides(seg: SegmentExpectation, times: np.ndarray, slip_speed: float

@@ -130,3 +130,49 @@ def stretch_readings(exp: ModeSet, q_obs: np.ndarray, slip_speed: float) -> np.n
         read = np.where(v_t > slip_speed, "S+", np.where(v_t < -slip_speed, "S-", "R"))
         out[k] = [tok != "B" and tok == r for tok, r in zip(m.mode.tokens, read)]
     return out
+
+
+def contact_sink(rec: Recording) -> float:
+    """[m] the deepest a contact of ``rec`` sank into its surface while touching (0 when none
+    did): a rigid model's positions are realized only to within it, since the workpiece sits
+    that much deeper in the surfaces that hold it (docs/simulation.md, "Judging a run")."""
+    depth = np.nan_to_num(np.asarray(rec.depth, dtype=float))
+    return float(np.max(np.where(np.asarray(rec.present, dtype=bool), depth, 0.0), initial=0.0))
+
+
+def unexplained_reach(rec: Recording, exp: ModeSet, length: float) -> np.ndarray:
+    """(T,) [m]: how far the workpieces have moved from their first recorded poses **beyond what
+    their contacts' sinking explains** -- the largest over the workpieces of the displacement
+    (rotation times ``length`` [m]) left when the smallest displacement that accounts for the
+    measured depth changes is taken away.
+
+    A small displacement ``d`` (3 n_b,: each workpiece's frame origin and angle) changes contact
+    ``i``'s normal gap by eq. 5's normal row, ``(W^T d)_n`` (positive: opening). A contact that a
+    soft (or slop-holding) engine sinks deeper by ``delta_i`` since the first step closes its gap
+    by ``delta_i``, so of the displacement ``D d`` (``D``: ``length`` on the angles) the part the
+    sinking explains is ``e = (A D^-1)^+ (-delta)``, ``A`` the normal rows of the contacts
+    recorded at both steps, and ``|D d - e|`` is the rest: a workpiece that only settles into its
+    contacts gives 0 (up to the linearization, second order in the sink), one that slides along
+    them, turns about one of them or loses one gives the motion itself -- its null-space part
+    and any mismatch with the depths. ``W`` is the system's at its start configuration. Without
+    a system with ``W`` it is the plain displacement (docs/simulation.md, "Static questions")."""
+    idx = [rec.body_names.index(b) for b in exp.bodies]
+    pose = rec.poses[:, idx].copy()
+    pose[:, :, 2] = np.unwrap(pose[:, :, 2], axis=0)
+    scale = np.array([1.0, 1.0, length])
+    dw = ((pose - pose[0]) * scale).reshape(len(rec.times), -1)  # (T, 3 n_b) weighted
+    n_b = len(idx)
+    s = exp.system
+    W = None if s is None else getattr(s, "W", None)
+    if W is None or np.asarray(W).shape != (3 * n_b, 2 * rec.present.shape[1]):
+        return np.max(np.linalg.norm(dw.reshape(len(rec.times), n_b, 3), axis=2), axis=1)
+    A = np.asarray(W, dtype=float).T[0::2] / np.tile(scale, n_b)  # rows in weighted coords
+    depth = np.where(rec.present, rec.depth, np.nan)
+    out = np.empty(len(rec.times))
+    for k in range(len(rec.times)):
+        rows = np.isfinite(depth[k]) & np.isfinite(depth[0])
+        rest = dw[k]
+        if rows.any():
+            rest = rest - np.linalg.pinv(A[rows]) @ (depth[0, rows] - depth[k, rows])
+        out[k] = np.max(np.linalg.norm(rest.reshape(n_b, 3), axis=1))
+    return out
