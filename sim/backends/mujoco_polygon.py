@@ -121,8 +121,11 @@ def polygon_geoms(spec: Any, body: Any, name: str, vertices: np.ndarray, depth: 
             quat=[np.cos(ang / 2), 0.0, 0.0, np.sin(ang / 2)])))
     for k, tri in enumerate(tips):
         mesh = f"{name}:v{k}:mesh"
+        # the pieces carry no mass (explicit inertials): a shell's inertia needs no volume,
+        # which a tip cut at a vertex of nearly 90 deg (``s = h cot theta``) hardly has
         spec.add_mesh(name=mesh, uservert=[float(c) for z in (-depth, depth)
-                                           for p in tri for c in (p[0], p[1], z)])
+                                           for p in tri for c in (p[0], p[1], z)],
+                      inertia=mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL)
         geoms.append(_no_collisions(body.add_geom(
             name=f"{name}:v{k}", type=mujoco.mjtGeom.mjGEOM_MESH, meshname=mesh)))
     return geoms

@@ -8,10 +8,16 @@ every point of every piece is inside the polygon, and the pieces cover its bound
 
 from __future__ import annotations
 
+import mujoco
 import numpy as np
 import pytest
 
-from sim.backends.mujoco_polygon import interior_angles, polygon_pieces
+from sim.backends.mujoco_polygon import (
+    EDGE_BOX_OF_SIZE,
+    interior_angles,
+    polygon_geoms,
+    polygon_pieces,
+)
 
 #: A ladder's outline: rails at 30 deg, ends cut at 60 deg (two 30-deg and two 150-deg corners).
 LADDER = np.array([[0.0, 0.0], [1.732051, 1.0], [1.782051, 1.086603], [0.05, 0.086603]])
@@ -107,3 +113,20 @@ def test_random_convex_polygons() -> None:
         for tri in tips:
             assert outside(tri, poly) <= 1e-12
         assert on_boundary_covered(poly, boxes, tips, samples=60)
+
+
+def test_a_vertex_just_under_90_degrees_compiles_at_a_user_size():
+    """A 3.4 cm block whose corners are 89.1 deg (a random hand of the campaign, seed 7): the
+    tip cut there is ``h cot theta`` = 0.3 um long and its prism has almost no volume, which
+    MuJoCo refuses for a mesh whose inertia it computes ("mesh volume is too small"). The
+    pieces carry no mass, so the tip meshes take a shell's inertia and compile."""
+    v = np.array([[-0.0007812700837830993, 0.0], [0.0330225323729085, 0.0],
+                  [0.033524482864468436, 0.033124276846770356],
+                  [3.615511333801062e-05, 0.03362348828606614]])
+    _, tips = polygon_pieces(v, EDGE_BOX_OF_SIZE * 0.034)
+    assert len(tips) == 2 and max(np.ptp(t, axis=0).max() for t in tips) < 2e-5
+    spec = mujoco.MjSpec()
+    body = spec.worldbody.add_body(name="w", mass=0.08, inertia=[1e-5, 1e-5, 1e-5],
+                                   explicitinertial=True)
+    polygon_geoms(spec, body, "workpiece:g0", v, 0.0034, 0.034)
+    assert spec.compile().nmesh == 2
