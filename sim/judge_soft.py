@@ -166,13 +166,18 @@ def unexplained_reach(rec: Recording, exp: ModeSet, length: float) -> np.ndarray
     W = None if s is None else getattr(s, "W", None)
     if W is None or np.asarray(W).shape != (3 * n_b, 2 * rec.present.shape[1]):
         return np.max(np.linalg.norm(dw.reshape(len(rec.times), n_b, 3), axis=2), axis=1)
-    A = np.asarray(W, dtype=float).T[0::2] / np.tile(scale, n_b)  # rows in weighted coords
+    Wt = np.asarray(W, dtype=float).T / np.tile(scale, n_b)  # rows in weighted coords
+    A, T = Wt[0::2], Wt[1::2]
     depth = np.where(rec.present, rec.depth, np.nan)
+    mu = np.nan_to_num(np.asarray(rec.mu_used, dtype=float))
     out = np.empty(len(rec.times))
     for k in range(len(rec.times)):
         rows = np.isfinite(depth[k]) & np.isfinite(depth[0])
         rest = dw[k]
+        held = rows & (mu[k] > 0) & (mu[0] > 0)
         if rows.any():
-            rest = rest - np.linalg.pinv(A[rows]) @ (depth[0, rows] - depth[k, rows])
+            M = np.vstack([A[rows], T[held]])
+            rhs = np.concatenate([depth[0, rows] - depth[k, rows], np.zeros(int(held.sum()))])
+            rest = rest - np.linalg.pinv(M) @ rhs
         out[k] = np.max(np.linalg.norm(rest.reshape(n_b, 3), axis=1))
     return out

@@ -368,20 +368,23 @@ def test_block_that_stands_on_an_incline_judged_as_sliding_disagrees(engine: str
 
 
 @pytest.mark.parametrize("engine", ["pymunk", "mujoco"])
-def test_a_small_ladder_that_stands_is_not_judged_moving_by_its_contacts_settling(
-        engine: str, tmp_path: Path) -> None:
-    """A 9 x 8 mm rhombus ladder of 0.07 g between a floor (mu 0.90) and a wall (mu 0.85) stands
-    (``R1 R2``). Judged at floor 0.114 / wall 0.231 (no equilibrium: ``MOVES``) the run must
-    disagree. In MuJoCo its contacts sink 13 um and 4 um while their forces build up, and the
-    top slips 18 um down the wall in the first 0.2 s, then nothing: 18 um in the 2.5 s run is
-    7.3e-6 m/s against the 3.0e-6 m/s that "moves" needs, so the displacement alone read it as
-    moving. Judged beyond what the contacts' sinking explains (docs/simulation.md, "Static
-    questions") it moved 0.6 um."""
-    code, s = simulate("ladder_6mm.json", engine, tmp_path)
+@pytest.mark.parametrize("name, control", [
+    ("ladder_6mm.json", "0.11444275281072809,0.23060375745789247"),
+    ("block_2mm_smooth_wall.json", "0.5102330827699451,0.0")])
+def test_a_small_workpiece_that_stands_is_not_judged_moving_by_its_contacts_settling(
+        engine: str, name: str, control: str, tmp_path: Path) -> None:
+    """A 9 x 8 mm rhombus ladder of 0.07 g between a floor (mu 0.90) and a wall (mu 0.85), and a
+    2.5 mm block of 0.7 mg on a floor (mu 0.88) against a frictionless wall, both standing
+    (``R1 R2``). Judged at a friction without an equilibrium (``MOVES``) each run must disagree.
+    In MuJoCo the ladder's contacts sink 13 um and 4 um while their forces build up and its top
+    slips 18 um down the wall in the first 0.2 s, then nothing (18 um in 2.5 s is 7.3e-6 m/s
+    against the 3.0e-6 m/s that "moves" needs); the block turns 1.4 mrad about its foot as its
+    wall contact sinks. Judged beyond what the contacts' sinking explains (docs/simulation.md,
+    "Static questions") neither moves."""
+    code, s = simulate(name, engine, tmp_path)
     assert s["predicted"]["labels"] == ["R1 R2"]
     assert code == 0 and s["status"] == "agreed", s["reason"]
-    code, s = simulate("ladder_6mm.json", engine, tmp_path / "control", "--judge-mu",
-                       "0.11444275281072809,0.23060375745789247")
+    code, s = simulate(name, engine, tmp_path / "control", "--judge-mu", control)
     assert s["predicted"]["labels"] == ["MOVES"]
     assert s["status"] == "disagreed", s["reason"]
     assert "beyond its contacts' sinking" in s["reason"]
