@@ -71,7 +71,11 @@ def chosen_points(args: argparse.Namespace, plan: Any
         return (), ()
     points = set_points(axes, kinds, step)
     for point in points:  # a point with no physical geometry: refused before any simulation
-        moves(plan, offset_values([a.key for a in axes], point.values))
+        try:
+            moves(plan, offset_values([a.key for a in axes], point.values))
+        except InputError as exc:
+            raise InputError(f"--set: at point {point.name}: {exc} (--set none runs the "
+                             "nominal plan only)") from None
     return axes, points
 
 
