@@ -1,21 +1,26 @@
 """Points of a plan's uncertainty set, and the plan as it is at one of them (eqs. 2, 13-32).
 
-A plan guaranteed over a mass / centre-of-mass set (:class:`planner.model.load_set.LoadSet`;
-docs/planning.md, "Uncertainty beyond friction") is validated by running it at points of that set
-(docs/planning.md, "Validating at points of the set"):
+A plan guaranteed over a mass / centre-of-mass / contact-position set
+(:class:`planner.model.load_set.LoadSet`; docs/planning.md, "Uncertainty beyond friction",
+"Contact positions") is validated by running it at points of that set (docs/planning.md,
+"Validating at points of the set"):
 
-* the set is described by its **axes** (:func:`set_axes`): one interval per scalar the set lets
-  vary, with its nominal value -- the workpiece's mass ``m`` [kg] and the two body-frame
-  coordinates of its centre of mass [m].  Every other function here iterates over the axes, so a
-  further axis of the set is one more entry of :func:`set_axes` and of :func:`hand_data_at`;
+* the set is described by its **axes** (:func:`plan_axes`): one interval per scalar the set lets
+  vary, with its nominal value -- the workpiece's mass ``m`` [kg], the two body-frame
+  coordinates of its centre of mass [m] (:func:`set_axes`), and the offset ``s<k>`` [m] of each
+  contact that may move along its feature (:func:`contact_axes`).  Every other function here
+  iterates over the axes;
 * the **corners** are every combination of the axes' ends (an axis of zero width gives one
-  value), the **centre** is every axis at its midpoint, and an **outside** point pushes one
-  axis's end out by ``step`` times its half-width, the other axes at their midpoints
-  (:func:`set_points`);
+  value; :func:`corner_count`), the **centre** is every axis at its midpoint, and an
+  **outside** point pushes one axis's end out by ``step`` times its half-width, the other axes
+  at their midpoints (:func:`set_points`);
 * :func:`plan_at` is the plan run at a point: every segment's hand with that mass, centre of
   mass and the load scaled with the mass (the load is proportional to the mass, as the set
-  assumes), and every waypoint's ``predicted`` modes *recomputed by the planner there*
-  (eqs. 13-32 at the point's load, the run's friction and the waypoint's commands;
+  assumes), its workpiece vertices and fingertips moved to the contact offsets
+  (:mod:`planner.plan.contact_moves`: the hand *is* the moved geometry) and then its waypoints
+  on the moved body's path (:func:`planner.plan.contact_moves.moved_path`), and every
+  waypoint's ``predicted`` modes *recomputed by the planner there* (eqs. 13-32 at the point's
+  geometry and load, the run's friction and the waypoint's commands;
   :func:`planner.plan.partition.predicted_modes`) -- never copied from the plan.
 
 Units: kg, m (body frame), N.

@@ -1,9 +1,11 @@
 """``qsplan validate --set corners,centre[,outside] [--outside STEP]``: the plan also run at points
-of its mass / centre-of-mass set (docs/planning.md, "Validating at points of the set";
-:mod:`scenarios.set_runs`).
+of its uncertainty set -- mass, centre of mass, contact positions (docs/planning.md, "Validating
+at points of the set"; :mod:`scenarios.set_runs`).
 
 Default: the corners and the centre when the plan's hand has an ``uncertainty`` section, none
-otherwise.  Each point runs at every friction value of the validation, in every engine asked;
+otherwise.  The axes and the corner count are printed first (:func:`axes_line`); a point whose
+contact offsets have no physical geometry is refused before any run.  Each point runs at
+every friction value of the validation, in every engine asked;
 one line each.  With ``--out`` each run's ``summary.json`` (no pictures) goes to
 ``set/<point>/`` (``set/<point>/mu_<value>/`` when several friction values), its
 ``parameters.set_point`` naming the point, whether it is inside the set, and the planner's
