@@ -1,7 +1,8 @@
 """A plan run at points of its uncertainty set (docs/planning.md, "Validating at points of the
 set"): the plan moved to the point (:func:`planner.plan.set_points.plan_at`: the scene simulates
-the workpiece's mass, centre of mass and load there, and the planner predicts every waypoint's
-modes there), run through the one pipeline (:func:`scenarios.runs.validate_plan`), its verdict
+the workpiece's mass, centre of mass, load and moved contact geometry there, and the planner
+predicts every waypoint's modes there), run through the one pipeline
+(:func:`scenarios.runs.validate_plan`), its verdict
 held against what the planner predicts at the point:
 
 * ``agree`` when the claim is the only predicted mode over every hold interval of every segment;

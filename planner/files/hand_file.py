@@ -193,7 +193,8 @@ def _finger(f: Any, k: int) -> tuple[Finger, list[float]]:
     f = as_object(f, where)
     name = string(f.get("name", f"finger{k + 1}"), f"{where}.name")
     if "links" in f:
-        check_keys(f, where, required=("pivot", "links"), optional=("name",), free=FREE_KEYS)
+        check_keys(f, where, required=("pivot", "links"), optional=("name", "tip_offset"),
+                   free=FREE_KEYS)
         raw = f["links"]
         if not isinstance(raw, list) or not raw:
             raise FileFormatError(f"{where}.links: expected a non-empty list, got {short(raw)}")
@@ -202,14 +203,15 @@ def _finger(f: Any, k: int) -> tuple[Finger, list[float]]:
         pivot = _point(f["pivot"], f"{where}.pivot")
         first = links[0]
         return Finger(name=name, pivot=(float(pivot[0]), float(pivot[1])), length=first.length,
-                      width=first.width, mass=first.mass, links=links), [x for _, x in parsed]
+                      width=first.width, mass=first.mass, links=links,
+                      tip_offset=_tip_offset(f, where)), [x for _, x in parsed]
     if "type" in f and f["type"] != REVOLUTE:
         raise FileFormatError(
             f"{where}.type: expected \"revolute\" for a single-link finger (a prismatic joint "
             f"goes in \"links\": [...]), got {short(f['type'])}"
         )
     check_keys(f, where, required=("pivot", "length", "width", "angle"),
-               optional=("name", "mass", "type"), free=FREE_KEYS)
+               optional=("name", "mass", "type", "tip_offset"), free=FREE_KEYS)
     pivot = _point(f["pivot"], f"{where}.pivot")
     finger = Finger(
         name=name,
@@ -217,8 +219,15 @@ def _finger(f: Any, k: int) -> tuple[Finger, list[float]]:
         length=number(f["length"], f"{where}.length", positive=True),
         width=number(f["width"], f"{where}.width", positive=True),
         mass=number(f.get("mass", FINGER_MASS), f"{where}.mass", positive=True),
+        tip_offset=_tip_offset(f, where),
     )
     return finger, [number(f["angle"], f"{where}.angle")]
+
+
+def _tip_offset(f: Any, where: str) -> tuple[float, float]:
+    """A finger's optional ``tip_offset`` ``[along, across]`` [m] (:class:`Finger`)."""
+    t = _point(f.get("tip_offset", [0.0, 0.0]), f"{where}.tip_offset")
+    return float(t[0]), float(t[1])
 
 
 def _environment(raw: Any) -> tuple[tuple[str, np.ndarray], ...]:

@@ -168,9 +168,12 @@ class Hand:
         return self.links_at(q, k)[-1][1]
 
     def tip_centre(self, q: np.ndarray, k: int) -> np.ndarray:
-        """Centre (2,) of finger ``k``'s rounded tip (end of its last link), m."""
+        """Centre (2,) of finger ``k``'s rounded tip (end of its last link, moved by the
+        finger's ``tip_offset`` in that link's frame), m."""
         start, d = self.links_at(q, k)[-1]
-        return start + self.fingers[k].chain_links[-1].length * d
+        f = self.fingers[k]
+        along, across = f.tip_offset
+        return start + (f.chain_links[-1].length + along) * d + across * rot90(d)
 
     def edge(self, q: np.ndarray, e: int) -> tuple[np.ndarray, np.ndarray]:
         """World endpoints of workpiece edge ``e`` (vertex e -> e+1)."""

@@ -47,7 +47,12 @@ class Finger:
     """One finger with its chain based at ``pivot`` (world, m).  ``links`` empty: the paper's
     single revolute link of ``length`` and ``width`` (m, tip radius ``width/2``) and ``mass``
     (kg, simulators only); otherwise ``links`` from the pivot out and ``length``, ``width``,
-    ``mass`` describe the first link."""
+    ``mass`` describe the first link.  ``tip_offset`` ``(along, across)`` [m]: the rounded
+    tip's centre moved from its last link's end in that link's frame (``along`` its axis,
+    ``across`` to its left, ``rot90`` of the axis); default ``(0, 0)``, the tip at the end.  The
+    joints and the links' capsules do not move: the tip is its own shape (a finger that touches
+    the workpiece elsewhere than where its kinematics ends; docs/planning.md, "Validating at
+    points of the set")."""
 
     name: str
     pivot: tuple[float, float]
@@ -55,6 +60,7 @@ class Finger:
     width: float
     mass: float = 0.05
     links: tuple[Link, ...] = ()
+    tip_offset: tuple[float, float] = (0.0, 0.0)
 
     @property
     def radius(self) -> float:

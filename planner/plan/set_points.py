@@ -1,21 +1,26 @@
 """Points of a plan's uncertainty set, and the plan as it is at one of them (eqs. 2, 13-32).
 
-A plan guaranteed over a mass / centre-of-mass set (:class:`planner.model.load_set.LoadSet`;
-docs/planning.md, "Uncertainty beyond friction") is validated by running it at points of that set
-(docs/planning.md, "Validating at points of the set"):
+A plan guaranteed over a mass / centre-of-mass / contact-position set
+(:class:`planner.model.load_set.LoadSet`; docs/planning.md, "Uncertainty beyond friction",
+"Contact positions") is validated by running it at points of that set (docs/planning.md,
+"Validating at points of the set"):
 
-* the set is described by its **axes** (:func:`set_axes`): one interval per scalar the set lets
-  vary, with its nominal value -- the workpiece's mass ``m`` [kg] and the two body-frame
-  coordinates of its centre of mass [m].  Every other function here iterates over the axes, so a
-  further axis of the set is one more entry of :func:`set_axes` and of :func:`hand_data_at`;
+* the set is described by its **axes** (:func:`plan_axes`): one interval per scalar the set lets
+  vary, with its nominal value -- the workpiece's mass ``m`` [kg], the two body-frame
+  coordinates of its centre of mass [m] (:func:`set_axes`), and the offset ``s<k>`` [m] of each
+  contact that may move along its feature (:func:`contact_axes`).  Every other function here
+  iterates over the axes;
 * the **corners** are every combination of the axes' ends (an axis of zero width gives one
-  value), the **centre** is every axis at its midpoint, and an **outside** point pushes one
-  axis's end out by ``step`` times its half-width, the other axes at their midpoints
-  (:func:`set_points`);
+  value; :func:`corner_count`), the **centre** is every axis at its midpoint, and an
+  **outside** point pushes one axis's end out by ``step`` times its half-width, the other axes
+  at their midpoints (:func:`set_points`);
 * :func:`plan_at` is the plan run at a point: every segment's hand with that mass, centre of
   mass and the load scaled with the mass (the load is proportional to the mass, as the set
-  assumes), and every waypoint's ``predicted`` modes *recomputed by the planner there*
-  (eqs. 13-32 at the point's load, the run's friction and the waypoint's commands;
+  assumes), its workpiece vertices and fingertips moved to the contact offsets
+  (:mod:`planner.plan.contact_moves`: the hand *is* the moved geometry) and then its waypoints
+  on the moved body's path (:func:`planner.plan.contact_moves.moved_path`), and every
+  waypoint's ``predicted`` modes *recomputed by the planner there* (eqs. 13-32 at the point's
+  geometry and load, the run's friction and the waypoint's commands;
   :func:`planner.plan.partition.predicted_modes`) -- never copied from the plan.
 
 Units: kg, m (body frame), N.
@@ -33,6 +38,14 @@ import numpy as np
 
 from planner.errors import InputError
 from planner.model.load_set import LoadSet
+from planner.plan.contact_moves import (
+    contact_union,
+    moved_hand_data,
+    moved_path,
+    moves,
+    offset_values,
+)
+from planner.plan.load_margins import plan_load_set
 from planner.plan.model import Plan, Segment
 from planner.plan.partition import predicted_modes
 
@@ -71,6 +84,28 @@ def set_axes(load_set: LoadSet) -> tuple[SetAxis, ...]:
     return (SetAxis("m", "mass", "kg", *load_set.mass, load_set.nominal_mass),
             SetAxis("cx", "centre of mass x", "m", ax, bx, cx),
             SetAxis("cy", "centre of mass y", "m", ay, by, cy))
+
+
+def contact_axes(plan: Plan) -> tuple[SetAxis, ...]:
+    """One axis per contact of the plan's union that may move along its feature
+    (:func:`planner.plan.contact_moves.contact_union`): key ``s<k>`` (``k`` the contact's
+    number in the run, ``c<k>``), the interval ``[-half, half]`` [m] around 0."""
+    return tuple(SetAxis(f"s{u.index + 1}", f"contact {u.index + 1} position ({u.words})", "m",
+                         -u.half, u.half, 0.0)
+                 for u in contact_union(plan) if u.half > 0)
+
+
+def plan_axes(plan: Plan) -> tuple[SetAxis, ...]:
+    """Every axis of ``plan``'s set: :func:`set_axes` of its hand's load set, then
+    :func:`contact_axes`; none when its hand has no ``uncertainty`` section."""
+    ls = plan_load_set(plan)
+    return () if ls is None else set_axes(ls) + contact_axes(plan)
+
+
+def corner_count(axes: Sequence[SetAxis]) -> int:
+    """How many corners :func:`set_points` draws: the product of the axes' end counts (2 for
+    an axis of non-zero width, 1 otherwise)."""
+    return int(np.prod([2 if a.hi > a.lo else 1 for a in axes]))
 
 
 @dataclass(frozen=True)
@@ -158,16 +193,24 @@ def hand_data_at(hand: Mapping[str, Any], axes: Sequence[SetAxis],
 
 
 def segment_at(seg: Segment, axes: Sequence[SetAxis], values: Sequence[float],
-               mu: Any) -> Segment:
-    """``seg`` at the point ``values`` (:func:`hand_data_at`) with every waypoint's
-    ``predicted`` recomputed there at friction ``mu``
+               mu: Any, geometry: tuple[Mapping[int, Any], Mapping[int, Any]] = ({}, {})
+               ) -> Segment:
+    """``seg`` at the point ``values`` (:func:`hand_data_at`), its workpiece vertices and
+    finger tips moved by ``geometry`` (:func:`planner.plan.contact_moves.moves`), with every
+    waypoint's ``predicted`` recomputed there at friction ``mu``
     (:func:`planner.plan.partition.predicted_modes`)."""
-    moved = replace(seg, hand=hand_data_at(seg.hand, axes, values), regions=(), shortfall=None)
-    hand = moved.hand_model[0]
+    data = moved_hand_data(hand_data_at(seg.hand, axes, values), *geometry)
+    moved = replace(seg, hand=data, regions=(), shortfall=None)
+    hand, q0 = moved.hand_model
     V = seg.velocity_joints
+    wps = seg.waypoints
+    if any(np.any(np.asarray(m) != 0.0) for part in geometry for m in part.values()):
+        path = moved_path(hand, np.asarray(q0, dtype=float), seg)
+        wps = tuple(replace(w, pose=(float(q[0]), float(q[1]), float(q[2])),
+                            angles=tuple(float(x) for x in q[3:])) for w, q in zip(wps, path))
     wps = tuple(replace(w, predicted=predicted_modes(hand, w.q, V, w.velocity_commands,
                                                      w.torque_commands, (mu,)))
-                for w in seg.waypoints)
+                for w in wps)
     return replace(moved, waypoints=wps)
 
 
@@ -181,8 +224,11 @@ def plan_at(plan: Plan, axes: Sequence[SetAxis], point: SetPoint,
     if len(point.values) != len(axes):
         raise InputError(f"point: expected {len(axes)} values (one per axis), got "
                          f"{len(point.values)}")
-    segs = tuple(segment_at(s, axes, point.values, mu) for s, mu in zip(plan.segments, mus))
-    return replace(plan, segments=segs, hand=hand_data_at(plan.hand, axes, point.values))
+    geometry = moves(plan, offset_values([a.key for a in axes], point.values))
+    segs = tuple(segment_at(s, axes, point.values, mu, geometry)
+                 for s, mu in zip(plan.segments, mus))
+    return replace(plan, segments=segs,
+                   hand=moved_hand_data(hand_data_at(plan.hand, axes, point.values), *geometry))
 
 
 def claim_shares(plan: Plan) -> tuple[tuple[float, float], ...]:

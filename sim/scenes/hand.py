@@ -15,7 +15,8 @@ pairs collide, ``Scene.only_pairs``):
   palm line (so each palm contact is its own pair / arbiter).
 * one body per finger (name ``finger:<name>``), body frame at the pivot with ``x`` along the
   link, on a revolute joint to the base (``joint:<name>``): a capsule of the link's width
-  (``side`` contacts) and, for a ``tip`` contact, a circle of radius ``width/2`` at the tip.
+  (``side`` contacts) and, for a ``tip`` contact, a circle of radius ``width/2`` at the tip
+  (the link's end moved by the finger's ``tip_offset`` in the link's frame).
 * ``workpiece``: the polygon plus, per ``tip`` contact, a capsule of radius ``vertex_radius``
   along the contact's declared edge, its surface on the edge line (the tip touches the edge
   the plan declares and no other: near an acute vertex a tip paired with the whole polygon can
@@ -226,8 +227,9 @@ def hand_scene(
                 push = _rot(-float(np.arctan2(d_ref[1], d_ref[0]))) @ (depth[tips[0]]
                                                                        * nrm[tips[0]])
                 tip_site[k] = len(fshapes)
-                fshapes.append(Circle((link.length + float(push[0]), float(push[1])),
-                                      link.radius))
+                along, across = f.tip_offset
+                fshapes.append(Circle((link.length + along + float(push[0]),
+                                       across + float(push[1])), link.radius))
             name = finger_body(hand, k, j)
             lm = link.mass
             bodies.append(Body(name=name, shapes=tuple(fshapes), mass=lm,

@@ -119,3 +119,70 @@ def test_a_plan_without_a_set_runs_as_before(plans, capsys):
     assert main(["validate", str(plans["none"]), "--mu", "0.1", "--no-render"]) == 0
     text = capsys.readouterr().out
     assert text.startswith("pymunk mu=0.1: AGREED") and " set " not in text
+
+
+# ---- contact positions ------------------------------------------------------------------------
+def test_contact_positions_that_cannot_move_are_refused_before_any_run(plans, tmp_path, capsys):
+    """The short push with every contact +-2 mm: vertex 1 on the palm ends the edge the right
+    tip touches, so moving it has no physical geometry -- named, exit 2, nothing run, by
+    default too."""
+    plans.SECTIONS["contacts"] = {"contacts": 0.002}
+    out = tmp_path / "val"
+    for extra in (["--set", "corners"], []):
+        assert main(["validate", str(plans["contacts"]), "--mu", "0.1", "--out", str(out),
+                     *extra]) == 2
+        captured = capsys.readouterr()
+        assert ("--set: at point s1-s2-s3-s4-: contact positions: moving contact 2 (vertex 1 on "
+                "palm) turns workpiece edge 1, on which contact 4 (right tip on edge 1) lies"
+                in captured.err)
+        assert "(--set none runs the nominal plan only)" in captured.err
+        assert "pymunk" not in captured.out and not out.exists()
+
+
+@pytest.fixture(scope="module")
+def tilt_plan(tmp_path_factory):
+    """Block tilting planned with every contact +-2 mm (claim ``R1 R2``)."""
+    from planner.files.hand_file import hand_file_from_dict
+    from planner.plan.hand_planner import plan_hand
+    from planner.plan.plan_file import save_plan
+    from scenarios.registry import DATA_DIR
+
+    d = json.loads((DATA_DIR / "block_tilting.json").read_text())
+    d["uncertainty"] = {"contacts": 0.002}
+    out = tmp_path_factory.mktemp("tilt") / "tilt_plan.json"
+    save_plan(plan_hand(hand_file_from_dict(d), waypoints=3, margins=False), out)
+    return out
+
+
+@pytest.mark.long
+def test_far_outside_a_contact_axis_the_run_shows_what_the_planner_predicts(tilt_plan, tmp_path,
+                                                                            capsys):
+    """6 half-widths past the set along each contact axis: with the pivot 14 mm outwards the
+    planner predicts no quasistatic mode (the press force no longer tilts the block) and the
+    simulated block does not follow the claim's path -- the check disagrees with the plan, as
+    the planner says it must there; 14 mm inwards the claim is kept and the run shows it."""
+    out = tmp_path / "val"
+    code = main(["validate", str(tilt_plan), "--engine", "pymunk", "--set", "outside",
+                 "--outside", "6", "--no-render", "--out", str(out)])
+    text = capsys.readouterr().out
+    assert code == 0, text
+    assert "set: 2 axes (s1 contact 1 position (vertex 1 on table) +-2 mm" in text
+    lost = next(x for x in text.splitlines() if " set out-s1- " in x)
+    assert "s1=-14 mm" in lost and ": DISAGREED, predicted disagree -- as predicted" in lost
+    kept = next(x for x in text.splitlines() if " set out-s1+ " in x)
+    assert ": AGREED, predicted agree -- as predicted" in kept
+    rec = _summaries(out)["out-s1-"]["parameters"]["set_point"]
+    assert rec["values"]["s1"] == pytest.approx(-0.014) and rec["expect"] == "disagree"
+    assert rec["claim_absent_share"] == [1.0]
+
+
+@pytest.mark.long
+def test_contact_corners_in_mujoco(tilt_plan, capsys):
+    """Every corner of the contact box in MuJoCo: the moved table vertex and fingertip are the
+    scene's (one scene for both engines), the claim holds at each, as guaranteed."""
+    code = main(["validate", str(tilt_plan), "--engine", "mujoco", "--set", "corners",
+                 "--no-render"])
+    text = capsys.readouterr().out
+    assert code == 0, text
+    lines = [x for x in text.splitlines() if " set s1" in x]
+    assert len(lines) == 4 and all("AGREED, predicted agree -- as predicted" in x for x in lines)
