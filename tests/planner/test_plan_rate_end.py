@@ -1,0 +1,107 @@
+"""A segment ends before its rates diverge (docs/planning.md, "Waypoint spacing", "Rates").
+
+Two random three-finger hands (``tests/data/three_finger_fold_left.json`` and
+``three_finger_fold_right.json``) slide their workpiece in 5S until the contact constraints
+become singular: at that fold the top finger's rate grows as ``1/sqrt(t_end - t)`` (14666 and
+24858 rad/s at the last state the integration reaches, against 0.24 and 0.17 rad/s one
+waypoint earlier).  A plan must not keep a waypoint there: its commands and the motion it
+describes could not be held between waypoints, and the validation's slow motion follows its
+fastest command.
+"""
+
+from __future__ import annotations
+
+import functools
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from planner.plan.hand_planner import plan_hand
+from planner.plan.model import Event, Plan
+from planner.plan.spacing import POSE_TOLERANCE_OF_TRAVEL, joint_travel, rate_lags
+from planner.plan.trajectory import Trajectory
+
+DATA = Path(__file__).parents[1] / "data"
+HANDS = ("three_finger_fold_left.json", "three_finger_fold_right.json")
+
+
+@functools.cache
+def _plan(name: str) -> Plan:
+    return plan_hand(DATA / name)
+
+
+def _lines(t: np.ndarray, theta: np.ndarray, rate: np.ndarray) -> Trajectory:
+    """A trajectory of one joint (the workpiece at rest) with the given coordinates and rates."""
+    n = len(t)
+    q = np.zeros((n, 4))
+    q[:, 3] = theta
+    return Trajectory(t, q, np.zeros((n, 3)), rate.reshape(n, 1), "1S", 0, 1.0,
+                      Event("time limit", "", float(t[-1])))
+
+
+def test_lag_of_a_linear_rate_is_a_quarter_step_times_its_change() -> None:
+    # theta = t^2 / 2 on [0, 1]: rate t; 4 intervals of 0.25 s, each rate change 0.25 rad/s
+    t = np.linspace(0.0, 1.0, 5)
+    tr = _lines(t, 0.5 * t**2, t)
+    lags = rate_lags(tr, joint_travel(tr))
+    assert joint_travel(tr) == pytest.approx([0.5])
+    # dt |dr| / 4 = 0.25 * 0.25 / 4 over a travel of 0.5
+    assert lags[:, 0] == pytest.approx([0.25 * 0.25 / 4 / 0.5] * 4)
+    # the straight line between waypoints is off the parabola by exactly that at mid-interval
+    mid = 0.5 * (t[:-1] + t[1:])
+    chord = 0.5 * (0.5 * t[:-1] ** 2 + 0.5 * t[1:] ** 2)
+    assert np.abs(chord - 0.5 * mid**2) == pytest.approx([0.25 * 0.25 / 8] * 4)
+    assert np.all(np.abs(chord - 0.5 * mid**2) <= lags[:, 0] * joint_travel(tr)[0])
+
+
+def test_a_fold_fails_at_any_spacing_a_smooth_rate_passes_when_fine() -> None:
+    # theta = -2 sqrt(1 - t): rate 1 / sqrt(1 - t), infinite at t = 1 (a fold of the closure)
+    for n in (11, 101, 1001):
+        t = np.linspace(0.0, 1.0, n)
+        rate = 1.0 / np.sqrt(np.maximum(1.0 - t, 1e-16))
+        tr = _lines(t, -2.0 * np.sqrt(1.0 - t), rate)
+        lags = rate_lags(tr, joint_travel(tr))[:, 0]
+        assert lags[-1] > POSE_TOLERANCE_OF_TRAVEL
+        assert np.all(lags[: n // 2] <= POSE_TOLERANCE_OF_TRAVEL)
+    t = np.linspace(0.0, 1.0, 11)
+    tr = _lines(t, 0.5 * t**2, t)
+    assert np.all(rate_lags(tr, joint_travel(tr)) <= POSE_TOLERANCE_OF_TRAVEL)
+
+
+@pytest.mark.parametrize("name", HANDS)
+def test_fold_hand_commands_do_not_jump(name: str) -> None:
+    seg = _plan(name).segments[0]
+    V = [j for j, c in enumerate(seg.control) if c == "velocity"]
+    t = np.array([w.t for w in seg.waypoints])
+    angles = np.array([w.angles for w in seg.waypoints])
+    cmd = np.array([w.velocity_commands for w in seg.waypoints])
+    travel = np.sum(np.abs(np.diff(angles, axis=0)), axis=0)
+    assert np.all(np.isfinite(cmd))
+    # a held command is the mean rate over its interval, between the rates at its two ends;
+    # two neighbouring commands then differ by at most the rate change over both intervals,
+    # each bounded by 4 * POSE_TOLERANCE_OF_TRAVEL * travel / dt (docs/planning.md)
+    dt = np.diff(t)
+    for i, j in enumerate(V):
+        jump = 0.25 * dt * np.abs(np.diff(cmd[:, i]))
+        assert np.all(jump <= 2 * POSE_TOLERANCE_OF_TRAVEL * travel[j]), (j, cmd[:, i])
+    # the plan's own angles: no interval carries a joint much further than its neighbour
+    steps = np.abs(np.diff(angles, axis=0))
+    assert np.all(steps[1:] <= 3.0 * steps[:-1] + 1e-12)
+
+
+@pytest.mark.parametrize("name", HANDS)
+def test_fold_hand_ends_before_the_singular_configuration_and_says_so(name: str) -> None:
+    plan = _plan(name)
+    seg = plan.segments[0]
+    ended = seg.extra["spacing"]["ended"]
+    assert seg.event.kind == "mode change"
+    assert re.match(r"near a singular configuration: the top finger would need \d+ rad/s at "
+                    r"t = [\d.]+ s, against 0\.\d+ rad/s at the last waypoint kept", seg.event.detail)
+    assert "no waypoint spacing holds it, so the segment ends here" in seg.event.detail
+    assert "become singular or ill-conditioned" in seg.event.detail
+    assert ended["joint"] == 2 and abs(ended["needed"]) > 1e3
+    assert seg.waypoints[-1].t == pytest.approx(ended["t_s"]) == pytest.approx(seg.event.t)
+    assert ended["t_next_s"] > seg.waypoints[-1].t
+    assert all(w.margin > 0 for w in seg.waypoints)
