@@ -226,7 +226,7 @@ def _evaluate(hand: Hand, states_at: _States, V: tuple[int, ...], E: tuple[int, 
                 reason = f"no guaranteed effort at t = {t:.3g} s: {gd.reason()}"
         return Guaranteed(empty_region(traj.mode, len(E), E, {"reason": reason}))
 
-    travel = joint_travel(traj)
+    travel = joint_travel(hand, traj)
     if waypoints is None:
         times, gs, spacing, failed = adaptive(hand, states_at, V, evaluate, traj.duration, step,
                                               travel)

@@ -35,7 +35,8 @@ decides, and how it is chosen:
   leaves that straight line by up to ``dt_k |r_k+1 - r_k| / 4`` (a rate monotone over the
   interval; the extreme is a step at its middle), and the closure puts the workpiece where the
   coordinates say.  An interval is accepted when this distance is at most
-  :data:`POSE_TOLERANCE_OF_TRAVEL` of the joint's travel over the segment, for every joint
+  :data:`POSE_TOLERANCE_OF_TRAVEL` of the joint's travel over the segment (at least
+  :data:`STILL` of the workpiece size, :func:`joint_travel`), for every joint
   (:func:`rate_lags`): the tolerance the final position is judged against, taken in each joint.
   An interval that fails is split like the others; one that still fails at :data:`SHORTEST`
   -- the rates diverge, as where the contact constraints become singular (a fold of the
@@ -73,6 +74,10 @@ POSE_TOLERANCE_OF_TRAVEL = 0.02
 SHORTEST = 0.2 * (1.0 - MODE_FRACTION) / 10
 #: ... so that this many of them use at most a fifth of the judged steps' allowance.
 SHORTEST_COUNT = 10
+#: A joint whose planned coordinate leaves the line between its waypoints by less than this share
+#: of the workpiece size (a point at that distance from a pivot) has not moved: the tolerance
+#: the planner takes contacts as touching at (:func:`planner.plan.task_contacts.touching`).
+STILL = 1e-6
 
 
 @dataclass(frozen=True)
@@ -195,9 +200,14 @@ def rate_lags(states: Trajectory, travel: np.ndarray) -> np.ndarray:
     return np.divide(lag, scale, out=np.where(lag > 0, np.inf, 0.0), where=scale > 0)
 
 
-def joint_travel(states: Trajectory) -> np.ndarray:
-    """``(F,)`` the path length of each joint over ``states`` (rad or m)."""
-    return np.sum(np.abs(np.diff(states.q[:, 3:], axis=0)), axis=0)
+def joint_travel(hand: Hand, states: Trajectory) -> np.ndarray:
+    """``(F,)`` the path length of each joint over ``states`` (rad or m), at least what keeps a
+    distance below :data:`STILL` of the workpiece size (in joint units: rad for a revolute
+    joint, whose lever is taken as the size; m for a prismatic one) within the tolerance."""
+    travel = np.sum(np.abs(np.diff(states.q[:, 3:], axis=0)), axis=0)
+    still = np.array([STILL * (1.0 if effort_unit(hand, (j,)) == "N m" else hand.length_scale)
+                      for j in range(hand.n_joints)])
+    return np.maximum(travel, still / POSE_TOLERANCE_OF_TRAVEL)
 
 
 def rate_end(states: Trajectory, travel: np.ndarray, k: int) -> RateEnd:
@@ -215,7 +225,7 @@ def failing_intervals(hand: Hand, states: Trajectory, V: tuple[int, ...],
     ``travel`` ``(F,)`` every joint's travel on the segment (default over ``states``)."""
     regions = interval_regions(hand, states, V, gs)
     held = velocity_commands(states, V)
-    travel = joint_travel(states) if travel is None else travel
+    travel = joint_travel(hand, states) if travel is None else travel
     fast = np.any(rate_lags(states, travel) > POSE_TOLERANCE_OF_TRAVEL, axis=1)
     out = []
     for k in range(len(gs) - 1):
@@ -257,7 +267,7 @@ def adaptive(hand: Hand, states_at: Callable[[np.ndarray], Trajectory], V: tuple
     shortest = SHORTEST * duration
     splits = 0
     if travel is None:
-        travel = joint_travel(states_at(ts))
+        travel = joint_travel(hand, states_at(ts))
     while True:
         states = states_at(ts)
         gs: list[Guaranteed] = []
@@ -288,7 +298,7 @@ def uniform(hand: Hand, states: Trajectory, V: tuple[int, ...],
         gs.append(evaluate(k, states))
         if gs[-1].empty:
             return states.t[:k + 1], gs, Spacing("uniform", 0.0, 0, ()), k
-    travel = joint_travel(states) if travel is None else travel
+    travel = joint_travel(hand, states) if travel is None else travel
     bad = failing_intervals(hand, states, V, gs, travel)
     ts, gs, spacing = _ended(states.t, gs, states, travel, Spacing(
         "uniform", 0.0, 0, tuple((float(states.t[k]), float(states.t[k + 1])) for k in bad)))
