@@ -232,7 +232,8 @@ def _evaluate(hand: Hand, states_at: _States, V: tuple[int, ...], E: tuple[int, 
                                               travel)
     else:
         times, gs, spacing, failed = uniform(
-            hand, states_at(np.linspace(0.0, traj.duration, waypoints)), V, evaluate, travel)
+            hand, states_at(np.linspace(0.0, traj.duration, waypoints)), V, evaluate, travel,
+            states_at)
     if failed is None and spacing.ended is not None and len(times) < 2:
         failed, reason = 0, spacing.ended.words(hand, traj.event)
     worst = min((relative_margin(g) for g in gs), default=-math.inf) if failed is None else (

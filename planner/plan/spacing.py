@@ -42,7 +42,9 @@ decides, and how it is chosen:
   -- the rates diverge, as where the contact constraints become singular (a fold of the
   closure, where a joint's rate grows as ``1/sqrt(t_end - t)``) -- ends the segment at the
   interval's first waypoint (``Spacing.ended``, :class:`RateEnd`): no spacing can hold its
-  commands there.
+  commands there.  With an explicit count the waypoints are kept as given; an interval that
+  fails is split on the trajectory alone (:func:`diverging`) and ends the segment only when a
+  piece of at most :data:`SHORTEST` still fails -- else it is reported like the others.
 
 The initial grid is the trajectory's integration step (``max_time / steps``), the resolution at
 which the motion itself was followed.  Units: s.
@@ -238,18 +240,35 @@ def failing_intervals(hand: Hand, states: Trajectory, V: tuple[int, ...],
 
 
 def _ended(ts: np.ndarray, gs: list[Guaranteed], states: Trajectory, travel: np.ndarray,
-           spacing: Spacing
+           spacing: Spacing, diverges: Callable[[float, float], bool] | None = None
            ) -> tuple[np.ndarray, list[Guaranteed], Spacing]:
     """The waypoints up to the first hold interval that fails the rate test (module
-    docstring, "Rates"), with ``spacing`` saying where and why they end; unchanged when none
-    does."""
+    docstring, "Rates") -- and, given ``diverges(t_k, t_k+1)``, still fails it at every
+    spacing -- with ``spacing`` saying where and why they end; unchanged when none does."""
     fast = np.flatnonzero(np.any(rate_lags(states, travel) > POSE_TOLERANCE_OF_TRAVEL, axis=1))
+    fast = np.array([k for k in fast if diverges is None or diverges(ts[k], ts[k + 1])],
+                    dtype=int)
     if not fast.size:
         return ts, gs, spacing
     k = int(fast[0])
     kept = tuple(iv for iv in spacing.unresolved if iv[1] <= ts[k])
     return ts[:k + 1], gs[:k + 1], Spacing(spacing.rule, spacing.initial, spacing.splits, kept,
                                            rate_end(states, travel, k))
+
+
+def diverging(states_at: Callable[[np.ndarray], Trajectory], travel: np.ndarray, a: float,
+              b: float, shortest: float) -> bool:
+    """Whether the rate test fails on ``[a, b]`` (s) at every spacing: splitting its failing
+    halves (the trajectory alone, ``states_at``; no guaranteed sets) leaves a failing piece of
+    at most ``shortest`` (s) -- the rates diverge there, as at a fold of the closure.  A rate
+    that only changes fast is resolved by the splits: False."""
+    if b - a <= shortest:
+        return True
+    m = 0.5 * (a + b)
+    fail = np.any(rate_lags(states_at(np.array([a, m, b])), travel) > POSE_TOLERANCE_OF_TRAVEL,
+                  axis=1)
+    return any(diverging(states_at, travel, lo, hi, shortest)
+               for (lo, hi), bad in zip(((a, m), (m, b)), fail) if bad)
 
 
 def adaptive(hand: Hand, states_at: Callable[[np.ndarray], Trajectory], V: tuple[int, ...],
@@ -289,10 +308,13 @@ def adaptive(hand: Hand, states_at: Callable[[np.ndarray], Trajectory], V: tuple
 
 
 def uniform(hand: Hand, states: Trajectory, V: tuple[int, ...],
-            evaluate: Callable[[int, Trajectory], Guaranteed], travel: np.ndarray | None = None
+            evaluate: Callable[[int, Trajectory], Guaranteed], travel: np.ndarray | None = None,
+            states_at: Callable[[np.ndarray], Trajectory] | None = None
             ) -> tuple[np.ndarray, list[Guaranteed], Spacing, int | None]:
-    """The waypoints as given (``states``), with the same report as :func:`adaptive` (they
-    also stop where the rates cannot be held)."""
+    """The waypoints as given (``states``), with the same report as :func:`adaptive`: they
+    also stop where the rates cannot be held at any spacing (:func:`diverging` on
+    ``states_at``, the trajectory at any times; without it, at the first interval that fails
+    the rate test)."""
     gs: list[Guaranteed] = []
     for k in range(len(states.t)):
         gs.append(evaluate(k, states))
@@ -300,6 +322,9 @@ def uniform(hand: Hand, states: Trajectory, V: tuple[int, ...],
             return states.t[:k + 1], gs, Spacing("uniform", 0.0, 0, ()), k
     travel = joint_travel(hand, states) if travel is None else travel
     bad = failing_intervals(hand, states, V, gs, travel)
+    shortest = SHORTEST * float(states.t[-1])
     ts, gs, spacing = _ended(states.t, gs, states, travel, Spacing(
-        "uniform", 0.0, 0, tuple((float(states.t[k]), float(states.t[k + 1])) for k in bad)))
+        "uniform", 0.0, 0, tuple((float(states.t[k]), float(states.t[k + 1])) for k in bad)),
+        None if states_at is None else (
+            lambda a, b: diverging(states_at, travel, a, b, shortest)))
     return ts, gs, spacing, None

@@ -310,7 +310,7 @@ def plan_task(hand: Hand, q0: Any, goal: Goal, opts: TaskOptions, *,
             except DegenerateError as exc:
                 rejections.append(Rejection(depth - 1, what, str(exc)))
                 continue
-            if seg.shortfall is not None or seg.event is not c.trajectory.event:
+            if seg.shortfall is not None or seg.extra["spacing"].get("ended"):
                 why = (seg.shortfall.reason if seg.shortfall is not None else  # rates diverge
                        f"its commands cannot be held to its end: {seg.event.detail}")
                 rejections.append(Rejection(depth - 1, what, why, seg.shortfall, c))

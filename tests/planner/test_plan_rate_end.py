@@ -124,3 +124,16 @@ def test_fold_hand_ends_before_the_singular_configuration_and_says_so(name: str)
     assert seg.waypoints[-1].t == pytest.approx(ended["t_s"]) == pytest.approx(seg.event.t)
     assert ended["t_next_s"] > seg.waypoints[-1].t
     assert all(w.margin > 0 for w in seg.waypoints)
+
+
+@pytest.mark.long
+def test_fold_hand_plan_validates_in_pymunk() -> None:
+    """The left hand's plan, ended before the fold, runs in pymunk at its validation friction
+    and agrees (before, its last command of 14666 rad/s set a slow motion of 8.5e5 s, over the
+    300 s a run may last)."""
+    from scenarios.runs import validate_plan
+    from sim.verdict import Outcome
+
+    plan = _plan(HANDS[0])
+    run = validate_plan(plan, "pymunk", plan.validate_mu[0])
+    assert run.verdict.outcome is Outcome.AGREED, run.verdict.reasons
