@@ -149,7 +149,8 @@ class Spacing:
         share = sum(b - a for a, b in self.unresolved) / max(duration, 1e-300)
         return (f"{head}; {len(self.unresolved)} hold interval(s) "
                 f"({share:.1%} of the segment) where the guaranteed set moves by more than "
-                f"{1 - MARGIN_KEPT:.0%} of its size or jumps: "
+                f"{1 - MARGIN_KEPT:.0%} of its size or jumps, or the rates change faster "
+                "than the spacing holds: "
                 + ", ".join(f"{a:.3g}-{b:.3g} s" for a, b in self.unresolved[:4])
                 + (" ..." if len(self.unresolved) > 4 else ""))
 
