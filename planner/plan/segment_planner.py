@@ -38,7 +38,7 @@ from planner.model.hand import Hand
 from planner.model.validation import friction_interval
 from planner.plan.commands import check_policy, effort_commands
 from planner.plan.curves import band_curves, bands_at_ends
-from planner.plan.model import Segment, Shortfall, segment_hand
+from planner.plan.model import Event, Segment, Shortfall, segment_hand
 from planner.plan.partition import (
     Guaranteed,
     control_partitions,
@@ -48,7 +48,7 @@ from planner.plan.partition import (
 )
 from planner.plan.policies import DEFAULT_POLICY
 from planner.plan.polytope import empty_region
-from planner.plan.spacing import Spacing, adaptive, uniform
+from planner.plan.spacing import Spacing, adaptive, joint_travel, uniform
 from planner.plan.task_contacts import contact_dict
 from planner.plan.trajectory import Drive, Speed, Trajectory, integrate_segment
 from planner.plan.wording import contact_label, joint_words
@@ -157,7 +157,10 @@ def plan_segment(hand: Hand, q0: Any, *, data: Mapping[str, Any], drive: Drive, 
     if usable:
         # ties (e.g. one-sided bands everywhere) go to the partition that velocity-controls
         # the driven joints: its rate commands are the segment's own constant rates
-        best = max(usable, key=lambda r: (r.worst, set(traj.drives) <= set(r.V)))
+        # a partition whose rates can be held further along the segment first (its spacing
+        # ends it before they diverge: planner.plan.spacing, "Rates")
+        best = max(usable, key=lambda r: (float(r.times[-1]), r.worst,
+                                          set(traj.drives) <= set(r.V)))
         times, gs = best.times, best.gs
     else:
         why = "; ".join(f"{_partition_words(hand, r.V)}: {r.reason}" for r in results)
@@ -192,7 +195,10 @@ def plan_segment(hand: Hand, q0: Any, *, data: Mapping[str, Any], drive: Drive, 
         hand=segment_hand(data, [contact_dict(hand, c) for c in hand.contacts], states.q[0],
                           traj.mode),
         mu_intervals=tuple((float(a), float(b)) for a, b in zip(lo, hi)),
-        event=traj.event, released=tuple(released), policy=policy,
+        event=traj.event if best.spacing.ended is None else Event(
+            "mode change", best.spacing.ended.words(hand, traj.event),
+            best.spacing.ended.t),
+        released=tuple(released), policy=policy,
         exact=all(r.exact for r in regions), notes=notes, extra=extra,
         regions=regions, shortfall=shortfall)
 
@@ -220,11 +226,16 @@ def _evaluate(hand: Hand, states_at: _States, V: tuple[int, ...], E: tuple[int, 
                 reason = f"no guaranteed effort at t = {t:.3g} s: {gd.reason()}"
         return Guaranteed(empty_region(traj.mode, len(E), E, {"reason": reason}))
 
+    travel = joint_travel(hand, traj)
     if waypoints is None:
-        times, gs, spacing, failed = adaptive(hand, states_at, V, evaluate, traj.duration, step)
+        times, gs, spacing, failed = adaptive(hand, states_at, V, evaluate, traj.duration, step,
+                                              travel)
     else:
         times, gs, spacing, failed = uniform(
-            hand, states_at(np.linspace(0.0, traj.duration, waypoints)), V, evaluate)
+            hand, states_at(np.linspace(0.0, traj.duration, waypoints)), V, evaluate, travel,
+            states_at)
+    if failed is None and spacing.ended is not None and len(times) < 2:
+        failed, reason = 0, spacing.ended.words(hand, traj.event)
     worst = min((relative_margin(g) for g in gs), default=-math.inf) if failed is None else (
         -math.inf)
     return _Partition(V, E, times, gs, spacing, failed, reason if failed is not None else "",

@@ -27,6 +27,24 @@ decides, and how it is chosen:
   one interval no spacing helps, and the held command is then outside it for at most that long
   -- :data:`SHORTEST_COUNT` such intervals use a fifth of the judged steps' allowance
   (``1 - MODE_FRACTION``).  They are reported (``Spacing.unresolved``).
+* **Rates.** Inside a hold interval the planned rate of a joint runs from ``r_k`` to
+  ``r_k+1`` (the kinematic stage's joint rates, eqs. 13-16, 23-25), while a velocity-controlled
+  joint is held at its mean rate and the plan describes every joint by its coordinates at the
+  two waypoints (the simulators read the predicted motion from them:
+  :func:`sim.schedule.predicted_slips`, eq. 5).  Inside the interval the planned coordinate
+  leaves that straight line by up to ``dt_k |r_k+1 - r_k| / 4`` (a rate monotone over the
+  interval; the extreme is a step at its middle), and the closure puts the workpiece where the
+  coordinates say.  An interval is accepted when this distance is at most
+  :data:`POSE_TOLERANCE_OF_TRAVEL` of the joint's travel over the segment (at least
+  :data:`STILL` of the workpiece size, :func:`joint_travel`), for every joint
+  (:func:`rate_lags`): the tolerance the final position is judged against, taken in each joint.
+  An interval that fails is split like the others; one that still fails at :data:`SHORTEST`
+  -- the rates diverge, as where the contact constraints become singular (a fold of the
+  closure, where a joint's rate grows as ``1/sqrt(t_end - t)``) -- ends the segment at the
+  interval's first waypoint (``Spacing.ended``, :class:`RateEnd`): no spacing can hold its
+  commands there.  With an explicit count the waypoints are kept as given; an interval that
+  fails is split on the trajectory alone (:func:`diverging`) and ends the segment only when a
+  piece of at most :data:`SHORTEST` still fails -- else it is reported like the others.
 
 The initial grid is the trajectory's integration step (``max_time / steps``), the resolution at
 which the motion itself was followed.  Units: s.
@@ -42,10 +60,12 @@ import numpy as np
 
 from planner.model.hand import Hand
 from planner.plan.commands import velocity_commands
+from planner.plan.model import Event
 from planner.plan.partition import Guaranteed, choose_pieces
 from planner.plan.policies import MARGIN_KEPT
 from planner.plan.polytope import TorqueRegion, band_region, chebyshev_centre
 from planner.plan.trajectory import Trajectory, mode_velocity
+from planner.plan.wording import effort_unit, joint_words
 
 #: The validation's limits (docs/simulation.md, "Judging a plan"): the claimed mode on this share
 #: of the judged steps ...
@@ -56,6 +76,44 @@ POSE_TOLERANCE_OF_TRAVEL = 0.02
 SHORTEST = 0.2 * (1.0 - MODE_FRACTION) / 10
 #: ... so that this many of them use at most a fifth of the judged steps' allowance.
 SHORTEST_COUNT = 10
+#: A joint whose planned coordinate leaves the line between its waypoints by less than this share
+#: of the workpiece size (a point at that distance from a pivot) has not moved: the tolerance
+#: the planner takes contacts as touching at (:func:`planner.plan.task_contacts.touching`).
+STILL = 1e-6
+
+
+@dataclass(frozen=True)
+class RateEnd:
+    """Where a segment ends because its rates change too fast to be held between waypoints
+    (module docstring, "Rates"): the last kept waypoint's time ``t`` (s), the first failing
+    hold interval's other end ``t_next`` (s), the ``joint`` (index) whose rate fails most,
+    its rate ``rate`` at ``t`` and the rate ``needed`` at ``t_next`` (rad/s or m/s), and
+    ``lag`` (its distance from the held line over that interval over the joint's travel)."""
+
+    t: float
+    t_next: float
+    joint: int
+    rate: float
+    needed: float
+    lag: float
+
+    def words(self, hand: Hand, event: Event) -> str:
+        """The segment's end in plain words (its ``Event.detail``); ``event`` the end of the
+        integrated motion the segment stops short of."""
+        unit = "rad/s" if effort_unit(hand, (self.joint,)) == "N m" else "m/s"
+        where = ("near a singular configuration" if "singular" in event.detail
+                 else "the commanded rates diverge")
+        return (f"{where}: {joint_words(hand, self.joint)} would need {abs(self.needed):.5g} "
+                f"{unit} at t = {self.t_next:.4g} s, against {abs(self.rate):.3g} {unit} at the "
+                f"last waypoint kept (t = {self.t:.4g} s); between two waypoints that change "
+                f"puts the joint {self.lag:.3g} times its travel off the commands held, over the "
+                f"{POSE_TOLERANCE_OF_TRAVEL:.0%} the validation allows, and no waypoint "
+                f"spacing holds it, so the segment ends here; the motion would reach t = "
+                f"{event.t:.4g} s ({event.kind}: {event.detail})")
+
+    def to_dict(self) -> dict[str, object]:
+        return {"t_s": self.t, "t_next_s": self.t_next, "joint": self.joint,
+                "rate": self.rate, "needed": self.needed, "lag_of_travel": self.lag}
 
 
 @dataclass(frozen=True)
@@ -64,17 +122,23 @@ class Spacing:
     count given), the ``initial`` interval (s), the number of ``splits`` made and the
     ``unresolved`` intervals ``(t_k, t_k+1)`` (s) where the set guaranteed at both ends keeps
     less than :data:`MARGIN_KEPT` of its size (adaptive: only jumps shorter than
-    :data:`SHORTEST` of the duration)."""
+    :data:`SHORTEST` of the duration); ``ended`` where the segment was ended before its rates
+    diverge (:class:`RateEnd`; None when it runs to its event)."""
 
     rule: str
     initial: float
     splits: int
     unresolved: tuple[tuple[float, float], ...]
+    ended: RateEnd | None = None
 
     def to_dict(self) -> dict[str, object]:
         """As stored in a segment's ``extra["spacing"]`` (docs/plan-format.md)."""
-        return {"rule": self.rule, "initial_s": self.initial, "splits": self.splits,
-                "unresolved_s": [list(iv) for iv in self.unresolved]}
+        out: dict[str, object] = {"rule": self.rule, "initial_s": self.initial,
+                                  "splits": self.splits,
+                                  "unresolved_s": [list(iv) for iv in self.unresolved]}
+        if self.ended is not None:
+            out["ended"] = self.ended.to_dict()
+        return out
 
     def words(self, duration: float) -> str:
         """One sentence for a plan's notes."""
@@ -85,7 +149,8 @@ class Spacing:
         share = sum(b - a for a, b in self.unresolved) / max(duration, 1e-300)
         return (f"{head}; {len(self.unresolved)} hold interval(s) "
                 f"({share:.1%} of the segment) where the guaranteed set moves by more than "
-                f"{1 - MARGIN_KEPT:.0%} of its size or jumps: "
+                f"{1 - MARGIN_KEPT:.0%} of its size or jumps, or the rates change faster "
+                "than the spacing holds: "
                 + ", ".join(f"{a:.3g}-{b:.3g} s" for a, b in self.unresolved[:4])
                 + (" ..." if len(self.unresolved) > 4 else ""))
 
@@ -126,14 +191,48 @@ def interval_regions(hand: Hand, states: Trajectory, V: tuple[int, ...],
             for k in range(len(gs))]
 
 
+def rate_lags(states: Trajectory, travel: np.ndarray) -> np.ndarray:
+    """``(n - 1, F)``: per hold interval of ``states`` and joint, the largest distance inside
+    the interval between the planned coordinate and the straight line between the waypoints
+    (the held mean rate of a velocity-controlled joint), ``dt_k |r_k+1 - r_k| / 4``, over the
+    joint's ``travel`` ``(F,)`` (rad or m) on the segment (module docstring, "Rates"); 0 for a
+    joint whose rate does not change."""
+    r = np.asarray(states.thetadot, dtype=float)
+    lag = 0.25 * np.diff(states.t)[:, None] * np.abs(np.diff(r, axis=0))
+    scale = np.broadcast_to(np.asarray(travel, dtype=float), lag.shape)
+    return np.divide(lag, scale, out=np.where(lag > 0, np.inf, 0.0), where=scale > 0)
+
+
+def joint_travel(hand: Hand, states: Trajectory) -> np.ndarray:
+    """``(F,)`` the path length of each joint over ``states`` (rad or m), at least what keeps a
+    distance below :data:`STILL` of the workpiece size (in joint units: rad for a revolute
+    joint, whose lever is taken as the size; m for a prismatic one) within the tolerance."""
+    travel = np.sum(np.abs(np.diff(states.q[:, 3:], axis=0)), axis=0)
+    still = np.array([STILL * (1.0 if effort_unit(hand, (j,)) == "N m" else hand.length_scale)
+                      for j in range(hand.n_joints)])
+    return np.maximum(travel, still / POSE_TOLERANCE_OF_TRAVEL)
+
+
+def rate_end(states: Trajectory, travel: np.ndarray, k: int) -> RateEnd:
+    """The :class:`RateEnd` of a segment whose hold interval ``k`` fails the rate test."""
+    lags = rate_lags(states, travel)[k]
+    j = int(np.argmax(lags))
+    return RateEnd(float(states.t[k]), float(states.t[k + 1]), j,
+                   float(states.thetadot[k, j]), float(states.thetadot[k + 1, j]),
+                   float(lags[j]))
+
+
 def failing_intervals(hand: Hand, states: Trajectory, V: tuple[int, ...],
-                      gs: list[Guaranteed]) -> list[int]:
-    """Indices ``k`` of the hold intervals ``[t_k, t_k+1]`` that fail the module's tests."""
+                      gs: list[Guaranteed], travel: np.ndarray | None = None) -> list[int]:
+    """Indices ``k`` of the hold intervals ``[t_k, t_k+1]`` that fail the module's tests;
+    ``travel`` ``(F,)`` every joint's travel on the segment (default over ``states``)."""
     regions = interval_regions(hand, states, V, gs)
     held = velocity_commands(states, V)
+    travel = joint_travel(hand, states) if travel is None else travel
+    fast = np.any(rate_lags(states, travel) > POSE_TOLERANCE_OF_TRAVEL, axis=1)
     out = []
     for k in range(len(gs) - 1):
-        ok = hold_ratio(regions[k], regions[k + 1]) >= MARGIN_KEPT
+        ok = hold_ratio(regions[k], regions[k + 1]) >= MARGIN_KEPT and not fast[k]
         if ok and not np.allclose(held[k], states.thetadot[k, list(V)], rtol=1e-9, atol=0.0):
             ok = mode_velocity(hand, states.q[k], V, held[k], states.mode) is not None
         if not ok:
@@ -141,17 +240,54 @@ def failing_intervals(hand: Hand, states: Trajectory, V: tuple[int, ...],
     return out
 
 
+def _ended(ts: np.ndarray, gs: list[Guaranteed], states: Trajectory, travel: np.ndarray,
+           spacing: Spacing, diverges: Callable[[float, float], bool] | None = None
+           ) -> tuple[np.ndarray, list[Guaranteed], Spacing]:
+    """The waypoints up to the first hold interval that fails the rate test (module
+    docstring, "Rates") -- and, given ``diverges(t_k, t_k+1)``, still fails it at every
+    spacing -- with ``spacing`` saying where and why they end; unchanged when none does."""
+    fast = np.flatnonzero(np.any(rate_lags(states, travel) > POSE_TOLERANCE_OF_TRAVEL, axis=1))
+    fast = np.array([k for k in fast if diverges is None or diverges(ts[k], ts[k + 1])],
+                    dtype=int)
+    if not fast.size:
+        return ts, gs, spacing
+    k = int(fast[0])
+    kept = tuple(iv for iv in spacing.unresolved if iv[1] <= ts[k])
+    return ts[:k + 1], gs[:k + 1], Spacing(spacing.rule, spacing.initial, spacing.splits, kept,
+                                           rate_end(states, travel, k))
+
+
+def diverging(states_at: Callable[[np.ndarray], Trajectory], travel: np.ndarray, a: float,
+              b: float, shortest: float) -> bool:
+    """Whether the rate test fails on ``[a, b]`` (s) at every spacing: splitting its failing
+    halves (the trajectory alone, ``states_at``; no guaranteed sets) leaves a failing piece of
+    at most ``shortest`` (s) -- the rates diverge there, as at a fold of the closure.  A rate
+    that only changes fast is resolved by the splits: False."""
+    if b - a <= shortest:
+        return True
+    m = 0.5 * (a + b)
+    fail = np.any(rate_lags(states_at(np.array([a, m, b])), travel) > POSE_TOLERANCE_OF_TRAVEL,
+                  axis=1)
+    return any(diverging(states_at, travel, lo, hi, shortest)
+               for (lo, hi), bad in zip(((a, m), (m, b)), fail) if bad)
+
+
 def adaptive(hand: Hand, states_at: Callable[[np.ndarray], Trajectory], V: tuple[int, ...],
-             evaluate: Callable[[int, Trajectory], Guaranteed], duration: float, step: float
+             evaluate: Callable[[int, Trajectory], Guaranteed], duration: float, step: float,
+             travel: np.ndarray | None = None
              ) -> tuple[np.ndarray, list[Guaranteed], Spacing, int | None]:
     """Space the waypoints (module docstring).  ``states_at(ts)``: the trajectory at times
-    ``ts``; ``evaluate(k, states)``: the guaranteed set at waypoint ``k`` of ``states``.
-    Returns ``(times, sets, spacing, failed)``: ``failed`` the index of the first waypoint
-    without a guaranteed set (the times and sets then stop there), else None."""
+    ``ts``; ``evaluate(k, states)``: the guaranteed set at waypoint ``k`` of ``states``;
+    ``travel``: every joint's travel on the segment (``(F,)``, rad or m; default over the
+    first grid).  Returns ``(times, sets, spacing, failed)``: ``failed`` the index of the
+    first waypoint without a guaranteed set (the times and sets then stop there), else None;
+    the times also stop where the rates cannot be held (``spacing.ended``)."""
     ts = initial_times(duration, step)
     cache: dict[float, Guaranteed] = {}
     shortest = SHORTEST * duration
     splits = 0
+    if travel is None:
+        travel = joint_travel(hand, states_at(ts))
     while True:
         states = states_at(ts)
         gs: list[Guaranteed] = []
@@ -161,24 +297,35 @@ def adaptive(hand: Hand, states_at: Callable[[np.ndarray], Trajectory], V: tuple
             gs.append(cache[t])
             if gs[-1].empty:
                 return ts[:k + 1], gs, Spacing("adaptive", float(step), splits, ()), k
-        bad = failing_intervals(hand, states, V, gs)
+        bad = failing_intervals(hand, states, V, gs, travel)
         split = [k for k in bad if ts[k + 1] - ts[k] > shortest]
         if not split:
             unresolved = tuple((float(ts[k]), float(ts[k + 1])) for k in bad)
-            return ts, gs, Spacing("adaptive", float(step), splits, unresolved), None
+            ts, gs, spacing = _ended(ts, gs, states, travel,
+                                     Spacing("adaptive", float(step), splits, unresolved))
+            return ts, gs, spacing, None
         splits += len(split)
         ts = np.sort(np.concatenate([ts, [0.5 * (ts[k] + ts[k + 1]) for k in split]]))
 
 
 def uniform(hand: Hand, states: Trajectory, V: tuple[int, ...],
-            evaluate: Callable[[int, Trajectory], Guaranteed]
+            evaluate: Callable[[int, Trajectory], Guaranteed], travel: np.ndarray | None = None,
+            states_at: Callable[[np.ndarray], Trajectory] | None = None
             ) -> tuple[np.ndarray, list[Guaranteed], Spacing, int | None]:
-    """The waypoints as given (``states``), with the same report as :func:`adaptive`."""
+    """The waypoints as given (``states``), with the same report as :func:`adaptive`: they
+    also stop where the rates cannot be held at any spacing (:func:`diverging` on
+    ``states_at``, the trajectory at any times; without it, at the first interval that fails
+    the rate test)."""
     gs: list[Guaranteed] = []
     for k in range(len(states.t)):
         gs.append(evaluate(k, states))
         if gs[-1].empty:
             return states.t[:k + 1], gs, Spacing("uniform", 0.0, 0, ()), k
-    bad = failing_intervals(hand, states, V, gs)
-    return states.t, gs, Spacing("uniform", 0.0, 0, tuple(
-        (float(states.t[k]), float(states.t[k + 1])) for k in bad)), None
+    travel = joint_travel(hand, states) if travel is None else travel
+    bad = failing_intervals(hand, states, V, gs, travel)
+    shortest = SHORTEST * float(states.t[-1])
+    ts, gs, spacing = _ended(states.t, gs, states, travel, Spacing(
+        "uniform", 0.0, 0, tuple((float(states.t[k]), float(states.t[k + 1])) for k in bad)),
+        None if states_at is None else (
+            lambda a, b: diverging(states_at, travel, a, b, shortest)))
+    return ts, gs, spacing, None

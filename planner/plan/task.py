@@ -310,9 +310,10 @@ def plan_task(hand: Hand, q0: Any, goal: Goal, opts: TaskOptions, *,
             except DegenerateError as exc:
                 rejections.append(Rejection(depth - 1, what, str(exc)))
                 continue
-            if seg.shortfall is not None:
-                rejections.append(Rejection(depth - 1, what, seg.shortfall.reason,
-                                            seg.shortfall, c))
+            if seg.shortfall is not None or seg.extra["spacing"].get("ended"):
+                why = (seg.shortfall.reason if seg.shortfall is not None else  # rates diverge
+                       f"its commands cannot be held to its end: {seg.event.detail}")
+                rejections.append(Rejection(depth - 1, what, why, seg.shortfall, c))
                 continue
             end = c.trajectory.q[-1]
             after = c.hand.contacts if c.trajectory.event.kind == "goal" else after_event(

@@ -225,7 +225,8 @@ def _report(plan: Any, out: Path, seconds: float, figs: list[Path], verbose: boo
         unresolved = seg.extra.get("spacing", {}).get("unresolved_s", [])
         if unresolved:
             print(f"     warning: over {len(unresolved)} hold interval(s) the guaranteed "
-                  "efforts move by more than half their size or jump "
+                  "efforts move by more than half their size or jump, or the rates change faster "
+                  "than the spacing holds, "
                   + ", ".join(f"{fmt(a, '.3g')}-{fmt(b, '.3g')} s" for a, b in unresolved[:4])
                   + ("" if seg.extra["spacing"]["rule"] == "adaptive" else
                      "; drop --waypoints (or the file's segment.waypoints) to let the planner "
