@@ -67,7 +67,8 @@ def test_the_shipped_side_push_plans_with_the_default_options():
 
 @pytest.mark.parametrize(("a", "weight", "mu_table", "mu_hand", "mirrored", "claim"), [
     (0.0435, 10.0, 0.25, 0.7, True, "S+1 S+2 R3 R4"),  # pushed to the left
-    (0.08, 5.0, 0.3, 0.5, False, "S-1 S-2 R3 R4"),     # another cube, weight and friction
+    pytest.param(0.08, 5.0, 0.3, 0.5, False, "S-1 S-2 R3 R4",  # another cube, weight, friction
+                 marks=pytest.mark.long),
 ])
 def test_own_side_pushes_match_the_band_derived_by_hand(a, weight, mu_table, mu_hand,
                                                         mirrored, claim):
@@ -77,6 +78,7 @@ def test_own_side_pushes_match_the_band_derived_by_hand(a, weight, mu_table, mu_
     assert abs(plan.segments[0].waypoints[-1].q[0] - (-0.03 if mirrored else 0.03)) <= 0.001 + 1e-9
 
 
+@pytest.mark.long
 def test_a_frictionless_face_has_no_guaranteed_grip():
     """``mu_h = 0``: by hand the band shrinks to the single effort ``tau = 0`` (``m = 0``), no
     command keeps a margin, so the grip is not planned; the plan stops short with 0 segments

@@ -370,6 +370,7 @@ def test_ladder_held_at_its_acute_corners_by_fingertips():
     assert res.summary.verdict.outcome.value == "agreed", res.summary.verdict.reason
 
 
+@pytest.mark.long
 def test_ruler_first_two_switches_through_the_pipeline():
     """The ruler (Sec. 5.1) at mu_s / mu_k = 0.8 / 0.5: DART's job from ``job_for_ruler``
     (the settings table's ruler row) at 1 mm/s per finger, run to just past the second

@@ -321,7 +321,8 @@ def test_finger_slides_over_a_box_that_stays(engine: str, tmp_path: Path) -> Non
     assert moved_of_size(s) <= 1e-3
 
 
-@pytest.mark.parametrize("engine", ["mujoco", pytest.param("pymunk", marks=pytest.mark.slow)])
+@pytest.mark.parametrize("engine", [pytest.param("mujoco", marks=pytest.mark.long),
+                                    pytest.param("pymunk", marks=pytest.mark.slow)])
 def test_box_on_twelve_supports_smooth_finger(engine: str, tmp_path: Path) -> None:
     """The frictionless finger's contact flickers between R, S+ and S- in MuJoCo, and the
     rearmost supports carry nothing; read step by step, only 45 % of the steps show the mode. The

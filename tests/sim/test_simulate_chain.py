@@ -112,6 +112,7 @@ def test_a_chain_link_that_would_cut_the_workpiece_is_refused():
         system_scene(system_from_dict(jac))
 
 
+@pytest.mark.long
 def test_cli_simulates_a_chain_system(tmp_path):
     out = subprocess.run([sys.executable, "-m", "qsplan.cli", "simulate",
                           str(DATA / "prismatic_finger_box.json"), "--engine", "pymunk",
