@@ -203,6 +203,12 @@ def rate_lags(states: Trajectory, travel: np.ndarray) -> np.ndarray:
     return np.divide(lag, scale, out=np.where(lag > 0, np.inf, 0.0), where=scale > 0)
 
 
+def rate_fails(states: Trajectory, travel: np.ndarray) -> np.ndarray:
+    """``(n - 1,)`` bool: the hold intervals of ``states`` in which some joint's
+    :func:`rate_lags` exceeds :data:`POSE_TOLERANCE_OF_TRAVEL` (module docstring, "Rates")."""
+    return np.any(rate_lags(states, travel) > POSE_TOLERANCE_OF_TRAVEL, axis=1)
+
+
 def joint_travel(hand: Hand, states: Trajectory) -> np.ndarray:
     """``(F,)`` the path length of each joint over ``states`` (rad or m), at least what keeps a
     distance below :data:`STILL` of the workpiece size (in joint units: rad for a revolute
@@ -229,7 +235,7 @@ def failing_intervals(hand: Hand, states: Trajectory, V: tuple[int, ...],
     regions = interval_regions(hand, states, V, gs)
     held = velocity_commands(states, V)
     travel = joint_travel(hand, states) if travel is None else travel
-    fast = np.any(rate_lags(states, travel) > POSE_TOLERANCE_OF_TRAVEL, axis=1)
+    fast = rate_fails(states, travel)
     out = []
     for k in range(len(gs) - 1):
         ok = hold_ratio(regions[k], regions[k + 1]) >= MARGIN_KEPT and not fast[k]
@@ -246,7 +252,7 @@ def _ended(ts: np.ndarray, gs: list[Guaranteed], states: Trajectory, travel: np.
     """The waypoints up to the first hold interval that fails the rate test (module
     docstring, "Rates") -- and, given ``diverges(t_k, t_k+1)``, still fails it at every
     spacing -- with ``spacing`` saying where and why they end; unchanged when none does."""
-    fast = np.flatnonzero(np.any(rate_lags(states, travel) > POSE_TOLERANCE_OF_TRAVEL, axis=1))
+    fast = np.flatnonzero(rate_fails(states, travel))
     fast = np.array([k for k in fast if diverges is None or diverges(ts[k], ts[k + 1])],
                     dtype=int)
     if not fast.size:
@@ -266,8 +272,7 @@ def diverging(states_at: Callable[[np.ndarray], Trajectory], travel: np.ndarray,
     if b - a <= shortest:
         return True
     m = 0.5 * (a + b)
-    fail = np.any(rate_lags(states_at(np.array([a, m, b])), travel) > POSE_TOLERANCE_OF_TRAVEL,
-                  axis=1)
+    fail = rate_fails(states_at(np.array([a, m, b])), travel)
     return any(diverging(states_at, travel, lo, hi, shortest)
                for (lo, hi), bad in zip(((a, m), (m, b)), fail) if bad)
 
