@@ -147,15 +147,18 @@ def unexplained_reach(rec: Recording, exp: ModeSet, length: float) -> np.ndarray
     measured depth changes is taken away.
 
     A small displacement ``d`` (3 n_b,: each workpiece's frame origin and angle) changes contact
-    ``i``'s normal gap by eq. 5's normal row, ``(W^T d)_n`` (positive: opening). A contact that a
-    soft (or slop-holding) engine sinks deeper by ``delta_i`` since the first step closes its gap
-    by ``delta_i``, so of the displacement ``D d`` (``D``: ``length`` on the angles) the part the
-    sinking explains is ``e = (A D^-1)^+ (-delta)``, ``A`` the normal rows of the contacts
-    recorded at both steps, and ``|D d - e|`` is the rest: a workpiece that only settles into its
-    contacts gives 0 (up to the linearization, second order in the sink), one that slides along
-    them, turns about one of them or loses one gives the motion itself -- its null-space part
-    and any mismatch with the depths. ``W`` is the system's at its start configuration. Without
-    a system with ``W`` it is the plain displacement (docs/simulation.md, "Static questions")."""
+    ``i``'s normal gap by eq. 5's normal row, ``(W^T d)_n`` (positive: opening), and slides it by
+    the tangential row ``(W^T d)_t``. A contact that a soft (or slop-holding) engine sinks deeper
+    by ``delta_i`` since the first step closes its gap by ``delta_i``, and one whose friction
+    holds (``mu_used > 0`` at both steps) does not slide, so of the displacement ``D d`` (``D``:
+    ``length`` on the angles) the part the sinking explains is ``e = (M D^-1)^+ (-delta, 0)``,
+    ``M`` the normal rows of the contacts recorded at both steps and the tangential rows of
+    those with friction (least squares where they outnumber the coordinates), and ``|D d - e|``
+    is the rest: a workpiece that only settles into its contacts gives 0 (up to the
+    linearization, second order in the sink), one that slides along them, turns about one of
+    them or loses one gives the motion itself. ``W`` is the system's at its start
+    configuration. Without a system with ``W`` it is the plain displacement
+    (docs/simulation.md, "Static questions")."""
     idx = [rec.body_names.index(b) for b in exp.bodies]
     pose = rec.poses[:, idx].copy()
     pose[:, :, 2] = np.unwrap(pose[:, :, 2], axis=0)
@@ -167,7 +170,7 @@ def unexplained_reach(rec: Recording, exp: ModeSet, length: float) -> np.ndarray
     if W is None or np.asarray(W).shape != (3 * n_b, 2 * rec.present.shape[1]):
         return np.max(np.linalg.norm(dw.reshape(len(rec.times), n_b, 3), axis=2), axis=1)
     Wt = np.asarray(W, dtype=float).T / np.tile(scale, n_b)  # rows in weighted coords
-    A, T = Wt[0::2], Wt[1::2]
+    normal, tangent = Wt[0::2], Wt[1::2]
     depth = np.where(rec.present, rec.depth, np.nan)
     mu = np.nan_to_num(np.asarray(rec.mu_used, dtype=float))
     out = np.empty(len(rec.times))
@@ -176,7 +179,7 @@ def unexplained_reach(rec: Recording, exp: ModeSet, length: float) -> np.ndarray
         rest = dw[k]
         held = rows & (mu[k] > 0) & (mu[0] > 0)
         if rows.any():
-            M = np.vstack([A[rows], T[held]])
+            M = np.vstack([normal[rows], tangent[held]])
             rhs = np.concatenate([depth[0, rows] - depth[k, rows], np.zeros(int(held.sum()))])
             rest = rest - np.linalg.pinv(M) @ rhs
         out[k] = np.max(np.linalg.norm(rest.reshape(n_b, 3), axis=1))
