@@ -161,7 +161,7 @@ def test_qsplan_plan_writes_the_one_plan_model_for_any_hand(tmp_path):
 def test_qsplan_plan_writes_a_partial_plan_and_exits_1(tmp_path):
     out = tmp_path / "partial.json"
     r = subprocess.run([sys.executable, "-m", "qsplan.cli", "plan", "figure9_task_hand",
-                        "--mu", "0:1", "--max-expansions", "6", "--out", str(out)],
+                        "--mu", "0:1", "--max-expansions", "1", "--out", str(out)],
                        capture_output=True, text=True, cwd=tmp_path)
     assert r.returncode == 1, r.stdout + r.stderr
     assert "goal reached: False" in r.stdout and "stops short of the goal" in r.stdout

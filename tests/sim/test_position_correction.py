@@ -12,7 +12,9 @@ show the jam, and disagree with it when the table is slippery (the negative cont
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import pytest
 from test_natural_geometry import simulate
@@ -33,9 +35,28 @@ def test_the_jam_threshold_is_tan_of_the_slope(mu: float, jam: bool) -> None:
         assert [m.mode.label for m in pred.all_modes] == ["S+1 S+2 R3"]  # t = (-1, 0): left
 
 
+Run = tuple[int, dict[str, Any]]
+
+
+@pytest.fixture(scope="module")
+def nominal(tmp_path_factory: pytest.TempPathFactory) -> Callable[[str], Run]:
+    """``qsplan simulate`` of the wedge at its file's friction in an engine, each engine run
+    once for this module's tests."""
+    runs: dict[str, Run] = {}
+
+    def run(engine: str) -> Run:
+        if engine == "dart":
+            pytest.importorskip("dartpy")
+        if engine not in runs:
+            runs[engine] = simulate(WEDGE, engine, tmp_path_factory.mktemp(f"wedge-{engine}"))
+        return runs[engine]
+    return run
+
+
 @pytest.mark.long
-def test_pymunk_cannot_judge_a_wedge_it_moves_by_position_correction(tmp_path: Path) -> None:
-    code, s = simulate(WEDGE, "pymunk", tmp_path)
+def test_pymunk_cannot_judge_a_wedge_it_moves_by_position_correction(
+        nominal: Callable[[str], Run]) -> None:
+    code, s = nominal("pymunk")
     assert code == 1 and s["status"] == "inconclusive", s["reason"]
     assert "position correction" in s["reason"]
 
@@ -43,10 +64,8 @@ def test_pymunk_cannot_judge_a_wedge_it_moves_by_position_correction(tmp_path: P
 @pytest.mark.long
 @pytest.mark.parametrize("engine", ["dart", pytest.param("mujoco", marks=pytest.mark.slow)])
 def test_engines_without_it_show_the_jam_and_its_negative_control_fails(
-        engine: str, tmp_path: Path) -> None:
-    if engine == "dart":
-        pytest.importorskip("dartpy")
-    code, s = simulate(WEDGE, engine, tmp_path)
+        engine: str, nominal: Callable[[str], Run], tmp_path: Path) -> None:
+    code, s = nominal(engine)
     assert code == 0 and s["status"] == "agreed", s["reason"]
     assert s["predicted"]["labels"] == ["JAM"]
     code, s = simulate(WEDGE, engine, tmp_path, "--mu", "0.3,0.3,0", "--judge-mu", "0.43,0.43,0")
@@ -54,7 +73,8 @@ def test_engines_without_it_show_the_jam_and_its_negative_control_fails(
 
 
 @pytest.mark.long
-def test_the_consensus_names_position_correction_as_pymunks_artefact(tmp_path: Path) -> None:
+def test_the_consensus_names_position_correction_as_pymunks_artefact(
+        nominal: Callable[[str], Run]) -> None:
     """pymunk's wedge run measures the artefact; with DART's agreeing run and MuJoCo's
     (recorded as agreed here: the consensus reads summaries), pymunk is the odd engine and
     its cause is named. (DART removes overlap outside its velocities too in a jam, but its
@@ -62,8 +82,8 @@ def test_the_consensus_names_position_correction_as_pymunks_artefact(tmp_path: P
     pytest.importorskip("dartpy")
     from sim.consensus import consensus
 
-    _, s_pm = simulate(WEDGE, "pymunk", tmp_path)
-    _, s_dart = simulate(WEDGE, "dart", tmp_path)
+    _, s_pm = nominal("pymunk")
+    _, s_dart = nominal("dart")
     kinds = [a["kind"] for a in s_pm["observed"]["engine_measures"]["artefacts"]]
     assert "position_correction" in kinds
     assert s_dart["status"] == "agreed"

@@ -99,7 +99,8 @@ def test_the_negative_control_fails(task_plan, engine):
 def test_validate_prints_a_verdict_per_segment(task_plan, tmp_path):
     plan_path = save_plan(task_plan, tmp_path / "task.json")
     r = subprocess.run([sys.executable, "-m", "qsplan.cli", "validate", str(plan_path),
-                        "--engine", "pymunk", "--mu", "0.2", "--out", str(tmp_path / "val")],
+                        "--engine", "pymunk", "--mu", "0.2", "--out", str(tmp_path / "val"),
+                        "--no-render"],
                        capture_output=True, text=True, cwd=tmp_path)
     assert r.returncode == 0, r.stdout + r.stderr
     assert "AGREED (whole task, 3 of 3 segments run)" in r.stdout
