@@ -16,9 +16,12 @@ A system run (:func:`judge_modes`; tolerances derived in docs/simulation.md, "Ju
    workpiece's motion, judged by the twist), and (b) a contact observed carrying no load
    (``B``) where the mode has it closed is consistent when the mode's certificate family holds
    a member with zero normal force at all such contacts at once (a force-indeterminate mode,
-   :func:`planner.predict.family.admits_unloaded`): the run then shows one of the mode's
-   certificates, not another mode; and (c) a contact the mode opens may still read loaded
-   until the predicted motion has lifted it out of the penetration the engine measured there
+   :func:`planner.predict.family.admits_unloaded`), or one whose normal forces there are
+   within the force check's allowance of zero (item 3; :func:`unload_allowance`: a contact a
+   force-determinate certificate loads lightly, which an engine may leave unloaded): the run
+   then shows one of the mode's certificates, not another mode; and (c) a contact the mode
+   opens may still read loaded until the predicted motion has lifted it out of the
+   penetration the engine measured there
    (:func:`sim.judge_soft.clearing_times`: a support sunk in the table stays loaded while it
    rises, at the predicted speed of the point where the engine touches it); and (d) over the
    stretch of item 2, a closed contact shows the predicted token when its two bodies'
@@ -175,8 +178,18 @@ class ModeMatcher:
             return False
         if not unloaded:
             return True
-        return self.exp.system is not None and admits_unloaded(self.exp.system, mode.mode,
-                                                               unloaded)
+        return self.exp.system is not None and admits_unloaded(
+            self.exp.system, mode.mode, unloaded, unload_allowance(mode, self.exp.load))
+
+
+def unload_allowance(mode: FeasibleMode, load: float) -> float:
+    """The normal force [N] a closed contact of ``mode`` may carry in a member of its certificate
+    family and still read as carrying none (``B``): :data:`~sim.verdict.FORCE_TOLERANCE` of the
+    certificate's force scale, the larger of ``load`` [N] and its total normal force -- the
+    force check's own allowance (module docstring, 3), so a run the force check accepts is not
+    refused by its mode for a lightly loaded contact the engine leaves unloaded."""
+    total = float(np.sum(np.maximum(np.asarray(mode.contact_forces, dtype=float)[:, 0], 0.0)))
+    return FORCE_TOLERANCE * max(load, total)
 
 
 # ---- a system run ---------------------------------------------------------------------------

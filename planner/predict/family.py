@@ -44,12 +44,14 @@ class FamilyFit:
 
 
 def nearest_certificate(system: System, mode: Mode, observed: np.ndarray | None = None, *,
-                        unloaded: Iterable[int] = ()) -> FamilyFit | None:
+                        unloaded: Iterable[int] = (), at_most: float = 0.0
+                        ) -> FamilyFit | None:
     """The member of ``mode``'s certificate family (module docstring) nearest to ``observed``
     ``(n_c, 2)`` [N] forces, in the largest-component sense; with ``observed`` None any member.
-    ``unloaded``: 0-based contacts whose normal force must be zero. ``None`` when the family
-    is empty (the mode is not feasible at the system's friction, or not with those contacts
-    unloaded). ``mode`` must have ``system.n_contacts`` contacts."""
+    ``unloaded``: 0-based contacts whose normal force must be zero, or with ``at_most`` > 0
+    [N] at most that (their tangential force stays in the mode's Coulomb constraints). ``None``
+    when the family is empty (the mode is not feasible at the system's friction, or not with
+    those contacts unloaded). ``mode`` must have ``system.n_contacts`` contacts."""
     n_c = system.n_contacts
     if len(mode.codes) != n_c:
         raise InputError(f"mode: expected {n_c} contacts, got {len(mode.codes)} "
@@ -57,6 +59,8 @@ def nearest_certificate(system: System, mode: Mode, observed: np.ndarray | None 
     zero = {int(i) for i in unloaded}
     if any(not 0 <= i < n_c for i in zero):
         raise InputError(f"unloaded: expected contact indices in [0, {n_c}), got {sorted(zero)}")
+    if not (np.isfinite(at_most) and at_most >= 0.0):
+        raise InputError(f"at_most: expected a finite force >= 0 N, got {at_most!r}")
     setup = system_setup(system)[1]
     G, rs, rhs = setup.G, setup.rs, setup.rhs
     mu = np.asarray(system.mu, dtype=float)
@@ -68,10 +72,10 @@ def nearest_certificate(system: System, mode: Mode, observed: np.ndarray | None 
     bounds: list[tuple[float | None, float | None]] = [(None, None)] * n + [(0.0, None)]
     for i, (code, xi) in enumerate(zip(mode.codes, mode.xi)):
         jn, jt = 2 * i, 2 * i + 1
-        if code == BREAK or i in zero:
-            bounds[jn] = (0.0, 0.0)
-            if code == BREAK:
-                bounds[jt] = (0.0, 0.0)
+        if code == BREAK:
+            bounds[jn] = bounds[jt] = (0.0, 0.0)
+        elif i in zero:
+            bounds[jn] = (0.0, float(at_most))
         else:
             bounds[jn] = (0.0, None)
         if code == ROLL:
@@ -109,7 +113,8 @@ def nearest_certificate(system: System, mode: Mode, observed: np.ndarray | None 
     return FamilyFit(c, float(res.x[n]) if observed is not None else 0.0)
 
 
-def admits_unloaded(system: System, mode: Mode, contacts: Iterable[int]) -> bool:
-    """True when ``mode``'s certificate family holds a member with zero normal force at every
-    one of ``contacts`` (0-based) at once."""
-    return nearest_certificate(system, mode, unloaded=contacts) is not None
+def admits_unloaded(system: System, mode: Mode, contacts: Iterable[int],
+                    at_most: float = 0.0) -> bool:
+    """True when ``mode``'s certificate family holds a member with zero normal force (at most
+    ``at_most`` [N]) at every one of ``contacts`` (0-based) at once."""
+    return nearest_certificate(system, mode, unloaded=contacts, at_most=at_most) is not None
