@@ -27,8 +27,8 @@ TASK = DATA / "figure9_task_hand.json"
 
 
 @pytest.fixture(scope="module")
-def task_plan():
-    return plan_hand(TASK)
+def task_plan(figure9_plan):
+    return figure9_plan
 
 
 @pytest.fixture(scope="module")

@@ -92,13 +92,10 @@ def test_bad_inputs_rejected(hand_file):
 
 
 @pytest.fixture(scope="module")
-def acute_tip():
+def acute_tip(figure9_plan):
     """Segment 3 of the Figure 9 task: the left tip starts at vertex 3, whose interior angle
     is 32 deg, on edge 3 (the link flush along that edge: edge-to-edge)."""
-    from planner.plan.hand_planner import plan_hand
-    from scenarios.registry import shipped_file
-
-    seg = plan_hand(shipped_file("figure9_task_hand")).segments[2]
+    seg = figure9_plan.segments[2]
     hand, q = seg.hand_model
     i = next(k for k, c in enumerate(hand.contacts) if c.kind == "tip" and c.finger == 0)
     return hand, q, i

@@ -23,8 +23,8 @@ def flip(label: str) -> str:
 
 
 @pytest.fixture(scope="module")
-def plans(tmp_path_factory):
-    original = plan_hand(DATA / "figure9_task_hand.json")
+def plans(tmp_path_factory, figure9_plan):
+    original = figure9_plan
     path = tmp_path_factory.mktemp("mirror") / "figure9_mirrored.json"
     path.write_text(json.dumps(mirror_hand(json.loads(
         (DATA / "figure9_task_hand.json").read_text()))))

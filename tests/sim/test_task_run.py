@@ -12,7 +12,6 @@ import numpy as np
 import pytest
 
 from planner.errors import InputError
-from planner.plan.hand_planner import plan_hand
 from planner.plan.model import negative_control
 from planner.plan.plan_file import load_plan, save_plan
 from scenarios.runs import validate_plan
@@ -27,8 +26,8 @@ DATA = Path(__file__).resolve().parents[2] / "scenarios" / "data"
 
 
 @pytest.fixture(scope="module")
-def task_plan():
-    return plan_hand(DATA / "figure9_task_hand.json")
+def task_plan(figure9_plan):
+    return figure9_plan
 
 
 @pytest.mark.parametrize("mu", [0.0, pytest.param(0.1, marks=pytest.mark.slow)])  # 0.1: MuJoCo's run below
