@@ -82,8 +82,9 @@ CAMPAIGN_TRACES = {
     "pymunk_seed5_stacked9_top_slides": (
         "validation_campaign_seed5_soft_contacts.jsonl", 39, "pymunk"),
     # seed 7 acute 10: a 31 deg rhombus slid along the table by a frictionless finger on its
-    # slanted edge; its certificate loads the corner under the finger with 2.2 N of 108 N, and
-    # pymunk leaves that corner unloaded (B) on 94 % of the steps while the twist matches
+    # slanted edge; its certificate loads the rear corner (the lower end of the finger's edge)
+    # with 2.2 N of 108 N, and pymunk leaves that corner unloaded (B) on 94 % of the steps
+    # while the twist matches
     "pymunk_seed7_acute10_light_corner": ("validation_campaign_seed7.jsonl", 124, "pymunk"),
     "mujoco_seed7_acute10_light_corner": ("validation_campaign_seed7.jsonl", 125, "mujoco"),
 }

@@ -19,8 +19,8 @@ each run agrees in both engines, its control does not, and a sticking contact wh
 really slip over the stretch is not excused.
 
 A rhombus with a 31 deg corner slid along the table by a frictionless finger on its slanted
-edge (seed 7, acute 10): the one certificate of ``S+1 S+2 S+3`` loads the corner under the
-finger with 2.2 N of its 108 N, and pymunk leaves that corner unloaded (read ``B``) on 94 % of
+edge (seed 7, acute 10): the one certificate of ``S+1 S+2 S+3`` loads the rear corner (the
+lower end of the finger's edge) with 2.2 N of its 108 N, and pymunk leaves that corner unloaded (read ``B``) on 94 % of
 the steps while the twist matches to 0.0 % and the forces are 2.0 % off the certificate. A
 contact the certificate loads by less than the force check's allowance reads as either
 (:func:`sim.judge.unload_allowance`); the run agrees, its control does not, and without the
@@ -131,9 +131,9 @@ def test_a_sticking_finger_whose_bodies_slip_over_the_stretch_is_not_excused() -
 
 def test_a_lightly_loaded_corner_read_unloaded_agrees_only_by_the_force_allowance(
         monkeypatch: pytest.MonkeyPatch) -> None:
-    """pymunk's acute 10: the corner under the finger reads ``B`` on 94 % of the steps; the
-    certificate loads it by 2.2 N, within the allowance (10 % of 108 N) -- without the
-    allowance the same recording disagrees."""
+    """pymunk's acute 10: the rear corner (the lower end of the finger's edge) reads ``B`` on
+    94 % of the steps; the certificate loads it by 2.2 N, within the allowance (10 % of
+    108 N) -- without the allowance the same recording disagrees."""
     import sim.judge
 
     trace = load_campaign_trace("pymunk_seed7_acute10_light_corner")
