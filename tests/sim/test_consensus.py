@@ -244,8 +244,11 @@ def test_segment_consensus_matches_segments_by_number():
 
 
 @pytest.mark.long
+@pytest.mark.slow
 def test_the_recorded_summaries_are_what_the_three_engines_do_now():
-    """The recorded file's runs again, through the pipeline (``qsplan simulate``'s)."""
+    """The recorded file's runs again, through the pipeline (``qsplan simulate``'s): whether the
+    recorded summaries the tests above read are still what the engines do (by hand, with the
+    recordings: three engines' runs of a stacked system)."""
     pytest.importorskip("dartpy")
     from planner.files.system_file import load_system
     from scenarios.runs import simulate_system
