@@ -13,35 +13,30 @@ A system run (:func:`judge_modes`; tolerances derived in docs/simulation.md, "Ju
    of them. An observed mode is consistent with a predicted one when every contact shows the
    predicted token, except that (a) at a contact whose judged friction is zero, rolling and
    sliding are one closed state (their force constraints coincide, ``c_t = 0``; the slip is the
-   workpiece's motion, judged by the twist), and (b) a contact observed carrying no load
-   (``B``) where the mode has it closed is consistent when the mode's certificate family holds
-   a member with zero normal force at all such contacts at once (a force-indeterminate mode,
-   :func:`planner.predict.family.admits_unloaded`), or one whose normal forces there are
-   within the force check's allowance of zero (item 3; :func:`unload_allowance`: a contact a
-   force-determinate certificate loads lightly, which an engine may leave unloaded): the run
-   then shows one of the mode's certificates, not another mode; and (c) a contact the mode
-   opens may still read loaded until the predicted motion has lifted it out of the
-   penetration the engine measured there
-   (:func:`sim.judge_soft.clearing_times`: a support sunk in the table stays loaded while it
-   rises, at the predicted speed of the point where the engine touches it); and (d) over the
-   stretch of item 2, a closed contact shows the predicted token when its two bodies'
-   relative motion there reads as it (:func:`sim.judge_soft.stretch_readings`: a soft
-   contact's elastic give flickers its window slip reading, not the bodies' motion);
+   workpiece's motion, judged by the twist), (b) a contact observed carrying no load (``B``)
+   where the mode has it closed is consistent when a member of the mode's certificate family
+   loads all such contacts by at most the force check's allowance (item 3;
+   :func:`planner.predict.family.admits_unloaded`, :func:`sim.judge_soft.unload_allowance`):
+   the run shows one of the mode's certificates, not another mode; (c) a contact the mode
+   opens may read loaded until the predicted motion has lifted it out of the depth the engine
+   measured there (:func:`sim.judge_soft.clearing_times`: a support sunk in the table stays
+   loaded while it rises, at the predicted speed where the engine touches it); and (d) over
+   the stretch of item 2, a closed contact shows the predicted token when its bodies' relative
+   motion there reads as it (:func:`sim.judge_soft.stretch_readings`: a soft contact's
+   elastic give flickers its window slip reading, not the bodies' motion);
 2. **twist** -- the workpieces' mean twist over the stretch of judged steps in which the
    certificate's configuration holds (:func:`twist_stretch`: every workpiece within
    :data:`~sim.verdict.FORCE_DRIFT_LIMIT` of its size of its start, measured; at least
    ``early`` seconds) against the reference mode's ``qdot`` (the most observed consistent
-   mode), error
-   ``max_b |q_obs,b - q_pred,b|_L / max(|q_pred|_L, drive)`` within
+   mode), error ``max_b |q_obs,b - q_pred,b|_L / max(|q_pred|_L, drive)`` within
    :data:`~sim.verdict.TWIST_TOLERANCE` (:func:`sim.classify.twist_error`; absolute where the
    predicted twist is slower than the drive: a workpiece predicted to stay);
 3. **forces** -- the mean contact forces of the first ``early`` seconds of judged steps in the
-   reference mode itself (no contact still clearing its depth) against the
-   nearest member of its certificate family (the certificate itself when it is
-   force-determinate, :func:`planner.predict.family.nearest_certificate`) within
+   reference mode itself (no contact still clearing its depth) against the nearest member of
+   its certificate family (:func:`planner.predict.family.nearest_certificate`) within
    :data:`~sim.verdict.FORCE_TOLERANCE` of that member's total normal force (never less than
-   the load), while the workpiece is within
-   :data:`~sim.verdict.FORCE_DRIFT_LIMIT` of its size of the certificate's configuration;
+   the load), while the workpiece is near the certificate's configuration (within
+   :data:`~sim.verdict.FORCE_DRIFT_LIMIT` of its size);
 4. **engine limits** -- a force miss while the contacts flicker, or a mode miss while the
    workpiece moves as predicted and kept contacts go missing (stick-slip, chatter), is
    ``inconclusive`` with the measured cause, never ``disagreed``;
@@ -69,7 +64,13 @@ from sim.classify import (
     twist_error,
 )
 from sim.expectation import Expectation, Judgement, ModeSet, PlanSchedule, Switches
-from sim.judge_soft import clearing_times, contact_sink, stretch_readings, unexplained_reach
+from sim.judge_soft import (
+    clearing_times,
+    contact_sink,
+    stretch_readings,
+    unexplained_reach,
+    unload_allowance,
+)
 from sim.run import FaultKind, Recording
 from sim.verdict import (
     FORCE_DRIFT_LIMIT,
@@ -180,16 +181,6 @@ class ModeMatcher:
             return True
         return self.exp.system is not None and admits_unloaded(
             self.exp.system, mode.mode, unloaded, unload_allowance(mode, self.exp.load))
-
-
-def unload_allowance(mode: FeasibleMode, load: float) -> float:
-    """The normal force [N] a closed contact of ``mode`` may carry in a member of its certificate
-    family and still read as carrying none (``B``): :data:`~sim.verdict.FORCE_TOLERANCE` of the
-    certificate's force scale, the larger of ``load`` [N] and its total normal force -- the
-    force check's own allowance (module docstring, 3), so a run the force check accepts is not
-    refused by its mode for a lightly loaded contact the engine leaves unloaded."""
-    total = float(np.sum(np.maximum(np.asarray(mode.contact_forces, dtype=float)[:, 0], 0.0)))
-    return FORCE_TOLERANCE * max(load, total)
 
 
 # ---- a system run ---------------------------------------------------------------------------

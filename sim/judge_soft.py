@@ -9,6 +9,9 @@ touch** (:func:`opening_speeds`): the depth is measured there, and a scene's sur
 segment rather than the model's point (``sim.scenes.shapes.ENV_INSET``: a support's flat top
 reaches under the workpiece on each side) touches a tipping box at its end nearer the pivot,
 where the box rises slower than at the model's contact point.
+
+And how much load a closed contact read unloaded may carry in the certificate it is judged
+against (:func:`unload_allowance`): an engine may leave a lightly loaded contact unloaded.
 """
 
 from __future__ import annotations
@@ -16,9 +19,11 @@ from __future__ import annotations
 import numpy as np
 
 from planner.model.modes import BREAK
+from planner.predict.stages import FeasibleMode
 from sim.classify import Thresholds
 from sim.expectation import ModeSet
 from sim.run import Recording
+from sim.verdict import FORCE_TOLERANCE
 
 
 def opening_speeds(rec: Recording, exp: ModeSet, k: int) -> np.ndarray:
@@ -184,3 +189,13 @@ def unexplained_reach(rec: Recording, exp: ModeSet, length: float) -> np.ndarray
             rest = rest - np.linalg.pinv(M) @ rhs
         out[k] = np.max(np.linalg.norm(rest.reshape(n_b, 3), axis=1))
     return out
+
+
+def unload_allowance(mode: FeasibleMode, load: float) -> float:
+    """The normal force [N] a closed contact of ``mode`` may carry in a member of its certificate
+    family and still read as carrying none (``B``): :data:`~sim.verdict.FORCE_TOLERANCE` of the
+    certificate's force scale, the larger of ``load`` [N] and its total normal force -- the
+    force check's own allowance (:mod:`sim.judge`, 3), so a run the force check accepts is not
+    refused by its mode for a lightly loaded contact the engine leaves unloaded."""
+    total = float(np.sum(np.maximum(np.asarray(mode.contact_forces, dtype=float)[:, 0], 0.0)))
+    return FORCE_TOLERANCE * max(load, total)
