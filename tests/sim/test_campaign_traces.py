@@ -23,7 +23,7 @@ edge (seed 7, acute 10): the one certificate of ``S+1 S+2 S+3`` loads the rear c
 lower end of the finger's edge) with 2.2 N of its 108 N, and pymunk leaves that corner unloaded (read ``B``) on 94 % of
 the steps while the twist matches to 0.0 % and the forces are 2.0 % off the certificate. A
 contact the certificate loads by less than the force check's allowance reads as either
-(:func:`sim.judge.unload_allowance`); the run agrees, its control does not, and without the
+(:func:`sim.judge_soft.unload_allowance`); the run agrees, its control does not, and without the
 allowance it disagrees.
 """
 
