@@ -34,12 +34,15 @@ from sim.verdict import MODE_FRACTION_REQUIRED, Expect
 class SetRun:
     """One plan run at one ``point`` of the set: ``expect`` (module docstring) from the planner's
     prediction there (``shares`` per segment ``(only, absent)``,
-    :func:`planner.plan.set_points.claim_shares`) and the ``result``."""
+    :func:`planner.plan.set_points.claim_shares`), the ``result``, and ``early`` the words of
+    each segment whose motion ends at an event before its planned end there (the run and the
+    judge end that segment at it: :func:`planner.plan.contact_moves.moved_path`)."""
 
     point: SetPoint
     expect: Expect
     shares: tuple[tuple[float, float], ...]
     result: RunResult
+    early: tuple[str, ...] = ()
 
     @property
     def matched(self) -> bool:
@@ -85,9 +88,15 @@ def run_at_point(plan: Plan, axes: Sequence[SetAxis], point: SetPoint, engine: s
     record = {**point.to_dict(axes), "expect": expect.value,
               "claim_only_share": [s[0] for s in shares],
               "claim_absent_share": [s[1] for s in shares]}
+    early = tuple(f"segment {k} ends at t = {a.waypoints[-1].t:.3g} s here, not "
+                  f"{b.waypoints[-1].t:.3g} s: {a.event.detail}"
+                  for k, (a, b) in enumerate(zip(moved.segments, plan.segments), start=1)
+                  if a.waypoints[-1].t < b.waypoints[-1].t)
+    if early:
+        record["ends_early"] = list(early)
     res = validate_plan(moved, engine, mu, name=name, source=source, expect=expect,
                         parameters={"set_point": record})
-    return SetRun(point, expect, shares, res)
+    return SetRun(point, expect, shares, res, early)
 
 
 def point_line(run: SetRun, axes: Sequence[SetAxis], engine: str, mu_text: str) -> str:
@@ -104,6 +113,7 @@ def point_line(run: SetRun, axes: Sequence[SetAxis], engine: str, mu_text: str) 
         judged = "as predicted"
     else:
         judged = "FAILED" if run.point.inside else "not as predicted"
+    ends = "".join(f"; {e}" for e in run.early)
     return (f"{engine} mu={mu_text} set {run.point.name} ({run.point.words(axes)}; {where}): "
-            f"{v.outcome.value.upper()}, predicted {run.expect.value} -- {judged} ({seen}) "
+            f"{v.outcome.value.upper()}, predicted {run.expect.value} -- {judged} ({seen}{ends}) "
             f"[{run.result.summary.wall_time_s:.1f} s]")

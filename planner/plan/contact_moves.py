@@ -48,7 +48,7 @@ from planner.errors import InputError
 from planner.model.geometry import rot90
 from planner.model.hand import Hand
 from planner.model.hand_parts import rotation
-from planner.plan.model import Plan, Segment
+from planner.plan.model import Event, Plan, Segment
 
 #: Relative size (of the workpiece's extent) below which a moved point or normal counts as
 #: where the offset puts it (floating-point rounding of the moves; the moves are exact).
@@ -212,15 +212,32 @@ def offset_values(keys: Sequence[str], values: Sequence[float]) -> dict[int, flo
             if k.startswith("s") and k[1:].isdigit()}
 
 
-def moved_path(hand: Hand, q0: np.ndarray, seg: Segment) -> np.ndarray:
-    """``(n_w, 3 + n_theta)`` the configurations of ``seg``'s waypoints for the moved ``hand``
-    from its closed start ``q0``: the claim's quasistatic motion (eqs. 13-16, 23-25;
+@dataclass(frozen=True, eq=False)
+class MovedPath:
+    """The moved body's path along a segment (:func:`moved_path`): ``t`` (n,) [s] the
+    waypoints' times up to the motion's end, ``q`` (n, 3 + n_theta) the configurations there,
+    and ``event`` the event that ends the motion before the segment's last waypoint (``None``
+    when it runs to the end; then ``t`` is every waypoint's time)."""
+
+    t: np.ndarray
+    q: np.ndarray
+    event: Event | None
+
+
+def moved_path(hand: Hand, q0: np.ndarray, seg: Segment) -> MovedPath:
+    """The configurations of ``seg``'s waypoints for the moved ``hand`` from its closed start
+    ``q0``: the claim's quasistatic motion (eqs. 13-16, 23-25;
     :func:`planner.plan.trajectory.integrate_segment`) with the segment's velocity joints at
     their first waypoint's rates, read at the waypoints' times -- where the run's workpiece is
     expected, so the judge compares it with the moved body's path and not the nominal one's.
-    A waypoint past an event that ends the motion early (a contact runs off its feature, the
-    claim stops being kinematically admissible) keeps the last state reached.  Rates that
-    change between waypoints are refused (:class:`InputError`)."""
+
+    An event that ends the motion before the last waypoint (a new contact, a contact running
+    off its feature, the claim no longer kinematically admissible) ends the path there: the
+    waypoints before it, then the event's time and state. At the point the segment ends at
+    that event, as the planned segment ends at its own -- the claim says nothing of the
+    motion after it (a box that meets the table earlier because its corner sits 2 mm
+    further along it). Rates that change between waypoints are refused
+    (:class:`InputError`)."""
     from planner.plan.trajectory import integrate_segment
 
     V = tuple(seg.velocity_joints)
@@ -231,9 +248,15 @@ def moved_path(hand: Hand, q0: np.ndarray, seg: Segment) -> np.ndarray:
                          "that change between waypoints")
     t = np.array([w.t for w in seg.waypoints], dtype=float)
     if not V or len(t) < 2 or not t[-1] > 0:
-        return np.array([w.q for w in seg.waypoints], dtype=float)
+        return MovedPath(t, np.array([w.q for w in seg.waypoints], dtype=float), None)
     traj = integrate_segment(hand, q0, drive=list(V), speed=[float(r) for r in rates[0]],
                              mode=seg.claim, max_time=float(t[-1]),
                              steps=max(8 * (len(t) - 1), 64))
-    return np.array([[np.interp(tk, traj.t, traj.q[:, c]) for c in range(traj.q.shape[1])]
-                     for tk in t], dtype=float)
+    end = float(traj.t[-1])
+    event = None
+    if end < t[-1] * (1.0 - 1e-9):
+        event = traj.event
+        t = np.append(t[t < end * (1.0 - 1e-9)], end)
+    q = np.array([[np.interp(tk, traj.t, traj.q[:, c]) for c in range(traj.q.shape[1])]
+                  for tk in t], dtype=float)
+    return MovedPath(t, q, event)

@@ -196,8 +196,10 @@ def segment_at(seg: Segment, axes: Sequence[SetAxis], values: Sequence[float],
                mu: Any, geometry: tuple[Mapping[int, Any], Mapping[int, Any]] = ({}, {})
                ) -> Segment:
     """``seg`` at the point ``values`` (:func:`hand_data_at`), its workpiece vertices and
-    finger tips moved by ``geometry`` (:func:`planner.plan.contact_moves.moves`), with every
-    waypoint's ``predicted`` recomputed there at friction ``mu``
+    finger tips moved by ``geometry`` (:func:`planner.plan.contact_moves.moves`), its waypoints
+    on the moved body's path -- ending, with the segment's ``event``, at an event that ends the
+    motion there before the planned end (:func:`planner.plan.contact_moves.moved_path`) -- and
+    every waypoint's ``predicted`` recomputed there at friction ``mu``
     (:func:`planner.plan.partition.predicted_modes`)."""
     data = moved_hand_data(hand_data_at(seg.hand, axes, values), *geometry)
     moved = replace(seg, hand=data, regions=(), shortfall=None)
@@ -206,8 +208,11 @@ def segment_at(seg: Segment, axes: Sequence[SetAxis], values: Sequence[float],
     wps = seg.waypoints
     if any(np.any(np.asarray(m) != 0.0) for part in geometry for m in part.values()):
         path = moved_path(hand, np.asarray(q0, dtype=float), seg)
-        wps = tuple(replace(w, pose=(float(q[0]), float(q[1]), float(q[2])),
-                            angles=tuple(float(x) for x in q[3:])) for w, q in zip(wps, path))
+        wps = tuple(replace(w, t=float(t), pose=(float(q[0]), float(q[1]), float(q[2])),
+                            angles=tuple(float(x) for x in q[3:]))
+                    for w, t, q in zip(wps, path.t, path.q))
+        if path.event is not None:  # the motion ends early here: so does the segment
+            moved = replace(moved, event=path.event)
     wps = tuple(replace(w, predicted=predicted_modes(hand, w.q, V, w.velocity_commands,
                                                      w.torque_commands, (mu,)))
                 for w in wps)

@@ -235,3 +235,44 @@ def test_far_outside_along_the_pivot_the_planner_loses_the_claim(tilt_plan):
     assert claim_shares(lost) == ((0.0, 1.0),) and expectation(claim_shares(lost)) is Expect.DISAGREE
     kept = plan_at(tilt_plan, axes, pts["out-s1+"], [0.8])
     assert expectation(claim_shares(kept)) is Expect.AGREE
+
+
+# ---- a motion that ends early at a point ------------------------------------------------------
+@pytest.mark.long
+def test_a_box_that_meets_the_table_early_ends_its_segment_there_and_agrees():
+    """Box pivot down planned over the whole set (mass +-20 %, centre of mass +-5 mm, contacts
+    +-2 mm; tests/data/plan_box_pivot_down_full_set.json): the 80 x 50 mm box pivots about its
+    vertex 1 on the table until its vertex 0 meets the table at t = 4.49 s. With that vertex
+    2 mm back along the table (``s1 = -2 mm``; in the body frame it moves down by
+    ``2 sin 48.9 deg = 1.5 mm``) the box lies flat earlier, tilted by ``-1.5 / 80`` rad: vertex 0
+    meets the table before the planned end. The moved path ends there, with the event -- before,
+    it stood still at the last state reached for the rest of the segment while the run went on
+    turning the box (final position 5.3 % of travel off in pymunk) -- and the run there agrees."""
+    from planner.plan.plan_file import load_plan
+    from planner.plan.set_points import plan_at, plan_axes, set_points
+    from scenarios.set_runs import run_at_point
+
+    plan = load_plan(ROOT / "tests" / "data" / "plan_box_pivot_down_full_set.json")
+    axes = plan_axes(plan)
+    points = {p.name: p for p in set_points(axes, ["corners", "centre"])}
+    end = plan.segments[0].waypoints[-1].t
+    centre = plan_at(plan, axes, points["centre"], [0.6]).segments[0]
+    assert centre.waypoints[-1].t == end and centre.event == plan.segments[0].event
+    early = plan_at(plan, axes, points["m+cx+cy+s1-s2+"], [0.6]).segments[0]
+    t = np.array([w.t for w in early.waypoints])
+    assert np.all(np.diff(t) > 0) and t[-1] < end - 0.1
+    assert early.event.kind == "new contact" and early.event.t == pytest.approx(t[-1])
+    assert "vertex 0 meets the table" in early.event.detail
+    V = np.array(early.hand["workpiece"]["vertices"])
+
+    def lowest(w):
+        x, y, phi = w.pose
+        c, s = np.cos(phi), np.sin(phi)
+        return (y + V[:, 0] * s + V[:, 1] * c)
+
+    assert lowest(early.waypoints[-1])[0] == pytest.approx(0.0, abs=1e-6)  # vertex 0 lands
+    assert lowest(early.waypoints[-2])[0] > 1e-4                            # not before
+    assert early.waypoints[-1].pose[2] == pytest.approx(np.arctan2(-1.5e-3, 0.08), abs=2e-3)
+    run = run_at_point(plan, axes, points["m+cx+cy+s1-s2+"], "pymunk", 0.6, name="early")
+    assert run.matched and not run.failed, run.result.verdict.reasons
+    assert run.early and "not 4.49 s: vertex 0 meets the table" in run.early[0]
