@@ -25,7 +25,6 @@ Writes benchmarks/results/load_uncertainty.json.
 from __future__ import annotations
 
 import argparse
-import copy
 import json
 import math
 import os
@@ -45,28 +44,15 @@ from planner.plan.hand_planner import plan_hand
 from planner.plan.load_margins import holds, tolerated
 from planner.plan.offset_bounds import offset_box
 from planner.plan.partition import joint_inputs
+from planner.sweeps.set_samples import with_uncertainty
 from scenarios.registry import DATA_DIR
-
-
-def with_set(data: dict[str, Any], mass: float, com: float,
-             contacts: float = 0.0) -> dict[str, Any]:
-    """``data`` with mass ``m0 (1 +- mass)``, centre of mass ``c0 +- com`` [m] and, when
-    ``contacts`` > 0, every contact ``+- contacts`` [m] along its feature."""
-    d = copy.deepcopy(data)
-    wp = d["workpiece"]
-    m, (cx, cy) = wp["mass"], wp.get("com", [0.0, 0.0])
-    d["uncertainty"] = {"mass": [m * (1 - mass), m * (1 + mass)],
-                        "com": [[cx - com, cx + com], [cy - com, cy + com]]}
-    if contacts > 0:
-        d["uncertainty"]["contacts"] = contacts
-    return d
 
 
 def bands_along(plan: Any, data: dict[str, Any], mass: float, com: float,
                 contacts: float = 0.0) -> dict[str, Any]:
     """The claim's band at every waypoint of ``plan`` over the set of ``mass``, ``com`` and
     ``contacts`` (a waypoint where the box changes the modes counts as without a band)."""
-    hf = hand_file_from_dict(with_set(data, mass, com, contacts))
+    hf = hand_file_from_dict(with_uncertainty(data, mass, com, contacts))
     lows, widths, n = [], [], 0
     for seg in plan.segments:
         if len(seg.effort_joints) != 1:
@@ -99,8 +85,8 @@ def run_task(name: str, mass: float, com: float, contacts: float,
              repeats: int) -> dict[str, Any]:
     path = DATA_DIR / f"{name}.json"
     data = json.loads(path.read_text())
-    hf_set = hand_file_from_dict(with_set(data, mass, com))
-    hf_all = hand_file_from_dict(with_set(data, mass, com, contacts))
+    hf_set = hand_file_from_dict(with_uncertainty(data, mass, com))
+    hf_all = hand_file_from_dict(with_uncertainty(data, mass, com, contacts))
     t_plain, t_set, t_all = [], [], []
     plain = robust = full = None
     for _ in range(repeats):

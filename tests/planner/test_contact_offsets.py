@@ -17,7 +17,6 @@ increasing as ``s_2`` and ``s_3`` decrease, so over ``|s_i| <= d`` the robust ba
 
 from __future__ import annotations
 
-import itertools
 import json
 import re
 from dataclasses import replace
@@ -28,10 +27,7 @@ import pytest
 
 from planner.errors import DegenerateError, FileFormatError, InputError
 from planner.files.hand_file import hand_file_from_dict, load_hand_file
-from planner.model.geometry import rot90
-from planner.model.hand_parts import rotation
 from planner.model.load_set import LoadSet
-from planner.model.system import System
 from planner.model.validation import friction_interval
 from planner.plan.guarantee import guarantee
 from planner.plan.hand_planner import plan_hand
@@ -46,8 +42,15 @@ from planner.plan.offset_bounds import (
 )
 from planner.plan.partition import guaranteed_at, joint_inputs
 from planner.plan.plan_file import plan_body
-from planner.predict.feasibility import feasible_modes
 from planner.sweeps.random_hands import random_hand
+from planner.sweeps.set_samples import (
+    finger_point_jacobian,
+    friction_corners,
+    set_interior,
+    set_vertices,
+    set_violations,
+    with_uncertainty,
+)
 from qsplan.commands.plan import uncertainty_words
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -130,7 +133,7 @@ def test_an_offset_moves_one_normal_column_affinely_and_the_jacobian_matches_its
     assert np.allclose(dW[:, 1::2], 0, atol=1e-15)
     assert np.allclose(h.J, 0.5 * (a.J + b.J), atol=1e-15)          # affine in s
     assert np.allclose(b.J[1::2], a.J[1::2], atol=1e-15)            # tangential rows
-    assert np.allclose(b.J, _fd_jacobian(hand, q, b.points, b.normals).reshape(b.J.shape),
+    assert np.allclose(b.J, finger_point_jacobian(hand, q, b.points, b.normals).reshape(b.J.shape),
                        atol=1e-7)
 
 
@@ -176,71 +179,16 @@ def test_only_the_moving_contacts_enter(tilt):
 
 
 # ---- dense sampling of the whole set on random hands ----------------------------------------
-def _fd_jacobian(hand, q, pts, nrm) -> np.ndarray:
-    """``(n_c, 2, n_theta)``: the velocity of the finger body point at ``pts[i]`` per joint rate
-    by central differences of the link frames (``Hand.links_at``), in the contact frame --
-    independent of the chain's point Jacobian and of the planner's offset geometry."""
-    J = np.zeros((hand.n_contacts, 2, hand.n_joints))
-    step = 1e-7
-    for i, c in enumerate(hand.contacts):
-        if c.kind in ("palm", "surface"):
-            continue
-        body = c.link if c.kind == "side" else hand.fingers[c.finger].n_joints - 1
-        st, d = hand.links_at(q, c.finger)[body]
-        a, b = (pts[i] - st) @ d, (pts[i] - st) @ rot90(d)
-        for j in range(hand.n_joints):
-            ends = []
-            for sgn in (1.0, -1.0):
-                qq = np.array(q, dtype=float)
-                qq[3 + j] += sgn * step
-                s2, d2 = hand.links_at(qq, c.finger)[body]
-                ends.append(s2 + a * d2 + b * rot90(d2))
-            v = (ends[0] - ends[1]) / (2 * step)
-            J[i, 0, j], J[i, 1, j] = nrm[i] @ v, rot90(nrm[i]) @ v
-    return J
-
-
-def _sampled_system(hand, q, s, m, com, joints) -> System:
-    """The system at one point of the set, built from the moved contact points directly."""
-    pts, nrm, _ = hand.contact_geometry(q)
-    pts = pts + s[:, None] * np.array([rot90(n) for n in nrm])
-    f = hand.load_force * m / hand.mass
-    r = rotation(q[2]) @ np.asarray(com) + q[:2]
-    g = np.array([f[0], f[1], r[0] * f[1] - r[1] * f[0]])
-    return System.from_contacts(points=pts, normals=nrm, mu=0.0, external_wrench=g,
-                                jacobian=_fd_jacobian(hand, q, pts, nrm), joints=joints)
-
-
 def _random_case(template: str, seed: int, rel_mass: float, d_com: float, d_pos: float):
     data = random_hand(_data(ROOT / "scenarios" / "data" / template),
                        np.random.default_rng(seed))
-    m0, c0 = data["workpiece"].get("mass", 0.1), data["workpiece"].get("com", [0.0, 0.0])
-    data["uncertainty"] = {"mass": [m0 * (1 - rel_mass), m0 * (1 + rel_mass)],
-                           "com": [[c0[0] - d_com, c0[0] + d_com],
-                                   [c0[1] - d_com, c0[1] + d_com]],
-                           "contacts": d_pos}
-    return hand_file_from_dict(data)
-
-
-def _violations(hf, claim, taus, points, mus, joints_of) -> list:
-    """Samples where the full mode enumeration at one point of the set finds anything but
-    ``claim``."""
-    hand, q = hf.hand, hf.q0
-    bad = []
-    for m, com, s in points:
-        system = _sampled_system(hand, q, np.asarray(s, float), m, com, joints_of(0.0))
-        for mu in mus:
-            for t in taus:
-                inputs = [j.get("velocity", t) for j in joints_of(t)]
-                labels = feasible_modes(system.with_joint_inputs(inputs), mu).labels
-                if labels != [claim]:
-                    bad.append((t, m, com, tuple(s), tuple(mu), labels))
-    return bad
+    return hand_file_from_dict(with_uncertainty(data, rel_mass, d_com, d_pos))
 
 
 #: (template, seed, mass +- fraction, centre of mass +- m, contacts +- m): random hands whose
 #: band over the whole set is not empty (others are empty or refused at these sizes).
-CASES = [("prismatic_finger_hand.json", 3, 0.05, 0.001, 0.0005)]
+CASES = [("prismatic_finger_hand.json", 3, 0.05, 0.001, 0.0005),
+         ("two_finger_hand.json", 3, 0.05, 0.001, 0.0005)]
 
 
 @pytest.mark.long
@@ -249,13 +197,7 @@ def test_dense_samples_confirm_the_band_and_catch_a_widened_one(case):
     template, seed, rel_mass, d_com, d_pos = case
     hf = _random_case(template, seed, rel_mass, d_com, d_pos)
     hand, q, seg = hf.hand, hf.q0, hf.segment
-    rates = dict(zip(seg.drives, seg.speeds))
     joints = joint_inputs(hand, tuple(seg.drives), list(seg.speeds))
-
-    def joints_of(tau: float) -> list[dict]:
-        return [{"velocity": rates[j]} if j in rates else {"effort": tau}
-                for j in range(hand.n_joints)]
-
     system = hand.system(q, 0.0, joints)
     ivs = list(hf.mu_interval)
     common = len(ivs) == 1
@@ -267,29 +209,29 @@ def test_dense_samples_confirm_the_band_and_catch_a_widened_one(case):
     lo = np.array([a for a, _ in ivs] * (hand.n_contacts if common else 1))
     hi = np.array([b for _, b in ivs] * (hand.n_contacts if common else 1))
     rng = np.random.default_rng(seed)
-    corners = ([np.full(hand.n_contacts, x) for x in (lo[0], hi[0])] if common
-               else [np.array(c) for c in itertools.product(*zip(lo, hi))])
-    ls, half = hand.load_set, hand.contact_offsets()
-    vertices = [(m, (cx, cy), s) for m in ls.mass for cx in ls.com[0] for cy in ls.com[1]
-                for s in itertools.product(*[(-h, h) for h in half])]
-    inner = [(rng.uniform(*ls.mass), (rng.uniform(*ls.com[0]), rng.uniform(*ls.com[1])),
-              rng.uniform(-half, half)) for _ in range(40)]
+    corners = friction_corners(lo, hi, common)
+    vertices = set_vertices(hand)
+    inner = set_interior(hand, rng, 40)
     mids = [lo + rng.random(hand.n_contacts) * (hi - lo) for _ in range(2)]
     a, b = piece.lower, piece.upper
     assert np.isfinite(a) and np.isfinite(b)
-    taus = [a + 1e-6 * (b - a), 0.5 * (a + b), b - 1e-6 * (b - a)]
-    assert _violations(hf, g.claim, taus, vertices, corners, joints_of) == []
-    assert _violations(hf, g.claim, taus, inner, corners[:1] + mids, joints_of) == []
+    taus = [[a + 1e-6 * (b - a)], [0.5 * (a + b)], [b - 1e-6 * (b - a)]]
+
+    def bad(taus, points, mus):
+        return set_violations(hand, q, joints, g.claim, taus, points, mus)[1]
+
+    assert bad(taus, vertices, corners) == []
+    assert bad(taus, inner, [corners[0], *mids]) == []
     step = 0.01 * max(abs(a), abs(b))
     for widened in (a - step, b + step):
-        assert _violations(hf, g.claim, [widened], vertices, corners, joints_of), widened
+        assert bad([[widened]], vertices, corners), widened
     # the band that ignores the contact positions is wider, and the sampling catches it
     g0 = guarantee(system, seg.mode, ivs[0] if common else ivs,
                    model="common" if common else "independent", loads=hand.load_vertices(q))
     p0 = g0.best()
-    outside = [t for t in (0.5 * (p0.lower + a), 0.5 * (b + p0.upper)) if not a <= t <= b
+    outside = [[t] for t in (0.5 * (p0.lower + a), 0.5 * (b + p0.upper)) if not a <= t <= b
                and p0.contains(t)]
-    assert outside and _violations(hf, g.claim, outside, vertices, corners, joints_of)
+    assert outside and bad(outside, vertices, corners)
 
 
 # ---- defaults ---------------------------------------------------------------------------------

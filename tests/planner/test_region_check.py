@@ -4,20 +4,23 @@ benchmarks/region_check.py draws random hands (:mod:`planner.sweeps.random_hands
 and checks, with the independent full mode enumeration (``feasible_modes``), that inside each
 region the claimed mode is the only feasible one at every friction sample.  Here: two hands and
 a handful of samples, the mirror map, and a mutation test -- a deliberately widened region must
-be caught by the same check.
+be caught by the same check; the whole-set mode's probes and its results file.
 """
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
 import importlib.util
 import json
+import re
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from planner.files.hand_file import hand_file_from_dict
+from planner.plan.intervals import Interval
 from planner.plan.model import Segment
 from planner.sweeps.random_hands import mirror_hand, random_hand
 
@@ -99,3 +102,30 @@ def test_results_file_shape():
     res = json.loads(path.read_text())
     s = res["summary"]
     assert s["violations"] == 0 and s["plans"] > 0 and s["friction_samples"] > 0
+
+
+def test_set_sizes_are_read_and_bad_ones_named():
+    assert rc.set_sizes("0.05,0.001,0.0005") == (0.05, 0.001, 0.0005)
+    for text in ("0.05,1mm,0", "0.05,0.001", "1.2,0,0", "0.1,-0.001,0"):
+        with pytest.raises(argparse.ArgumentTypeError, match=re.escape(
+                "expected MASS,COM,CONTACTS (a fraction below 1, metres, metres; each >= 0), "
+                f"got {text!r}")):
+            rc.set_sizes(text)
+
+
+def test_band_probes_sit_inside_and_mutations_outside():
+    inside = rc.band_probes(Interval(1.0, 3.0), 0.5)
+    assert inside == pytest.approx([1.0 + 2e-6, 2.0, 3.0 - 2e-6])
+    assert rc.band_probes(Interval(0.0, np.inf), 0.5) == pytest.approx([5e-7, 0.5])
+    assert rc.band_probes(Interval(-np.inf, -2.0), 0.5) == pytest.approx([-2.0 - 2e-6, -4.0])
+    assert rc.widened_probes([Interval(1.0, 3.0)], 0.5) == pytest.approx([0.98, 3.02])
+    assert rc.widened_probes([Interval(0.0, np.inf)], 0.5) == pytest.approx([-0.005])
+
+
+def test_set_results_file_shape():
+    """The whole-set run (``--set``): nothing violated, every widened band caught."""
+    res = json.loads((ROOT / "benchmarks" / "results" / "region_check_set.json").read_text())
+    s = res["summary"]
+    assert s["violations"] == 0 and s["plans"] > 0 and s["samples"] > 0
+    widened = s["mutations"]["widened_1pct"]
+    assert widened["checked"] > 0 and widened["caught"] == widened["checked"]
