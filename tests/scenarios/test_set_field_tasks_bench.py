@@ -1,0 +1,48 @@
+"""The pure parts of benchmarks/set_field_tasks.py: how far past the set the plan's stated reach
+lies (in half-widths), the ``beyond`` outside step computed from it, and which axis an outside
+point pushes and how far from the nominal (the benchmarks directory is not a package)."""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+_spec = importlib.util.spec_from_file_location("set_field_tasks", ROOT / "benchmarks" /
+                                               "set_field_tasks.py")
+assert _spec and _spec.loader
+sft = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(sft)
+
+HALVES = {"mass": 0.04, "com": 0.005, "contacts": 0.002}
+
+
+def test_reach_in_half_widths_by_hand():
+    # mass 0.2 kg +-20 % (half 0.04 kg) tolerated +-0.05 kg: 0.25 half-widths past the set;
+    # centre of mass +-5 mm tolerated +-7.5 mm: 0.5; contacts +-2 mm tolerated +-2.5 mm: 0.25
+    tol = {"mass_kg": 0.05, "com_m": 0.0075, "contacts_m": 0.0025, "contacts_computed": True}
+    r = sft.reach_in_half_widths(tol, HALVES)
+    assert r == pytest.approx({"mass": 0.25, "com": 0.5, "contacts": 0.25})
+    assert sft.beyond_step(r) == pytest.approx(0.25 + sft.BEYOND_EXTRA)
+
+
+def test_reach_unbounded_or_not_computed():
+    tol = {"mass_kg": None, "com_m": 0.004, "contacts_m": 0.003, "contacts_computed": False}
+    r = sft.reach_in_half_widths(tol, HALVES)
+    assert r["mass"] is None and r["contacts"] is None
+    assert r["com"] == pytest.approx(-0.2)  # a reach inside the set is negative
+    assert sft.beyond_step(r) is None
+    assert sft.beyond_step({"contacts": -0.2}) == pytest.approx(sft.BEYOND_EXTRA)
+
+
+def test_axis_distance_of_outside_points():
+    nominal = {"m": 0.2, "cx": 0.04, "cy": 0.025, "s1": 0.0, "s2": 0.0}
+    vals = dict(nominal)
+    assert sft.axis_distance({"name": "out-s2-", "values": {**vals, "s2": -0.0025}},
+                             nominal) == ("s2", "contacts", pytest.approx(0.0025))
+    assert sft.axis_distance({"name": "out-m+", "values": {**vals, "m": 0.25}},
+                             nominal) == ("m", "mass", pytest.approx(0.05))
+    assert sft.axis_distance({"name": "out-cy-", "values": {**vals, "cy": 0.019}},
+                             nominal) == ("cy", "com", pytest.approx(0.006))
