@@ -29,6 +29,7 @@ every job, so a stopped run keeps what finished.
     PYTHONPATH=. python benchmarks/set_field_tasks.py \
         --tasks box_pivot_down,box_pivot_up,side_push --engines pymunk,mujoco \
         --outside 0.25,beyond --deadline 19:55 --out benchmarks/results/set_field_tasks.json
+    PYTHONPATH=. python benchmarks/set_field_tasks.py --table RESULTS.json   # its table
 """
 
 from __future__ import annotations
@@ -119,6 +120,54 @@ def point_rows(folder: Path) -> list[dict[str, Any]]:
                      "fault_kind": s.get("fault_kind"), "reason": s.get("reason"),
                      "wall_time_s": s.get("wall_time_s")})
     return rows
+
+
+def job_rows(task: dict[str, Any], folder: Path, step: float | None) -> list[dict[str, Any]]:
+    """The points of one job's ``--out`` ``folder`` (:func:`point_rows`); for outside points
+    (``step`` given) also the axis each pushes, its distance from the nominal and whether that
+    lies beyond the plan's stated reach of the axis (``task``'s ``tolerated``)."""
+    rows = point_rows(folder) if folder.exists() else []
+    if step is not None:
+        tol = task["plan"].get("tolerated") or {}
+        reach: dict[str, float | None] = {
+            "mass": tol.get("mass_kg"), "com": tol.get("com_m"),
+            "contacts": tol.get("contacts_m") if tol.get("contacts_computed") else None}
+        for r in rows:
+            key, kind, d = axis_distance(r, task["nominal"])
+            lim = reach[kind]
+            r.update(axis=key, distance=d, stated_reach=lim,
+                     beyond_reach=None if lim is None else d > lim)
+    return rows
+
+
+def tag_job(tag: str) -> tuple[str, str, str, float | None]:
+    """``engine, mu, kinds, step`` from a job folder's name (``mujoco_mu0.6_corners-centre``,
+    ``pymunk_mu0.6_outside_0.25``; :meth:`Bench.run_job`)."""
+    eng, rest = tag.split("_mu", 1)
+    parts = rest.split("_")
+    step = float(parts[2]) if len(parts) > 2 else None
+    return eng, parts[0].replace("-", "/"), parts[1].replace("-", ","), step
+
+
+def record(out: str, task_name: str, tag: str, code: int, wall: float,
+           folder: str | None = None) -> None:
+    """Add a job run by hand (the command :meth:`Bench.run_job` would run, in the task's work
+    folder) to the results ``out``, in place of its ``not run`` row; ``folder``: where its
+    summaries are when not the job's ``--out`` (a stopped run's staging folder)."""
+    result = json.loads(Path(out).read_text())
+    task = next(t for t in result["tasks"] if t["task"] == task_name)
+    eng, mu, kinds, step = tag_job(tag)
+    work = Path(task["hand"]).parent
+    rows = job_rows(task, Path(folder) if folder else work / tag, step)
+    cmd = (f"qsplan validate plan.json --engine {eng} --mu {mu} --set {kinds} --no-render "
+           f"--out {tag}" + (f" --outside {step:g}" if step is not None else ""))
+    row = {"engine": eng, "mu": mu, "set": kinds, "outside": step, "points": len(rows),
+           "command": cmd, "run_by_hand": True, "exit_code": code, "wall_s": wall,
+           "complete": folder is None, "runs": rows}
+    task["jobs"] = [j for j in task["jobs"] if not (
+        j["engine"] == eng and j["mu"] == mu and j["set"] == kinds and j["outside"] == step
+        and "runs" not in j)] + [row]
+    atomic_write_json(out, result)
 
 
 class Bench:
@@ -244,17 +293,7 @@ class Bench:
         code, secs, text = run(cmd, work)
         row.update(exit_code=code, wall_s=round(secs, 1),
                    output_tail=text.strip().splitlines()[-3:])
-        rows = point_rows(out) if out.exists() else []
-        if step is not None:
-            tol = task["plan"].get("tolerated") or {}
-            reach: dict[str, float | None] = {"mass": tol.get("mass_kg"), "com": tol.get("com_m"),
-                     "contacts": tol.get("contacts_m") if tol.get("contacts_computed")
-                     else None}
-            for r in rows:
-                key, kind, d = axis_distance(r, task["nominal"])
-                lim = reach[kind]
-                r.update(axis=key, distance=d, stated_reach=lim,
-                         beyond_reach=None if lim is None else d > lim)
+        rows = job_rows(task, out, step)
         row["runs"] = rows
         if rows:
             with self.lock:
@@ -274,6 +313,45 @@ class Bench:
             self.run_job(item[2])
 
 
+def job_line(job: dict[str, Any]) -> str:
+    """One row of the table: the job, how many points ran and agreed, each point that did not
+    (its status, what the planner predicts there, why the engine judged so) and, for outside
+    points, whether each lies beyond the plan's stated reach of its axis."""
+    what = job["set"] + (f" --outside {job['outside']:g}" if job.get("outside") else "")
+    head = f"  {job['engine']} mu={job['mu']} {what}: "
+    if "runs" not in job:
+        return head + job.get("status", "")
+    runs = job["runs"]
+    ok = sum(r["status"] == "agreed" for r in runs)
+    text = head + f"{ok}/{len(runs)} agreed, exit {job['exit_code']}, {job['wall_s']:.0f} s"
+    for r in runs:
+        beyond = r.get("beyond_reach")
+        where = ("" if beyond is None else
+                 f", {r['axis']} {1000 * r['distance']:.3g} {'g' if r['axis'] == 'm' else 'mm'}"
+                 f" from nominal, {'beyond' if beyond else 'within'} the stated reach "
+                 f"{1000 * r['stated_reach']:.3g}")
+        if r["status"] != "agreed" or r["expect"] != "agree" or beyond:
+            why = "" if r["status"] == "agreed" else f" ({r['reason']})"
+            text += (f"\n    {r['point']}: {r['status']}, predicted {r['expect']}{where}"
+                     f"{why}")
+    return text
+
+
+def table(result: dict[str, Any]) -> str:
+    """The results of a run (the JSON this script writes) as text, per task and job."""
+    lines = []
+    for t in result["tasks"]:
+        p = t["plan"]
+        tol = p.get("tolerated") or {}
+        lines.append(f"{t['task']}: plan exit {p['exit_code']} in {p['seconds']:.0f} s, "
+                     f"{p.get('segments')} segment(s) {p.get('modes')}, {p.get('waypoints')} "
+                     f"waypoints; tolerated mass {tol.get('mass_kg')} kg, com "
+                     f"{tol.get('com_m')} m, contacts {tol.get('contacts_m')} m; reach past "
+                     f"the set (half-widths) {t.get('reach_past_set_half_widths')}")
+        lines += [job_line(j) for j in t["jobs"]]
+    return "\n".join(lines)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--tasks", default=",".join(TASKS))
@@ -290,7 +368,19 @@ def main() -> None:
     ap.add_argument("--work", default="/tmp/set_field_tasks", help="hand files, plans, runs")
     ap.add_argument("--qsplan", default=str(Path(sys.executable).with_name("qsplan")))
     ap.add_argument("--out", default="benchmarks/results/set_field_tasks.json")
+    ap.add_argument("--table", default=None, metavar="JSON",
+                    help="print the table of a finished (or stopped) run's JSON and exit")
+    ap.add_argument("--record", nargs="+", default=None,
+                    metavar="TASK TAG EXIT WALL_S [FOLDER]",
+                    help="add a job run by hand to --out (record) and exit")
     args = ap.parse_args()
+    if args.record:
+        t, tag, code, wall, *folder = args.record
+        record(args.out, t, tag, int(code), float(wall), folder[0] if folder else None)
+        return
+    if args.table:
+        print(table(json.loads(Path(args.table).read_text())))
+        return
     bench = Bench(args)
     threads = [threading.Thread(target=bench.worker) for _ in range(args.workers)]
     for t in threads:

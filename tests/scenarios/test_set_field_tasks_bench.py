@@ -46,3 +46,9 @@ def test_axis_distance_of_outside_points():
                              nominal) == ("m", "mass", pytest.approx(0.05))
     assert sft.axis_distance({"name": "out-cy-", "values": {**vals, "cy": 0.019}},
                              nominal) == ("cy", "com", pytest.approx(0.006))
+
+
+def test_job_folder_names_read_back():
+    assert sft.tag_job("pymunk_mu0.6_outside_0.535") == ("pymunk", "0.6", "outside", 0.535)
+    assert sft.tag_job("mujoco_mu0.25-0.25-0.7-0.7_corners-centre") == (
+        "mujoco", "0.25/0.25/0.7/0.7", "corners,centre", None)
