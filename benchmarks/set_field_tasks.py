@@ -90,7 +90,7 @@ def beyond_step(reach: dict[str, float | None], extra: float = BEYOND_EXTRA) -> 
 def axis_distance(point: dict[str, Any], nominal: dict[str, float]) -> tuple[str, str, float]:
     """The outside point's axis key (``m``, ``cx``, ``s2``), its kind (``mass``, ``com``,
     ``contacts``) and its distance from the nominal value along that axis [kg or m]."""
-    key = point["name"].removeprefix("out-")[:-1]
+    key = point["point"].removeprefix("out-")[:-1]
     kind = "mass" if key == "m" else "com" if key in ("cx", "cy") else "contacts"
     return key, kind, abs(point["values"][key] - nominal[key])
 
@@ -149,11 +149,12 @@ def tag_job(tag: str) -> tuple[str, str, str, float | None]:
     return eng, parts[0].replace("-", "/"), parts[1].replace("-", ","), step
 
 
-def record(out: str, task_name: str, tag: str, code: int, wall: float,
+def record(out: str, task_name: str, tag: str, code: int | None, wall: float | None,
            folder: str | None = None) -> None:
     """Add a job run by hand (the command :meth:`Bench.run_job` would run, in the task's work
     folder) to the results ``out``, in place of its ``not run`` row; ``folder``: where its
-    summaries are when not the job's ``--out`` (a stopped run's staging folder)."""
+    summaries are when not the job's ``--out`` (a stopped run's staging folder); ``code`` and
+    ``wall`` None when not known."""
     result = json.loads(Path(out).read_text())
     task = next(t for t in result["tasks"] if t["task"] == task_name)
     eng, mu, kinds, step = tag_job(tag)
@@ -323,7 +324,9 @@ def job_line(job: dict[str, Any]) -> str:
         return head + job.get("status", "")
     runs = job["runs"]
     ok = sum(r["status"] == "agreed" for r in runs)
-    text = head + f"{ok}/{len(runs)} agreed, exit {job['exit_code']}, {job['wall_s']:.0f} s"
+    wall = "?" if job.get("wall_s") is None else f"{job['wall_s']:.0f}"
+    text = head + f"{ok}/{len(runs)} agreed, exit {job.get('exit_code')}, {wall} s" + (
+        "" if job.get("complete", True) else " (stopped: the points that finished)")
     for r in runs:
         beyond = r.get("beyond_reach")
         where = ("" if beyond is None else
@@ -372,11 +375,13 @@ def main() -> None:
                     help="print the table of a finished (or stopped) run's JSON and exit")
     ap.add_argument("--record", nargs="+", default=None,
                     metavar="TASK TAG EXIT WALL_S [FOLDER]",
-                    help="add a job run by hand to --out (record) and exit")
+                    help="add a job run by hand to --out (record; '?' for an exit code or "
+                         "wall time not known) and exit")
     args = ap.parse_args()
     if args.record:
         t, tag, code, wall, *folder = args.record
-        record(args.out, t, tag, int(code), float(wall), folder[0] if folder else None)
+        record(args.out, t, tag, None if code == "?" else int(code),
+               None if wall == "?" else float(wall), folder[0] if folder else None)
         return
     if args.table:
         print(table(json.loads(Path(args.table).read_text())))
