@@ -19,7 +19,9 @@ For each task (default ``block_tilting`` and ``box_pivot_up``, scenarios/data):
 Writes benchmarks/results/load_uncertainty.json.
 
     python3 benchmarks/load_uncertainty.py [--tasks block_tilting,box_pivot_up]
-        [--mass 0.2] [--com 0.005] [--contacts 0.002] [--repeats 1]
+        [--mass 0.2] [--com 0.005] [--contacts 0.002] [--repeats 1] [--times-only]
+
+``--times-only``: the three plans' times, ratios and what each reached, nothing else.
 """
 
 from __future__ import annotations
@@ -82,7 +84,7 @@ def bands_along(plan: Any, data: dict[str, Any], mass: float, com: float,
 
 
 def run_task(name: str, mass: float, com: float, contacts: float,
-             repeats: int) -> dict[str, Any]:
+             repeats: int, times_only: bool = False) -> dict[str, Any]:
     path = DATA_DIR / f"{name}.json"
     data = json.loads(path.read_text())
     hf_set = hand_file_from_dict(with_uncertainty(data, mass, com))
@@ -103,6 +105,8 @@ def run_task(name: str, mass: float, com: float, contacts: float,
             full = str(exc)
         t_all.append(time.perf_counter() - t0)
     assert plain is not None and robust is not None
+    if times_only:
+        return planning_times(name, hf_set, hf_all, plain, robust, full, t_plain, t_set, t_all)
     t0 = time.perf_counter()
     tol = tolerated(robust)
     t_tol = time.perf_counter() - t0
@@ -139,6 +143,28 @@ def run_task(name: str, mass: float, com: float, contacts: float,
     }
 
 
+def planning_times(name: str, hf_set: Any, hf_all: Any, plain: Any, robust: Any, full: Any,
+                   t_plain: list[float], t_set: list[float], t_all: list[float]
+                   ) -> dict[str, Any]:
+    """``--times-only``: the three plans' times (medians), ratios and what each reached, without
+    the tolerated margins and the bands (which can take far longer than the plans)."""
+    mp, ms, ma = (statistics.median(t_plain), statistics.median(t_set),
+                  statistics.median(t_all))
+    whole: dict[str, Any] = {"set": hf_all.hand.load_set.to_dict(), "plan_seconds": ma,
+                             "ratio_to_friction_only": ma / mp}
+    if isinstance(full, str):
+        whole.update(planned=False, reason=full)
+    else:
+        whole.update(planned=bool(full.segments), reached=full.reached,
+                     segments=[s.claim for s in full.segments])
+    return {"task": name, "times_only": True, "set": hf_set.hand.load_set.to_dict(),
+            "plan_seconds_friction_only": mp, "plan_seconds_with_set": ms, "ratio": ms / mp,
+            "reached": {"friction_only": plain.reached, "with_set": robust.reached},
+            "segments": {"friction_only": [s.claim for s in plain.segments],
+                         "with_set": [s.claim for s in robust.segments]},
+            "whole_set": whole}
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--tasks", default="block_tilting,box_pivot_up")
@@ -147,12 +173,24 @@ def main() -> None:
     ap.add_argument("--contacts", type=float, default=0.002,
                     help="every contact +- m along its feature (0.002)")
     ap.add_argument("--repeats", type=int, default=1)
+    ap.add_argument("--times-only", action="store_true",
+                    help="only the three plans' times and what they reach (no margins, bands)")
     ap.add_argument("--out", default="benchmarks/results/load_uncertainty.json")
     args = ap.parse_args()
     rows = []
     for name in args.tasks.split(","):
-        r = run_task(name, args.mass, args.com, args.contacts, args.repeats)
+        r = run_task(name, args.mass, args.com, args.contacts, args.repeats, args.times_only)
         rows.append(r)
+        if args.times_only:
+            w = r["whole_set"]
+            print(f"{name}: plan {r['plan_seconds_friction_only']:.2f} s friction only "
+                  f"(reached {r['reached']['friction_only']}), "
+                  f"{r['plan_seconds_with_set']:.2f} s with mass and centre of mass (ratio "
+                  f"{r['ratio']:.2f}, reached {r['reached']['with_set']}), "
+                  f"{w['plan_seconds']:.2f} s with contacts too (ratio "
+                  f"{w['ratio_to_friction_only']:.2f}, segments {w.get('segments')}, reached "
+                  f"{w.get('reached')})", flush=True)
+            continue
         print(f"{name}: plan {r['plan_seconds_friction_only']:.2f} s friction only, "
               f"{r['plan_seconds_with_set']:.2f} s with mass +-{100 * args.mass:g} % and "
               f"centre of mass +-{1000 * args.com:g} mm (ratio {r['ratio']:.2f}); reached "
