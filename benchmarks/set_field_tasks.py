@@ -2,9 +2,10 @@
 commands a user types.
 
 For each task (shipped hand files, scenarios/data) the hand file gets an ``uncertainty`` section
-(:func:`load_uncertainty.with_set`: mass ``+-MASS`` as a fraction, centre of mass ``+-COM`` m in
-both body coordinates, every contact ``+-CONTACTS`` m along its feature, the file's own friction
-box kept; docs/planning.md, "Uncertainty beyond friction", "Contact positions"), then:
+(:func:`planner.sweeps.set_samples.with_uncertainty`: mass ``+-MASS`` as a fraction, centre of
+mass ``+-COM`` m in both body coordinates, every contact ``+-CONTACTS`` m along its feature, the
+file's own friction box kept; docs/planning.md, "Uncertainty beyond friction", "Contact
+positions"), then:
 
 * ``qsplan plan HAND --out plan.json`` (a subprocess; exit code, wall time, segments, modes,
   waypoints, and the margins the plan writes: ``extra.uncertainty.tolerated``, the largest
@@ -49,9 +50,7 @@ from pathlib import Path
 from typing import Any
 
 from planner.files.atomic import atomic_write_json
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from load_uncertainty import with_set  # noqa: E402
+from planner.sweeps.set_samples import with_uncertainty
 
 ROOT = Path(__file__).resolve().parents[1]
 TASKS = ("box_pivot_down", "box_pivot_up", "side_push", "flip_against_wall")
@@ -208,7 +207,7 @@ class Bench:
         work.mkdir(parents=True, exist_ok=True)
         data = json.loads((ROOT / "scenarios" / "data" / f"{name}.json").read_text())
         hand = work / "hand.json"
-        hand.write_text(json.dumps(with_set(data, a.mass, a.com, a.contacts), indent=1))
+        hand.write_text(json.dumps(with_uncertainty(data, a.mass, a.com, a.contacts), indent=1))
         code, secs, text = run([a.qsplan, "plan", str(hand), "--out", "plan.json"], work)
         task: dict[str, Any] = {
             "task": name, "hand": str(hand), "set": {"mass_fraction": a.mass, "com_m": a.com,
