@@ -11,13 +11,13 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import importlib.util
 import json
 import re
 from pathlib import Path
 
 import numpy as np
 import pytest
+from campaign_module import benchmark
 
 from planner.files.hand_file import hand_file_from_dict
 from planner.plan.intervals import Interval
@@ -25,11 +25,7 @@ from planner.plan.model import Segment
 from planner.sweeps.random_hands import mirror_hand, random_hand
 
 ROOT = Path(__file__).resolve().parents[2]
-_spec = importlib.util.spec_from_file_location("region_check", ROOT / "benchmarks" /
-                                               "region_check.py")
-assert _spec and _spec.loader
-rc = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(rc)
+rc = benchmark("region_check")
 
 
 def _plan(name: str, seed: int):

@@ -4,18 +4,14 @@ point pushes and how far from the nominal (the benchmarks directory is not a pac
 
 from __future__ import annotations
 
-import importlib.util
 import json
 from pathlib import Path
 
 import pytest
+from campaign_module import benchmark
 
 ROOT = Path(__file__).resolve().parents[2]
-_spec = importlib.util.spec_from_file_location("set_field_tasks", ROOT / "benchmarks" /
-                                               "set_field_tasks.py")
-assert _spec and _spec.loader
-sft = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(sft)
+sft = benchmark("set_field_tasks")
 
 HALVES = {"mass": 0.04, "com": 0.005, "contacts": 0.002}
 
