@@ -5,12 +5,10 @@ point pushes and how far from the nominal (the benchmarks directory is not a pac
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import pytest
 from campaign_module import benchmark
 
-ROOT = Path(__file__).resolve().parents[2]
 sft = benchmark("set_field_tasks")
 
 HALVES = {"mass": 0.04, "com": 0.005, "contacts": 0.002}
