@@ -65,6 +65,7 @@ from sim.classify import (
 )
 from sim.expectation import Expectation, Judgement, ModeSet, PlanSchedule, Switches
 from sim.judge_soft import (
+    certificate_scale,
     clearing_times,
     contact_sink,
     stretch_readings,
@@ -363,11 +364,10 @@ def _motion(rec: Recording, exp: ModeSet, th: Thresholds, judged: Sequence[Obser
         fit = (nearest_certificate(exp.system, ref.mode, c_obs) if exp.system is not None
                else None)
         cert = fit.forces if fit is not None else np.asarray(ref.contact_forces, dtype=float)
-        distance = (fit.distance if fit is not None else
-                    float(np.max(np.abs(c_obs - cert))))
+        distance = fit.distance if fit is not None else float(np.max(np.abs(c_obs - cert)))
         # relative to the compared certificate's own size (never below the load): a rival's
         # large near-wedge forces must not loosen the check of a lightly loaded mode
-        scale_f = max(exp.load, float(np.sum(np.maximum(cert[:, 0], 0.0)))) or exp.force_scale
+        scale_f = certificate_scale(cert, exp.load) or exp.force_scale
         f_err = distance / scale_f
         drift = float(drift_from_start(poses[kf:kf + 1], rec.poses[0][idx],
                                        th.length_scale)[0])

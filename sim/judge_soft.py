@@ -10,8 +10,9 @@ segment rather than the model's point (``sim.scenes.shapes.ENV_INSET``: a suppor
 reaches under the workpiece on each side) touches a tipping box at its end nearer the pivot,
 where the box rises slower than at the model's contact point.
 
-And how much load a closed contact read unloaded may carry in the certificate it is judged
-against (:func:`unload_allowance`): an engine may leave a lightly loaded contact unloaded.
+And the force scale a certificate is judged on (:func:`certificate_scale`), and how much load a
+closed contact read unloaded may carry in it (:func:`unload_allowance`): an engine may leave a
+lightly loaded contact unloaded.
 """
 
 from __future__ import annotations
@@ -191,11 +192,18 @@ def unexplained_reach(rec: Recording, exp: ModeSet, length: float) -> np.ndarray
     return out
 
 
+def certificate_scale(forces: np.ndarray, load: float) -> float:
+    """The force scale [N] contact forces are judged against for a certificate ``forces``
+    ``(n_c, 2)`` [N] (``(c_in, c_it)``): the larger of ``load`` [N] and its total normal force
+    (:mod:`sim.judge`, 3) -- the certificate's own size, so a rival's large near-wedge forces do
+    not loosen the check of a lightly loaded mode."""
+    return max(load, float(np.sum(np.maximum(np.asarray(forces, dtype=float)[:, 0], 0.0))))
+
+
 def unload_allowance(mode: FeasibleMode, load: float) -> float:
     """The normal force [N] a closed contact of ``mode`` may carry in a member of its certificate
     family and still read as carrying none (``B``): :data:`~sim.verdict.FORCE_TOLERANCE` of the
-    certificate's force scale, the larger of ``load`` [N] and its total normal force -- the
-    force check's own allowance (:mod:`sim.judge`, 3), so a run the force check accepts is not
-    refused by its mode for a lightly loaded contact the engine leaves unloaded."""
-    total = float(np.sum(np.maximum(np.asarray(mode.contact_forces, dtype=float)[:, 0], 0.0)))
-    return FORCE_TOLERANCE * max(load, total)
+    certificate's force scale (:func:`certificate_scale`) -- the force check's own allowance
+    (:mod:`sim.judge`, 3), so a run the force check accepts is not refused by its mode for a
+    lightly loaded contact the engine leaves unloaded."""
+    return FORCE_TOLERANCE * certificate_scale(mode.contact_forces, load)
