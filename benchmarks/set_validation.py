@@ -34,6 +34,7 @@ from planner.plan.hand_planner import plan_hand
 from planner.plan.load_margins import plan_load_set
 from planner.plan.set_cost import set_cost
 from planner.plan.set_points import plan_at, set_axes, set_points
+from planner.sweeps.set_samples import with_uncertainty
 from scenarios.registry import shipped_file
 from scenarios.runs import validate_plan
 from scenarios.set_runs import run_at_point
@@ -49,10 +50,8 @@ def main() -> None:
     ap.add_argument("--max-time", type=float, default=2.0)
     ap.add_argument("--out", default="benchmarks/results/set_validation.json")
     args = ap.parse_args()
-    d = json.loads(Path(shipped_file(args.hand)).read_text())
-    m, (cx, cy) = d["workpiece"]["mass"], d["workpiece"].get("com", [0.0, 0.0])
-    d["uncertainty"] = {"mass": [m * (1 - args.mass), m * (1 + args.mass)],
-                        "com": [[cx - args.com, cx + args.com], [cy - args.com, cy + args.com]]}
+    d = with_uncertainty(json.loads(Path(shipped_file(args.hand)).read_text()), args.mass,
+                         args.com)
     d["segment"]["max_time"] = args.max_time
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "hand.json"

@@ -32,6 +32,7 @@ from planner.model.geometry import rot90
 from planner.model.hand import Hand
 from planner.model.hand_parts import rotation
 from planner.model.system import System
+from planner.plan.bounds import box_points
 from planner.predict.feasibility import feasible_modes
 
 #: central-difference step of the finger Jacobian [rad or m]
@@ -114,7 +115,7 @@ def friction_corners(lo: Any, hi: Any, common: bool) -> np.ndarray:
     lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
     if common:
         return np.array([np.full(len(lo), lo[0]), np.full(len(lo), hi[0])])
-    return np.array(list(itertools.product(*zip(lo, hi))), dtype=float)
+    return box_points(lo, hi, 2)[0]
 
 
 def finger_point_jacobian(hand: Hand, q: Any, points: np.ndarray,
