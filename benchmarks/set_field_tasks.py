@@ -69,13 +69,19 @@ def reach_in_half_widths(tolerated: dict[str, Any], halves: dict[str, float]
     is unbounded or not computed, or the set has no width there).  ``tolerated`` is the plan's
     ``extra.uncertainty.tolerated`` (``mass_kg``, ``com_m``, ``contacts_m``), ``halves`` the
     set's half-widths in the same units (kg, m, m)."""
-    keys = {"mass": "mass_kg", "com": "com_m", "contacts": "contacts_m"}
     out: dict[str, float | None] = {}
-    for kind, key in keys.items():
-        reach, half = tolerated.get(key), halves.get(kind, 0.0)
-        ok = half > 0 and (kind != "contacts" or bool(tolerated.get("contacts_computed")))
-        out[kind] = float(reach) / half - 1.0 if ok and reach is not None else None
+    for kind, reach in stated_reach(tolerated).items():
+        half = halves.get(kind, 0.0)
+        out[kind] = float(reach) / half - 1.0 if half > 0 and reach is not None else None
     return out
+
+
+def stated_reach(tolerated: dict[str, Any]) -> dict[str, float | None]:
+    """Per axis kind (``mass``, ``com``, ``contacts``) the plan's stated reach [kg or m] from its
+    ``extra.uncertainty.tolerated`` (``None`` when not given, or for contacts not computed)."""
+    return {"mass": tolerated.get("mass_kg"), "com": tolerated.get("com_m"),
+            "contacts": tolerated.get("contacts_m") if tolerated.get("contacts_computed")
+            else None}
 
 
 def beyond_step(reach: dict[str, float | None], extra: float = BEYOND_EXTRA) -> float | None:
@@ -113,6 +119,7 @@ def point_rows(folder: Path) -> list[dict[str, Any]]:
         rows.append({"point": sp["name"], "kind": sp["kind"], "inside": sp["inside"],
                      "values": sp["values"], "expect": sp["expect"],
                      "claim_only_share": sp.get("claim_only_share"),
+                     "ends_early": sp.get("ends_early", []),
                      "status": s["status"], "passed": s["passed"],
                      "claim_fraction": s.get("claim_fraction"),
                      "final_error_of_travel": s.get("final_error_of_travel"),
@@ -127,10 +134,7 @@ def job_rows(task: dict[str, Any], folder: Path, step: float | None) -> list[dic
     lies beyond the plan's stated reach of the axis (``task``'s ``tolerated``)."""
     rows = point_rows(folder) if folder.exists() else []
     if step is not None:
-        tol = task["plan"].get("tolerated") or {}
-        reach: dict[str, float | None] = {
-            "mass": tol.get("mass_kg"), "com": tol.get("com_m"),
-            "contacts": tol.get("contacts_m") if tol.get("contacts_computed") else None}
+        reach = stated_reach(task["plan"].get("tolerated") or {})
         for r in rows:
             key, kind, d = axis_distance(r, task["nominal"])
             lim = reach[kind]
