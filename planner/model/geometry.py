@@ -25,6 +25,8 @@ def cross2(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 def rot90(n: np.ndarray) -> np.ndarray:
     """Rotate 2-vectors by +90 degrees: ``(x, y) -> (-y, x)``; gives ``t`` from ``n``."""
     n = np.asarray(n, dtype=float)
+    if n.ndim == 1:  # one vector: the hot path of the planner's contact frames
+        return np.array([-n[1], n[0]])
     return np.stack([-n[..., 1], n[..., 0]], axis=-1)
 
 

@@ -188,9 +188,15 @@ class Hand:
         outside [0, 1] the feature pair has come apart (lost contact).
         """
         q = np.asarray(q, dtype=float)
+        return self._frame(q, i, self.world_vertices(q))
+
+    def _frame(self, q: np.ndarray, i: int, V: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray, float, float]:
+        """:meth:`contact_frame` with the world vertices ``V`` at ``q`` given (computed once
+        for all contacts by :meth:`contact_geometry`)."""
         c = self.contacts[i]
         if c.kind in ("palm", "surface"):
-            p = self.world_vertices(q)[c.vertex]
+            p = V[c.vertex]
             (a, b), n = self.surface(c)
             gap = float(n @ (p - a))
             s = float((p - a) @ (b - a) / ((b - a) @ (b - a)))
@@ -199,12 +205,12 @@ class Hand:
         if c.kind == "side":
             link = f.chain_links[c.link]
             start, d = self.links_at(q, c.finger)[c.link]
-            p = self.world_vertices(q)[c.vertex]
+            p = V[c.vertex]
             n = c.side * rot90(d)
             gap = float(n @ (p - start)) - link.radius
             s = float((p - start) @ d / link.length)
             return p, n, gap, s
-        a, b = self.edge(q, c.edge)
+        a, b = V[c.edge], V[(c.edge + 1) % len(V)]
         e = (b - a) / np.linalg.norm(b - a)
         n = rot90(e)
         T = self.tip_centre(q, c.finger)
@@ -220,16 +226,20 @@ class Hand:
 
     def contact_geometry(self, q: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``points (n_c, 2)``, ``normals (n_c, 2)``, ``fractions (n_c,)`` at ``q``."""
-        frames = [self.contact_frame(q, i) for i in range(self.n_contacts)]
+        q = np.asarray(q, dtype=float)
+        V = self.world_vertices(q)
+        frames = [self._frame(q, i, V) for i in range(self.n_contacts)]
         pts = np.array([f[0] for f in frames])
         nrm = np.array([f[1] for f in frames])
         s = np.array([f[3] for f in frames])
         return pts, nrm, s
 
-    def jacobian(self, q: Any, points: np.ndarray | None = None) -> np.ndarray:
+    def jacobian(self, q: Any, points: np.ndarray | None = None,
+                 normals: np.ndarray | None = None) -> np.ndarray:
         """(n_c, 2, n_theta) manipulator contact-point velocities per joint rate, contact frame
         (eqs. 3, 5); ``points (n_c, 2)`` [m, world] the contact points (default where the
-        features touch at ``q``; :meth:`system` moves them along their features).
+        features touch at ``q``; :meth:`system` moves them along their features) and
+        ``normals (n_c, 2)`` their inward normals (default the features' at ``q``).
 
         The finger point at the contact moves with the chain's point Jacobian
         (:meth:`planner.model.kinematics.Chain.point_jacobian`: ``rot90(p - o_j)`` per revolute
@@ -237,8 +247,12 @@ class Hand:
         Palm and surface contacts have zero rows (fixed).
         """
         q = np.asarray(q, dtype=float)
-        pts, nrm, _ = self.contact_geometry(q)
-        pts = pts if points is None else np.asarray(points, dtype=float)
+        if points is None or normals is None:
+            pts, nrm, _ = self.contact_geometry(q)
+        if points is not None:
+            pts = np.asarray(points, dtype=float)
+        if normals is not None:
+            nrm = np.asarray(normals, dtype=float)
         J = np.zeros((self.n_contacts, 2, self.n_joints))
         for i, c in enumerate(self.contacts):
             if c.kind in ("palm", "surface"):
@@ -298,7 +312,7 @@ class Hand:
             pts = pts + s[:, None] * np.stack([rot90(n) for n in nrm])
         return System.from_contacts(
             points=pts, normals=nrm, mu=mu, external_wrench=self.g_obj_at(q),
-            jacobian=self.jacobian(q, pts), joints=list(joints),
+            jacobian=self.jacobian(q, pts, nrm), joints=list(joints),
         )
 
     def body_name(self, c: ContactSpec) -> str:

@@ -69,7 +69,13 @@ class Finger:
     @property
     def chain_links(self) -> tuple[Link, ...]:
         """The links of the chain (a single revolute link when ``links`` is empty)."""
-        return self.links or (Link(REVOLUTE, self.length, self.width, 0.0, self.mass),)
+        if self.links:
+            return self.links
+        one = self.__dict__.get("_one_link")  # built once: the fields are frozen
+        if one is None:
+            one = (Link(REVOLUTE, self.length, self.width, 0.0, self.mass),)
+            object.__setattr__(self, "_one_link", one)
+        return one
 
     @property
     def n_joints(self) -> int:
@@ -81,14 +87,20 @@ class Finger:
 
     def chain(self) -> Chain:
         """The finger as a :class:`planner.model.kinematics.Chain` (base at ``pivot``): joint
-        ``j`` sits at the end of link ``j - 1`` (origin ``(length_{j-1}, 0)`` in its frame)."""
+        ``j`` sits at the end of link ``j - 1`` (origin ``(length_{j-1}, 0)`` in its frame).
+        Built and checked once per finger (its fields are frozen)."""
+        built = self.__dict__.get("_chain")
+        if built is not None:
+            return built
         specs = []
         prev = 0.0
         for j, link in enumerate(self.chain_links):
             specs.append(JointSpec(kind=link.kind, parent=j - 1, origin=(prev, 0.0),
                                    angle=link.offset, name=link.name))
             prev = link.length
-        return Chain(tuple(specs), (self.pivot[0], self.pivot[1], 0.0))
+        built = Chain(tuple(specs), (self.pivot[0], self.pivot[1], 0.0))
+        object.__setattr__(self, "_chain", built)
+        return built
 
 
 @dataclass(frozen=True)
