@@ -18,7 +18,13 @@ and hence ``s1`` and ``det Q_AI`` do not depend on the load).  Therefore
   rows of each row's *own* union (where that row can hold): a superset of the rival's union
   (``tau`` possible at some point satisfies every row there), and each row's union is computed
   exactly (an affine-in-``g`` ratio ``-s0/s1``: its extremes are at a vertex load and a critical
-  friction value of that vertex).  The rival's union is also bounded from inside by the
+  friction value of that vertex).  Where every load shares the friction points (one friction
+  point, or the independent model's corners and grid, which the friction-only bands use too),
+  the rows are kept together at each friction point and taken apart over the loads only: the
+  hull over the points of each point's row bound, again a superset of the union there, and
+  equal to the friction-only union when the set is one load (decoupling the rows across
+  friction points as well left the rival possible wherever one row held at one friction and
+  another at a different one).  The rival's union is also bounded from inside by the
   friction-only unions at the vertex loads (points of the set).  When the two agree the band is
   exact (``ModeBand.exact``); otherwise it is sound but conservative and marked inexact.
 * **force-indeterminate rivals** (relaxed utility): at each friction point of
@@ -139,6 +145,12 @@ def row_union(s0: np.ndarray, s1: np.ndarray, det: np.ndarray, scale: np.ndarray
     return Interval(lo, hi) if lo <= hi else EMPTY
 
 
+def hull(intervals: list[Interval]) -> Interval:
+    """The smallest interval holding every non-empty one of ``intervals`` (EMPTY if none)."""
+    got = [iv for iv in intervals if not iv.empty]
+    return Interval(min(iv.lower for iv in got), max(iv.upper for iv in got)) if got else EMPTY
+
+
 def same_interval(a: Interval, b: Interval, scale: float) -> bool:
     """Equal ends to ``1e-9`` relative (both empty counts as equal)."""
     if a.empty or b.empty:
@@ -188,6 +200,9 @@ def load_bands(system: System, mu: Any, loads: Any, *, model: str = "common", gr
     poles = (sign_changes(np.stack([r.det for r in rows])) if box is not None and n_det
              else np.zeros(n_det, bool))
     box_exact = bool(model == "independent" or np.all(mu_lo == mu_hi))
+    # one friction point, or the independent model's corners and grid: the same points for
+    # every load and geometry, which the friction-only bands also use (module docstring)
+    shared = box_exact and all(np.array_equal(p, pts[0]) for p in pts)
     kins = (indeterminate_kinematics(system, tol=tol) if box is None
             else uniform_indeterminate(box, tol=tol))
     out = []
@@ -206,11 +221,19 @@ def load_bands(system: System, mu: Any, loads: Any, *, model: str = "common", gr
             possible = lifted_interval(box, kin_j, mu_lo, mu_hi, G)
             exact = box_exact or not np.any(kin_j.codes == SLIDE)
         elif j < n_det:  # determinate: the row bound, exact when it meets the inner hull
-            s0 = np.concatenate([r.s0[:, j] for r in rows])
-            s1 = np.concatenate([r.s1[:, j] for r in rows])
-            det = np.concatenate([r.det[:, j] for r in rows])
-            scale = np.concatenate([r.scale[:, j] for r in rows])
-            outer = row_union(s0, s1, det, scale, rows[0].active[j], tol)
+            if shared:  # rows coupled at each friction point, decoupled over loads only
+                outer = hull([row_union(np.stack([r.s0[p, j] for r in rows]),
+                                        np.stack([r.s1[p, j] for r in rows]),
+                                        np.array([r.det[p, j] for r in rows]),
+                                        np.array([r.scale[p, j] for r in rows]),
+                                        rows[0].active[j], tol)
+                              for p in range(len(pts[0]))])
+            else:
+                s0 = np.concatenate([r.s0[:, j] for r in rows])
+                s1 = np.concatenate([r.s1[:, j] for r in rows])
+                det = np.concatenate([r.det[:, j] for r in rows])
+                scale = np.concatenate([r.scale[:, j] for r in rows])
+                outer = row_union(s0, s1, det, scale, rows[0].active[j], tol)
             size = max([1.0] + [abs(x) for p in got for x in (p.lower, p.upper)
                                 if np.isfinite(x)])
             exact = exact and same_interval(outer, inner, size)
