@@ -130,12 +130,13 @@ def test_fold_hand_ends_before_the_singular_configuration_and_says_so(name: str)
 
 
 @pytest.mark.long
-@pytest.mark.parametrize("name", HANDS)
+@pytest.mark.parametrize("name", [pytest.param(HANDS[0], marks=pytest.mark.slow), HANDS[1]])
 def test_fold_hand_plan_validates_in_pymunk(name: str) -> None:
     """Each plan, ended before the fold, agrees in pymunk at its validation frictions (before:
     the left hand's last command of 14666 rad/s set a slow motion of 8.5e5 s, over the 300 s a
     run may last; the right hand's contact 5 lost its load over the last 5 % of the segment,
-    the claim seen on 94.5-94.7 % of it)."""
+    the claim seen on 94.5-94.7 % of it).  The left hand runs by hand (``-m slow``): its command
+    no longer jumps, which the planner-level tests above check for both hands."""
     from scenarios.runs import validate_plan
     from sim.verdict import Outcome
 

@@ -141,7 +141,10 @@ def test_contact_positions_that_cannot_move_are_refused_before_any_run(plans, tm
 
 @pytest.fixture(scope="module")
 def tilt_plan(tmp_path_factory):
-    """Block tilting planned with every contact +-2 mm (claim ``R1 R2``)."""
+    """Block tilting planned with every contact +-2 mm (claim ``R1 R2``), to 16 degrees (half
+    the shipped file's turn, so each run is half as long): the 75 mm block turned clockwise
+    about its vertex 1 at ``(0.075, 0)``, so its origin goes to ``(0.075 (1 - cos 16 deg),
+    0.075 sin 16 deg)``."""
     from planner.files.hand_file import hand_file_from_dict
     from planner.plan.hand_planner import plan_hand
     from planner.plan.plan_file import save_plan
@@ -149,6 +152,7 @@ def tilt_plan(tmp_path_factory):
 
     d = json.loads((DATA_DIR / "block_tilting.json").read_text())
     d["uncertainty"] = {"contacts": 0.002}
+    d["goal"]["pose"] = [0.002905, 0.020673, -0.2792527]
     out = tmp_path_factory.mktemp("tilt") / "tilt_plan.json"
     save_plan(plan_hand(hand_file_from_dict(d), waypoints=3, margins=False), out)
     return out

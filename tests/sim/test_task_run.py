@@ -30,7 +30,7 @@ def task_plan(figure9_plan):
     return figure9_plan
 
 
-@pytest.mark.parametrize("mu", [0.0, pytest.param(0.1, marks=pytest.mark.slow)])  # 0.1: MuJoCo's run below
+@pytest.mark.parametrize("mu", [0.0, pytest.param(0.1, marks=pytest.mark.slow)])  # 0.1: by hand
 @pytest.mark.long
 def test_the_figure_9_task_holds_in_one_continuous_pymunk_run(task_plan, mu):
     run = validate_plan(task_plan, "pymunk", mu)
@@ -59,6 +59,8 @@ def test_the_figure_9_task_holds_in_one_continuous_pymunk_run(task_plan, mu):
 
 
 @pytest.mark.long
+@pytest.mark.slow  # by hand: segment 3 and the negative control run in MuJoCo below, the demo
+# validates every segment in MuJoCo
 def test_the_figure_9_task_holds_in_one_continuous_mujoco_run(task_plan):
     """The whole task in one MuJoCo run agrees in every segment.  The left tip pairs with its
     declared edge only: paired with a one-box-per-edge polygon, it meets the neighbouring
