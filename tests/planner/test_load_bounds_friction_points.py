@@ -30,6 +30,8 @@ Q = np.array([0.0036974674259508526, 0.0, 0.18594301099926344, 0.01, 0.000511528
 MU = [(0.0, 0.4), (0.0, 0.4), (0.7, 1.0)]
 CLAIM = "S-1 S-2 R3"
 
+pytestmark = pytest.mark.long  # about 20 s of enumeration: the README's tier stays under 5 min
+
 
 @pytest.fixture(scope="module")
 def flip():
