@@ -45,7 +45,7 @@ from planner.errors import DegenerateError, InputError
 from planner.model.modes import BREAK, ROLL, SLIDE, Mode, enumerate_modes
 from planner.model.system import System
 from planner.model.validation import friction_interval
-from planner.plan.intervals import EMPTY, Interval
+from planner.plan.intervals import EMPTY, Interval, hull
 from planner.predict.indeterminate import (
     IndeterminateKinematics,
     coulomb_rows,
@@ -339,8 +339,7 @@ def mode_bands(
         has_slide = bool(np.any(kin.codes == SLIDE))
         pts_g = grid_pts if has_slide else np.stack([mu_lo, mu_hi])
         ivs = [indeterminate_interval(system, kin, m) for m in pts_g]
-        got = [iv for iv in ivs if not iv.empty]
-        p = Interval(min(iv.lower for iv in got), max(iv.upper for iv in got)) if got else EMPTY
+        p = hull(ivs)
         g_lo = max(iv.lower for iv in ivs)
         g_hi = min(iv.upper for iv in ivs)
         gi = Interval(g_lo, g_hi) if g_lo <= g_hi else EMPTY

@@ -4,6 +4,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -37,6 +38,12 @@ EMPTY = Interval(np.inf, -np.inf)
 def finite_or_none(x: float) -> float | None:
     return float(x) if np.isfinite(x) else None
 
+
+
+def hull(intervals: Sequence[Interval]) -> Interval:
+    """The smallest interval holding every non-empty one of ``intervals`` (EMPTY if none)."""
+    got = [iv for iv in intervals if not iv.empty]
+    return Interval(min(iv.lower for iv in got), max(iv.upper for iv in got)) if got else EMPTY
 
 
 def subtract(band: Interval, rivals: list[Interval]) -> list[Interval]:

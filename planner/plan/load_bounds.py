@@ -58,7 +58,7 @@ from planner.plan.bounds import (
     mode_bands,
     mode_rows,
 )
-from planner.plan.intervals import EMPTY, Interval
+from planner.plan.intervals import EMPTY, Interval, hull
 from planner.plan.offset_bounds import (
     OffsetBox,
     candidate_arrays,
@@ -145,12 +145,6 @@ def row_union(s0: np.ndarray, s1: np.ndarray, det: np.ndarray, scale: np.ndarray
     return Interval(lo, hi) if lo <= hi else EMPTY
 
 
-def hull(intervals: list[Interval]) -> Interval:
-    """The smallest interval holding every non-empty one of ``intervals`` (EMPTY if none)."""
-    got = [iv for iv in intervals if not iv.empty]
-    return Interval(min(iv.lower for iv in got), max(iv.upper for iv in got)) if got else EMPTY
-
-
 def same_interval(a: Interval, b: Interval, scale: float) -> bool:
     """Equal ends to ``1e-9`` relative (both empty counts as equal)."""
     if a.empty or b.empty:
@@ -203,6 +197,9 @@ def load_bands(system: System, mu: Any, loads: Any, *, model: str = "common", gr
     # one friction point, or the independent model's corners and grid: the same points for
     # every load and geometry, which the friction-only bands also use (module docstring)
     shared = box_exact and all(np.array_equal(p, pts[0]) for p in pts)
+    if shared:  # (L, systems, ...): each friction point's rows of every load and geometry
+        S0, S1, DET, SC = (np.stack([getattr(r, f) for r in rows], axis=1)
+                           for f in ("s0", "s1", "det", "scale"))
     kins = (indeterminate_kinematics(system, tol=tol) if box is None
             else uniform_indeterminate(box, tol=tol))
     out = []
@@ -212,7 +209,7 @@ def load_bands(system: System, mu: Any, loads: Any, *, model: str = "common", gr
         g_hi = min(b.guaranteed.upper for b in own)
         guaranteed = Interval(g_lo, g_hi) if g_lo <= g_hi else EMPTY
         got = [b.possible for b in own if not b.possible.empty]
-        inner = Interval(min(p.lower for p in got), max(p.upper for p in got)) if got else EMPTY
+        inner = hull(got)
         exact = all(b.exact for b in own)
         if box is not None and j < n_det and poles[j]:
             # det Q_AI crosses zero inside the box: not guaranteed there; the lifted program
@@ -222,12 +219,8 @@ def load_bands(system: System, mu: Any, loads: Any, *, model: str = "common", gr
             exact = box_exact or not np.any(kin_j.codes == SLIDE)
         elif j < n_det:  # determinate: the row bound, exact when it meets the inner hull
             if shared:  # rows coupled at each friction point, decoupled over loads only
-                outer = hull([row_union(np.stack([r.s0[p, j] for r in rows]),
-                                        np.stack([r.s1[p, j] for r in rows]),
-                                        np.array([r.det[p, j] for r in rows]),
-                                        np.array([r.scale[p, j] for r in rows]),
-                                        rows[0].active[j], tol)
-                              for p in range(len(pts[0]))])
+                outer = hull([row_union(S0[p, :, j], S1[p, :, j], DET[p, :, j], SC[p, :, j],
+                                        rows[0].active[j], tol) for p in range(len(pts[0]))])
             else:
                 s0 = np.concatenate([r.s0[:, j] for r in rows])
                 s1 = np.concatenate([r.s1[:, j] for r in rows])
@@ -247,10 +240,7 @@ def load_bands(system: System, mu: Any, loads: Any, *, model: str = "common", gr
                     else np.concatenate(box_points(mu_lo, mu_hi, grid)) if has_slide
                     else np.stack([mu_lo, mu_hi]))
             if box is None:
-                ivs = [indeterminate_interval_over(system, kin, m, G) for m in mpts]
-                ivs = [iv for iv in ivs if not iv.empty]
-                possible = (Interval(min(iv.lower for iv in ivs), max(iv.upper for iv in ivs))
-                            if ivs else EMPTY)
+                possible = hull([indeterminate_interval_over(system, kin, m, G) for m in mpts])
             else:  # the whole friction box at once (exact for a box or rolling only)
                 possible = lifted_interval(box, kin, mu_lo, mu_hi, G)
                 exact = box_exact or not has_slide
